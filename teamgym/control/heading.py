@@ -1,0 +1,37 @@
+"""Linear-velocity heuristic of paper 001, eqs. (12)–(13).
+
+With only the angular velocity left to decide (eq. 11), the linear velocity is
+
+    v_i = ½ · v_opt · w_T · (1 + w_R)                                    (12)
+    w_T = 1 / (1 + exp(−α (L_T − L_T0)))                                  (13)
+    w_R = 1 / (1 + exp(−β (L_min − L_R0)))
+
+where ``L_T`` is the distance to the target and ``L_min`` the distance to the nearest
+object. The paper gives no values for α, β, L_T0, L_R0; our choices (documented in
+docs/navigation.md): L_T0 = 5 cm and α = 100 m⁻¹, so the robot lands softly (w_T = 0.007 at
+the goal, 0.5 at 5 cm, 0.99 at 10 cm); L_R0 = 15 cm and β = 40 m⁻¹, so the speed halves
+when an object is much closer than 15 cm and is v_opt beyond about 25 cm.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class HeadingHeuristic:
+    """Parameters of eqs. (12)–(13); distances in metres, speeds in m/s."""
+
+    v_opt: float = 0.25
+    alpha: float = 100.0
+    beta: float = 40.0
+    target_threshold: float = 0.05
+    object_threshold: float = 0.15
+
+    def speed(self, target_distance, nearest_distance):
+        """Linear velocity by eq. (12); works on floats and numpy arrays alike."""
+        w_t = 1.0 / (1.0 + np.exp(-self.alpha * (np.asarray(target_distance) - self.target_threshold)))
+        w_r = 1.0 / (1.0 + np.exp(-self.beta * (np.asarray(nearest_distance) - self.object_threshold)))
+        return 0.5 * self.v_opt * w_t * (1.0 + w_r)

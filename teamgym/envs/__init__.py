@@ -1,0 +1,1 @@
+"""Environments: one module per task on the shared simulator core."""

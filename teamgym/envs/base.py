@@ -1,0 +1,223 @@
+"""``TeamEnv``: the PettingZoo parallel-env base every teamgym task derives from.
+
+The base owns the episode protocol (seeding, agent bookkeeping, action checking,
+truncation, rendering); a task fills in five hooks:
+
+* ``_build(rng)`` creates the :class:`~teamgym.sim.world.World` and its entities;
+* ``_command_context(agent)`` gives action types what they need (optional);
+* ``_observe(out)`` writes every live agent's observation into a preallocated array;
+* ``_evaluate()`` returns rewards and terminations after a step;
+* ``_metrics(agent)`` returns the per-agent metrics put into ``infos``.
+"""
+
+from __future__ import annotations
+
+import copy
+from typing import Any, ClassVar
+
+import numpy as np
+from gymnasium import spaces
+from pettingzoo import ParallelEnv
+
+from teamgym.envs.actions import ActionType, CommandContext
+from teamgym.envs.config import EnvConfig
+from teamgym.envs.spaces import ObservationLayout, check_action
+from teamgym.sim.render import Overlay, Renderer, robot_colour
+from teamgym.sim.robot import DiffDriveRobot
+from teamgym.sim.world import World
+
+
+class EpisodeOverError(RuntimeError):
+    """``step()`` was called on an env whose episode has ended (or never started)."""
+
+
+class TeamEnv(ParallelEnv):
+    """A multi-robot task on the shared simulator, as a PettingZoo ``ParallelEnv``."""
+
+    metadata: ClassVar[dict[str, Any]] = {
+        "name": "teamgym_base",
+        "render_modes": ["human", "rgb_array"],
+        "render_fps": 10,
+        "is_parallelizable": True,
+    }
+    config_class: ClassVar[type[EnvConfig]] = EnvConfig
+    pixels_per_metre: ClassVar[float] = 200.0
+
+    def __init__(self, render_mode: str | None = None, **config: Any) -> None:
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode={render_mode!r} is not supported; choose one of {self.metadata['render_modes']} or None")
+        self.render_mode = render_mode
+        self.config = self.config_class.from_kwargs(**config)
+        self.possible_agents: list[str] = self._agent_names()
+        self.agents: list[str] = []
+        self.action_type: ActionType = self._make_action_type()
+        self.layout: ObservationLayout = self._make_layout()
+        self._observation_spaces = {a: self.layout.space() for a in self.possible_agents}
+        self._action_spaces = {a: self.action_type.space() for a in self.possible_agents}
+        self.world: World | None = None
+        self.robots: dict[str, DiffDriveRobot] = {}
+        self.np_random = np.random.default_rng()
+        self.cycles = 0
+        self._renderer: Renderer | None = None
+        self._trails: dict[str, list[tuple[float, float]]] = {}
+
+    # -- hooks for subclasses --------------------------------------------------------
+    def _agent_names(self) -> list[str]:
+        raise NotImplementedError
+
+    def _make_action_type(self) -> ActionType:
+        raise NotImplementedError
+
+    def _make_layout(self) -> ObservationLayout:
+        raise NotImplementedError
+
+    def _build(self, rng: np.random.Generator) -> None:
+        """Create ``self.world`` and ``self.robots`` (agent name -> robot) for a new episode."""
+        raise NotImplementedError
+
+    def _command_context(self, agent: str) -> CommandContext:
+        return CommandContext()
+
+    def _observe(self, out: np.ndarray) -> None:
+        """Fill row ``i`` of ``out`` with the observation of ``self.agents[i]``."""
+        raise NotImplementedError
+
+    def _evaluate(self) -> tuple[dict[str, float], dict[str, bool]]:
+        """Rewards and terminations of the live agents after a step."""
+        raise NotImplementedError
+
+    def _metrics(self, agent: str) -> dict[str, Any]:
+        return {}
+
+    def _before_physics(self) -> None:
+        """Called after commands are set and before the world steps (e.g. to draw delays)."""
+
+    def _overlay(self) -> Overlay:
+        return Overlay()
+
+    # -- spaces ----------------------------------------------------------------------
+    def observation_space(self, agent: str) -> spaces.Space:
+        try:
+            return self._observation_spaces[agent]
+        except KeyError:
+            raise KeyError(f"unknown agent {agent!r}; possible agents are {self.possible_agents}") from None
+
+    def action_space(self, agent: str) -> spaces.Space:
+        try:
+            return self._action_spaces[agent]
+        except KeyError:
+            raise KeyError(f"unknown agent {agent!r}; possible agents are {self.possible_agents}") from None
+
+    # -- episode protocol ------------------------------------------------------------
+    def reset(self, seed: int | None = None, options: dict | None = None):
+        if seed is not None:
+            self.np_random = np.random.default_rng(seed)
+        if options is not None and not isinstance(options, dict):
+            raise TypeError(f"reset options must be a dict or None, got {type(options).__name__}")
+        self.agents = list(self.possible_agents)
+        self.cycles = 0
+        self._build(self.np_random)
+        self._trails = {a: [self.robots[a].position] for a in self.agents}
+        observations = self._collect_observations()
+        infos = {a: self._metrics(a) for a in self.agents}
+        if self.render_mode == "human":
+            self.render()
+        return observations, infos
+
+    def step(self, actions: dict):
+        if self.world is None:
+            raise EpisodeOverError(f"{type(self).__name__}.step() called before reset()")
+        if not self.agents:
+            raise EpisodeOverError(
+                f"{type(self).__name__}.step() called after the episode ended (all agents are done); call reset()"
+            )
+        checked = self._check_actions(actions)
+        for agent, action in checked.items():
+            robot = self.robots[agent]
+            robot.set_command(*self.action_type.command(action, self._command_context(agent)))
+        self._before_physics()
+        self.world.step()
+        self.cycles += 1
+        for agent in self.agents:
+            self._trails[agent].append(self.robots[agent].position)
+        rewards, terminations = self._evaluate()
+        truncated = self.cycles >= self.config.max_cycles
+        truncations = {a: truncated and not terminations[a] for a in self.agents}
+        observations = self._collect_observations()
+        infos = {a: self._metrics(a) for a in self.agents}
+        self.agents = [a for a in self.agents if not (terminations[a] or truncations[a])]
+        for agent in terminations:
+            if terminations[agent] or truncations[agent]:
+                self.robots[agent].set_command(0.0, 0.0)
+        if self.render_mode == "human":
+            self.render()
+        return observations, rewards, terminations, truncations, infos
+
+    def _check_actions(self, actions: dict) -> dict:
+        """Validate every action before anything changes; raise naming the culprit."""
+        if not isinstance(actions, dict):
+            raise TypeError(f"actions must be a dict from agent name to action, got {type(actions).__name__}")
+        unknown = [a for a in actions if a not in self.possible_agents]
+        if unknown:
+            raise KeyError(f"actions for unknown agent(s) {unknown}; live agents are {self.agents}")
+        finished = [a for a in actions if a not in self.agents]
+        if finished:
+            raise ValueError(f"actions for agent(s) {finished} whose episode is over; live agents are {self.agents}")
+        missing = [a for a in self.agents if a not in actions]
+        if missing:
+            raise ValueError(f"no action for live agent(s) {missing}; every live agent must act each step")
+        return {a: check_action(a, actions[a], self._action_spaces[a]) for a in self.agents}
+
+    def _collect_observations(self) -> dict[str, np.ndarray]:
+        out = np.zeros((len(self.agents), self.layout.size), dtype=np.float32)
+        self._observe(out)
+        return {a: out[i] for i, a in enumerate(self.agents)}
+
+    # -- rendering -------------------------------------------------------------------
+    def render(self) -> np.ndarray | None:
+        if self.render_mode is None:
+            return None
+        if self.world is None:
+            raise EpisodeOverError("render() called before reset()")
+        if self._renderer is None or self._renderer.world is not self.world:
+            self._renderer = Renderer(self.world, self.pixels_per_metre)
+        overlay = self._overlay()
+        for i, agent in enumerate(self.possible_agents):
+            if agent in self._trails:
+                overlay.paths.append((self._trails[agent], robot_colour(i)))
+        frame = self._renderer.draw(overlay)
+        if self.render_mode == "human":
+            self._renderer.show(frame, self.metadata["render_fps"])
+            return None
+        return frame
+
+    def close(self) -> None:
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+    # -- helpers ---------------------------------------------------------------------
+    def trajectories(self) -> dict[str, list[tuple[float, float]]]:
+        """Positions (m) of every robot at every step of the current episode."""
+        return {a: list(points) for a, points in self._trails.items()}
+
+    def decode(self, observation: np.ndarray) -> dict[str, np.ndarray]:
+        """Named fields of a flat observation (see :class:`ObservationLayout`)."""
+        return self.layout.decode(observation)
+
+    def __deepcopy__(self, memo: dict):
+        # pymunk objects copy correctly only through pickling of the whole object graph.
+        import pickle
+
+        clone = pickle.loads(pickle.dumps(self))
+        memo[id(self)] = clone
+        return clone
+
+    def __getstate__(self) -> dict:
+        state = dict(self.__dict__)
+        state["_renderer"] = None
+        return state
+
+    def copy(self) -> TeamEnv:
+        """An independent copy of the env mid-episode (same as ``copy.deepcopy``)."""
+        return copy.deepcopy(self)

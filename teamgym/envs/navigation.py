@@ -1,0 +1,426 @@
+"""Navigation-v0: collision-free navigation of a robot team among moving obstacles (paper 001).
+
+``n_robots`` differential-drive robots in a square arena (2 m × 2 m by default) each drive
+to their own goal point while ``n_obstacles`` convex polygons move on straight lines at
+``obstacle_speed`` (20 cm/s in the paper) and bounce off the arena walls.
+
+Observations (flat float32, fields in order; decode with ``env.decode(obs)``):
+
+=================  ============  ===================================================
+field              shape         meaning
+=================  ============  ===================================================
+``pose``           (3,)          own x, y (m) and heading θ (rad, CCW from +x)
+``velocity``       (2,)          own actual v (m/s, along heading) and ω (rad/s)
+``last_command``   (2,)          the (v, ω) commanded in the previous step
+``radius``         (1,)          own body radius (m)
+``goal_offset``    (2,)          goal position minus own position (world axes, m)
+``mates``          (N−1, 5)      per team mate: Δx, Δy (world axes), θ, v, ω
+``obstacles``      (M, 5)        per obstacle: Δx, Δy of its centre, vx, vy, bounding radius
+``proximity``      (8,)          Khepera ring distances (m), ``sensor_range`` if free
+=================  ============  ===================================================
+
+This is the paper's "partially centralised sensory system": every robot knows the poses of
+its team mates and the positions of the obstacles (section 2).
+
+Actions (``action_type``): ``"velocity"`` continuous (v, ω); ``"wheels"`` continuous wheel
+speeds; ``"heading"`` the discrete set of eq. (11), K = ``heading_levels`` angular
+velocities with v from eqs. (12)–(13).
+
+Actuation delay (section 6.1): with ``actuation_delay`` = T0 > 0 every robot keeps its
+previous command for T0_true = ½ T0 (1 + δt) of each step. The paper calls δt ∈ [0, 1]
+normally distributed; we draw δt ~ N(0.5, 0.25²) clipped to [0, 1].
+
+Reward per step: ``progress_reward`` × (decrease of the distance to the goal, m)
+− ``time_penalty`` − ``collision_penalty`` × (new contacts) + ``arrival_bonus`` on arrival.
+A robot that arrives (within ``goal_tolerance``) terminates, stops and stays in the world.
+
+Metrics in ``infos[agent]``: ``arrived``, ``time_to_goal`` (s; present once arrived),
+``distance_to_goal``, ``path_length``, ``collisions``, ``min_clearance`` (smallest gap
+between the robot's rim and another robot or obstacle, m), ``min_center_distance``
+(smallest centre-to-centre distance to a robot or obstacle centre, as eqs. 20 and 22
+measure it) and ``smoothness`` J_i = (1/H) Σ ‖u(t_n) − u(t_{n−1})‖² with u = (ω, v) in rad/s
+and m/s (section 6.2).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, Literal
+
+import numpy as np
+from gymnasium import spaces
+
+from teamgym.control.heading import HeadingHeuristic
+from teamgym.envs.actions import ActionType, CommandContext, HeadingAction, VelocityAction, WheelSpeedAction
+from teamgym.envs.base import TeamEnv
+from teamgym.envs.config import EnvConfig, require
+from teamgym.envs.spaces import ObservationLayout
+from teamgym.sim.objects import MovingPolygon, regular_polygon
+from teamgym.sim.render import Overlay, robot_colour
+from teamgym.sim.robot import DiffDriveRobot, RobotSpec
+from teamgym.sim.sensors import KHEPERA_RING, ProximityRing
+from teamgym.sim.world import World
+
+__all__ = ["Navigation", "NavigationConfig", "env", "parallel_env"]
+
+
+@dataclass(frozen=True)
+class NavigationConfig(EnvConfig):
+    """Configuration of ``Navigation-v0`` (SI units; angles of the heading set in deg/s)."""
+
+    n_robots: int = 3
+    n_obstacles: int = 2
+    arena_size: float = 2.0
+    layout: Literal["random", "circle"] = "random"
+    robot_radius: float = 0.0275
+    max_wheel_speed: float = 0.4
+    max_motor_force: float = 0.6
+    obstacle_speed: float = 0.2
+    obstacle_radius: float = 0.08
+    action_type: Literal["velocity", "wheels", "heading"] = "velocity"
+    heading_levels: int = 5
+    heading_max_rate: float = 225.0
+    v_opt: float = 0.25
+    alpha: float = 100.0
+    beta: float = 40.0
+    target_threshold: float = 0.05
+    object_threshold: float = 0.15
+    actuation_delay: float = 0.0
+    goal_tolerance: float = 0.03
+    min_goal_distance: float = 0.6
+    sensor_range: float = 0.1
+    sensor_noise: float = 0.0
+    progress_reward: float = 10.0
+    collision_penalty: float = 1.0
+    arrival_bonus: float = 10.0
+    time_penalty: float = 0.01
+
+    def check(self) -> None:
+        super().check()
+        require(self, "n_robots", 1 <= self.n_robots <= 64, "must be in [1, 64]")
+        require(self, "n_obstacles", 0 <= self.n_obstacles <= 32, "must be in [0, 32]")
+        require(self, "arena_size", 0.5 <= self.arena_size <= 100, "must be in [0.5, 100] m")
+        require(self, "robot_radius", 0.005 <= self.robot_radius <= 0.5, "must be in [0.005, 0.5] m")
+        require(self, "max_wheel_speed", self.max_wheel_speed > 0, "must be > 0")
+        require(self, "max_motor_force", self.max_motor_force > 0, "must be > 0")
+        require(self, "obstacle_speed", self.obstacle_speed >= 0, "must be >= 0")
+        require(self, "obstacle_radius", 0.01 <= self.obstacle_radius <= self.arena_size / 4, "must be in [0.01, arena_size/4]")
+        require(self, "heading_levels", 2 <= self.heading_levels <= 64, "must be in [2, 64]")
+        require(self, "heading_max_rate", self.heading_max_rate > 0, "must be > 0")
+        require(self, "v_opt", 0 < self.v_opt <= self.max_wheel_speed, "must be in (0, max_wheel_speed]")
+        require(self, "actuation_delay", 0 <= self.actuation_delay <= self.dt, "must be in [0, dt]")
+        require(self, "goal_tolerance", self.goal_tolerance > 0, "must be > 0")
+        require(self, "min_goal_distance", 0 <= self.min_goal_distance <= 0.8 * self.arena_size, "must be in [0, 0.8·arena_size]")
+        require(self, "sensor_range", self.sensor_range > 0, "must be > 0")
+        require(self, "sensor_noise", self.sensor_noise >= 0, "must be >= 0")
+        free = (self.arena_size - 2 * self.robot_radius) ** 2
+        needed = self.n_robots * (4 * self.robot_radius) ** 2 * 2
+        require(self, "n_robots", needed < 0.5 * free, "leaves too little room for the robots in this arena")
+
+
+class Navigation(TeamEnv):
+    """Collision-free navigation among moving obstacles (paper 001). See the module docstring."""
+
+    metadata = {**TeamEnv.metadata, "name": "navigation_v0"}
+    config_class = NavigationConfig
+    config: NavigationConfig
+
+    def __init__(self, render_mode: str | None = None, **config: Any) -> None:
+        super().__init__(render_mode, **config)
+        c = self.config
+        self.spec_robot = RobotSpec(radius=c.robot_radius, max_wheel_speed=c.max_wheel_speed, max_motor_force=c.max_motor_force,
+                                    wheel_base=min(RobotSpec.wheel_base, 2 * c.robot_radius))
+        self.heuristic = HeadingHeuristic(c.v_opt, c.alpha, c.beta, c.target_threshold, c.object_threshold)
+        self.ring = ProximityRing(KHEPERA_RING, c.sensor_range, c.sensor_noise)
+        n, m = c.n_robots, c.n_obstacles
+        self.state_space = spaces.Box(-np.inf, np.inf, shape=(7 * n + 4 * m,), dtype=np.float32)
+        self._others = np.array([[j for j in range(n) if j != i] for i in range(n)], dtype=int).reshape(n, n - 1)
+
+    # -- construction ----------------------------------------------------------------
+    def _agent_names(self) -> list[str]:
+        return [f"robot_{i}" for i in range(self.config.n_robots)]
+
+    def _make_action_type(self) -> ActionType:
+        c = self.config
+        spec = RobotSpec(radius=c.robot_radius, max_wheel_speed=c.max_wheel_speed, wheel_base=min(RobotSpec.wheel_base, 2 * c.robot_radius))
+        if c.action_type == "velocity":
+            return VelocityAction(spec)
+        if c.action_type == "wheels":
+            return WheelSpeedAction(spec)
+        heuristic = HeadingHeuristic(c.v_opt, c.alpha, c.beta, c.target_threshold, c.object_threshold)
+        return HeadingAction(c.heading_levels, c.heading_max_rate, heuristic)
+
+    def _make_layout(self) -> ObservationLayout:
+        n, m = self.config.n_robots, self.config.n_obstacles
+        return ObservationLayout(
+            [
+                ("pose", (3,)),
+                ("velocity", (2,)),
+                ("last_command", (2,)),
+                ("radius", (1,)),
+                ("goal_offset", (2,)),
+                ("mates", (n - 1, 5)),
+                ("obstacles", (m, 5)),
+                ("proximity", (len(KHEPERA_RING),)),
+            ]
+        )
+
+    def _build(self, rng: np.random.Generator) -> None:
+        c = self.config
+        self.world = World((c.arena_size, c.arena_size), dt=c.dt, substeps=c.substeps)
+        self.world.add_boundary()
+        starts, headings, goals = self._sample_starts_and_goals(rng)
+        self.robots = {}
+        for agent, start, heading in zip(self.possible_agents, starts, headings):
+            self.robots[agent] = self.world.add(DiffDriveRobot(agent, tuple(start), float(heading), self.spec_robot))
+        self.robot_list = list(self.robots.values())
+        self.goals = goals
+        self.obstacles = self._spawn_obstacles(rng, starts, goals)
+        n, m = c.n_robots, c.n_obstacles
+        self._obstacle_radii = np.array([o.bounding_radius for o in self.obstacles], dtype=float)
+        self._index = {a: i for i, a in enumerate(self.possible_agents)}
+        self._arrived = np.zeros(n, dtype=bool)
+        self._arrival_time = np.full(n, np.nan)
+        self._collisions = np.zeros(n, dtype=int)
+        self._smooth_sum = np.zeros(n)
+        self._smooth_steps = np.zeros(n, dtype=int)
+        self._last_command = np.zeros((n, 2))
+        self._prev_command = np.zeros((n, 2))
+        self._read_state()
+        self._goal_distance = np.linalg.norm(self.goals - self._pos, axis=1)
+        self._min_clearance = np.full(n, np.inf)
+        self._min_center = np.full(n, np.inf)
+        self._update_distances()
+        self._proximity = np.full((n, self.ring.n_rays), c.sensor_range, dtype=np.float32)
+        if m == 0:
+            self._obs_pos = np.zeros((0, 2))
+            self._obs_vel = np.zeros((0, 2))
+
+    def _sample_starts_and_goals(self, rng: np.random.Generator):
+        c = self.config
+        n, size, r = c.n_robots, c.arena_size, c.robot_radius
+        margin = r + 0.05
+        if c.layout == "circle":
+            radius = 0.5 * size - margin - 0.05
+            phase = rng.uniform(0, 2 * np.pi)
+            angles = phase + 2 * np.pi * np.arange(n) / n
+            centre = np.full(2, size / 2)
+            starts = centre + radius * np.stack([np.cos(angles), np.sin(angles)], axis=1)
+            goals = centre - (starts - centre)
+            offsets = goals - starts
+            headings = np.arctan2(offsets[:, 1], offsets[:, 0])
+            return starts, headings, goals
+        separation = 4 * r
+        starts = self._scatter(rng, n, margin, separation)
+        goals = np.zeros_like(starts)
+        for i in range(n):
+            for _ in range(10_000):
+                g = rng.uniform(margin, size - margin, size=2)
+                if np.linalg.norm(g - starts[i]) < c.min_goal_distance:
+                    continue
+                if i and np.min(np.linalg.norm(goals[:i] - g, axis=1)) < separation:
+                    continue
+                goals[i] = g
+                break
+            else:
+                raise RuntimeError("could not place goals; lower n_robots or min_goal_distance")
+        headings = rng.uniform(-np.pi, np.pi, size=n)
+        return starts, headings, goals
+
+    def _scatter(self, rng: np.random.Generator, count: int, margin: float, separation: float, avoid=None) -> np.ndarray:
+        size = self.config.arena_size
+        points = np.zeros((count, 2))
+        for i in range(count):
+            for _ in range(10_000):
+                p = rng.uniform(margin, size - margin, size=2)
+                if i and np.min(np.linalg.norm(points[:i] - p, axis=1)) < separation:
+                    continue
+                if avoid is not None and len(avoid) and np.min(np.linalg.norm(avoid - p, axis=1)) < separation:
+                    continue
+                points[i] = p
+                break
+            else:
+                raise RuntimeError("could not place all objects without overlap; the arena is too crowded")
+        return points
+
+    def _spawn_obstacles(self, rng: np.random.Generator, starts: np.ndarray, goals: np.ndarray) -> list[MovingPolygon]:
+        c = self.config
+        radius = c.obstacle_radius
+        clear = radius + c.robot_radius + 0.1
+        centres = self._scatter(rng, c.n_obstacles, radius + 0.02, max(clear, 2 * radius + 0.05), avoid=starts)
+        obstacles = []
+        for k, centre in enumerate(centres):
+            sides = int(rng.integers(3, 7))
+            vertices = regular_polygon(sides, radius, rotation=float(rng.uniform(0, 2 * np.pi)))
+            direction = rng.uniform(0, 2 * np.pi)
+            velocity = (c.obstacle_speed * math.cos(direction), c.obstacle_speed * math.sin(direction))
+            obstacles.append(self.world.add(MovingPolygon(f"obstacle_{k}", vertices, tuple(centre), velocity)))
+        return obstacles
+
+    # -- per-step state --------------------------------------------------------------
+    def _read_state(self) -> None:
+        robots = self.robot_list
+        n = len(robots)
+        self._pos = np.empty((n, 2))
+        self._theta = np.empty(n)
+        self._vel = np.empty((n, 2))
+        for i, robot in enumerate(robots):
+            body = robot.body
+            self._pos[i] = body.position
+            self._theta[i] = body.angle
+            vx, vy = body.velocity
+            cos_t, sin_t = math.cos(body.angle), math.sin(body.angle)
+            self._vel[i, 0] = vx * cos_t + vy * sin_t
+            self._vel[i, 1] = body.angular_velocity
+        self._theta = np.pi - np.mod(np.pi - self._theta, 2 * np.pi)
+        m = len(self.obstacles) if hasattr(self, "obstacles") else 0
+        if m:
+            self._obs_pos = np.array([o.body.position for o in self.obstacles], dtype=float)
+            self._obs_vel = np.array([o.body.velocity for o in self.obstacles], dtype=float)
+
+    def _update_distances(self) -> None:
+        """Nearest-object distances of every robot (to other robots and obstacles)."""
+        c = self.config
+        r = c.robot_radius
+        n = len(self.robot_list)
+        big = np.inf
+        centre = np.full(n, big)
+        approx = np.full(n, big)
+        if n > 1:
+            d = np.linalg.norm(self._pos[:, None, :] - self._pos[None, :, :], axis=2)
+            np.fill_diagonal(d, big)
+            centre = d.min(axis=1)
+            approx = centre - 2 * r
+        exact = approx.copy()
+        if self.obstacles:
+            d_obs = np.linalg.norm(self._pos[:, None, :] - self._obs_pos[None, :, :], axis=2)
+            centre = np.minimum(centre, d_obs.min(axis=1))
+            gap = d_obs - r - self._obstacle_radii[None, :]
+            approx = np.minimum(approx, gap.min(axis=1))
+            # Bounding circles under-estimate the gap; measure the polygon exactly when near.
+            refined = gap.copy()
+            for i, k in zip(*np.nonzero(gap < 0.1)):
+                refined[i, k] = self.obstacles[k].shape.point_query(tuple(self._pos[i])).distance - r
+            exact_obs = refined.min(axis=1)
+            exact = np.minimum(exact, exact_obs)
+        self._nearest_approx = approx
+        self._min_clearance = np.minimum(self._min_clearance, exact)
+        self._min_center = np.minimum(self._min_center, centre)
+
+    def _command_context(self, agent: str) -> CommandContext:
+        i = self._index[agent]
+        nearest = min(float(self._nearest_approx[i]), float(self._proximity[i].min()))
+        return CommandContext(float(self._goal_distance[i]), nearest)
+
+    def _before_physics(self) -> None:
+        c = self.config
+        for agent in self.agents:
+            i = self._index[agent]
+            robot = self.robots[agent]
+            self._prev_command[i] = self._last_command[i]
+            self._last_command[i] = robot.command
+        if c.actuation_delay > 0:
+            delta = np.clip(self.np_random.normal(0.5, 0.25, size=len(self.robot_list)), 0.0, 1.0)
+            for robot, d in zip(self.robot_list, delta):
+                robot.actuation_delay = 0.5 * c.actuation_delay * (1.0 + float(d))
+
+    def _evaluate(self) -> tuple[dict[str, float], dict[str, bool]]:
+        c = self.config
+        self._read_state()
+        self._update_distances()
+        new_collisions = np.zeros(len(self.robot_list), dtype=int)
+        for contact in self.world.contacts:
+            for name in (contact.a, contact.b):
+                i = self._index.get(name)
+                if i is not None:
+                    new_collisions[i] += 1
+        distance = np.linalg.norm(self.goals - self._pos, axis=1)
+        progress = self._goal_distance - distance
+        self._goal_distance = distance
+        rewards, terminations = {}, {}
+        t = self.cycles * c.dt
+        for agent in self.agents:
+            i = self._index[agent]
+            self._collisions[i] += new_collisions[i]
+            du = self._last_command[i] - self._prev_command[i]
+            self._smooth_sum[i] += du[0] ** 2 + du[1] ** 2
+            self._smooth_steps[i] += 1
+            reward = c.progress_reward * progress[i] - c.time_penalty - c.collision_penalty * new_collisions[i]
+            arrived = bool(distance[i] < c.goal_tolerance)
+            if arrived:
+                self._arrived[i] = True
+                self._arrival_time[i] = t
+                reward += c.arrival_bonus
+            rewards[agent] = float(reward)
+            terminations[agent] = arrived
+        for agent in self.agents:
+            i = self._index[agent]
+            self._proximity[i] = self.ring.read(self.robot_list[i], self.world.space, self.np_random)
+        return rewards, terminations
+
+    def _observe(self, out: np.ndarray) -> None:
+        layout = self.layout
+        rows = np.array([self._index[a] for a in self.agents], dtype=int)
+        if len(rows) == 0:
+            return
+        pos, theta, vel = self._pos, self._theta, self._vel
+        s = layout.slices
+        out[:, s["pose"]] = np.column_stack([pos[rows], theta[rows]])
+        out[:, s["velocity"]] = vel[rows]
+        out[:, s["last_command"]] = [self.robot_list[i].applied_command for i in rows]
+        out[:, s["radius"]] = self.config.robot_radius
+        out[:, s["goal_offset"]] = self.goals[rows] - pos[rows]
+        if self.config.n_robots > 1:
+            others = self._others[rows]
+            mates = np.concatenate(
+                [pos[others] - pos[rows][:, None, :], theta[others][..., None], vel[others]], axis=2
+            )
+            out[:, s["mates"]] = mates.reshape(len(rows), -1)
+        if self.obstacles:
+            rel = self._obs_pos[None, :, :] - pos[rows][:, None, :]
+            m = len(self.obstacles)
+            block = np.concatenate(
+                [rel, np.broadcast_to(self._obs_vel, (len(rows), m, 2)), np.broadcast_to(self._obstacle_radii[None, :, None], (len(rows), m, 1))],
+                axis=2,
+            )
+            out[:, s["obstacles"]] = block.reshape(len(rows), -1)
+        out[:, s["proximity"]] = self._proximity[rows]
+
+    def _metrics(self, agent: str) -> dict[str, Any]:
+        i = self._index[agent]
+        metrics = {
+            "arrived": bool(self._arrived[i]),
+            "distance_to_goal": float(self._goal_distance[i]),
+            "path_length": float(self.robot_list[i].odometer),
+            "collisions": int(self._collisions[i]),
+            "min_clearance": float(self._min_clearance[i]),
+            "min_center_distance": float(self._min_center[i]),
+            "smoothness": float(self._smooth_sum[i] / self._smooth_steps[i]) if self._smooth_steps[i] else 0.0,
+        }
+        if self._arrived[i]:
+            metrics["time_to_goal"] = float(self._arrival_time[i])
+        return metrics
+
+    def state(self) -> np.ndarray:
+        if self.world is None:
+            raise RuntimeError("state() called before reset()")
+        self._read_state()
+        robots = np.column_stack([self._pos, self._theta, self._vel, self.goals]).ravel()
+        obstacles = np.column_stack([self._obs_pos, self._obs_vel]).ravel() if self.obstacles else np.zeros(0)
+        return np.concatenate([robots, obstacles]).astype(np.float32)
+
+    def _overlay(self) -> Overlay:
+        return Overlay(points=[(tuple(g), robot_colour(i)) for i, g in enumerate(self.goals)])
+
+
+def parallel_env(render_mode: str | None = None, **config: Any) -> Navigation:
+    """The PettingZoo parallel env (same as ``teamgym.make("Navigation-v0", ...)``)."""
+    return Navigation(render_mode=render_mode, **config)
+
+
+def env(render_mode: str | None = None, **config: Any):
+    """The AEC form of the env, through PettingZoo's ``parallel_to_aec``."""
+    from pettingzoo.utils.conversions import parallel_to_aec
+
+    return parallel_to_aec(parallel_env(render_mode=render_mode, **config))

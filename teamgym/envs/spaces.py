@@ -1,0 +1,83 @@
+"""Observation layouts with named fields, and strict checking of incoming actions."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from gymnasium import spaces
+
+
+class ObservationLayout:
+    """A flat float32 observation made of named fields.
+
+    ``fields`` is a sequence of ``(name, shape)``; :meth:`space` is the flat ``Box`` SB3
+    trains on and :meth:`decode` turns a flat vector back into a dict of shaped arrays.
+    """
+
+    def __init__(self, fields: Sequence[tuple[str, tuple[int, ...]]]) -> None:
+        self.fields = [(name, tuple(shape)) for name, shape in fields]
+        self.slices: dict[str, slice] = {}
+        self.shapes: dict[str, tuple[int, ...]] = {}
+        start = 0
+        for name, shape in self.fields:
+            size = int(np.prod(shape)) if shape else 1
+            self.slices[name] = slice(start, start + size)
+            self.shapes[name] = shape
+            start += size
+        self.size = start
+
+    def space(self) -> spaces.Box:
+        return spaces.Box(-np.inf, np.inf, shape=(self.size,), dtype=np.float32)
+
+    def decode(self, observation: np.ndarray) -> dict[str, np.ndarray]:
+        """Split a flat observation into its named fields (views, not copies)."""
+        observation = np.asarray(observation)
+        if observation.shape[-1] != self.size:
+            raise ValueError(f"observation has {observation.shape[-1]} values, the layout expects {self.size}")
+        lead = observation.shape[:-1]
+        return {name: observation[..., s].reshape(*lead, *self.shapes[name]) for name, s in self.slices.items()}
+
+    def view(self, buffer: np.ndarray, name: str) -> np.ndarray:
+        """Writable view of field ``name`` inside a flat ``buffer``."""
+        return buffer[self.slices[name]].reshape(self.shapes[name])
+
+
+def check_action(agent: str, action, space: spaces.Space):
+    """Return ``action`` converted for ``space`` or raise a clear error naming the agent.
+
+    Rejects NaN and infinite values, wrong shapes and values outside the space.
+    """
+    if isinstance(space, spaces.Discrete):
+        if isinstance(action, (bool, np.bool_)):
+            raise TypeError(f"action for {agent!r} must be an integer in [0, {space.n}), got {action!r}")
+        scalar = np.asarray(action)
+        if scalar.shape not in ((), (1,)) or not np.issubdtype(scalar.dtype, np.integer):
+            if scalar.shape in ((), (1,)) and np.issubdtype(scalar.dtype, np.floating):
+                value = float(scalar.reshape(()))
+                if np.isfinite(value) and value.is_integer():
+                    scalar = np.asarray(int(value))
+                else:
+                    raise ValueError(f"action for {agent!r} must be an integer in [0, {space.n}), got {action!r}")
+            else:
+                raise TypeError(f"action for {agent!r} must be an integer in [0, {space.n}), got {action!r}")
+        value = int(scalar.reshape(()))
+        if not space.start <= value < space.start + space.n:
+            raise ValueError(f"action for {agent!r} is {value}, outside Discrete({space.n}) = [{space.start}, {space.start + space.n})")
+        return value
+    if isinstance(space, spaces.Box):
+        try:
+            array = np.asarray(action, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise TypeError(f"action for {agent!r} must be numeric with shape {space.shape}, got {action!r}") from None
+        if array.shape != space.shape:
+            raise ValueError(f"action for {agent!r} has shape {array.shape}, expected {space.shape} (space {space})")
+        if not np.all(np.isfinite(array)):
+            raise ValueError(f"action for {agent!r} contains NaN or infinite values: {array.tolist()}")
+        if np.any(array < space.low) or np.any(array > space.high):
+            raise ValueError(
+                f"action for {agent!r} is {array.tolist()}, outside the space bounds "
+                f"low={space.low.tolist()} high={space.high.tolist()}"
+            )
+        return array
+    raise TypeError(f"unsupported action space {space!r} for {agent!r}")

@@ -1,0 +1,283 @@
+"""Differential-drive robots driven through limited motor forces.
+
+Drive model
+-----------
+A robot is a dynamic disc. It is not moved by setting its velocity: a kinematic *control
+body* is joined to it by a pivot joint and a gear joint, both with ``max_bias = 0``
+(velocity constraints only) and a ``max_force`` equal to the motors' force and torque
+limits. This is pymunk's top-down friction technique: the robot follows the commanded
+motion unless something resists harder than its motors can push, so robots push light
+boxes, stall against heavy ones and are stopped by walls instead of teleporting.
+
+To make the robot follow the exact arc of a constant command ``(v, ω)`` over a control step
+without Python work in every physics substep, the control body is placed at the
+instantaneous centre of curvature and spun at ω; the pivot's anchor on the control body is
+the robot's position, so the anchor travels along the arc with speed ``v`` (for ``ω ≈ 0``
+the control body simply translates with ``v``).
+
+Wheel kinematics, paper 001 eq. (6)
+-----------------------------------
+The paper writes ``v_L = v + (L/2) ω`` and ``v_R = v − (L/2) ω``; with its obstacle heading
+of eq. (4), ``arctan(Δx / Δy)``, angles there are measured clockwise from the y-axis, so a
+positive ω turns right. teamgym uses the usual counter-clockwise convention (θ from the
+x-axis, positive ω turns left), in which eq. (6) reads ``v_L = v − (L/2) ω`` and
+``v_R = v + (L/2) ω``; :func:`wheel_speeds` implements this form.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pymunk
+
+from teamgym.sim.categories import Category
+from teamgym.sim.entity import Entity
+
+_group_ids = itertools.count(1)
+
+
+@dataclass(frozen=True)
+class RobotSpec:
+    """Physical parameters of a differential-drive robot (SI units).
+
+    Defaults describe a Khepera: 55 mm diameter, 53 mm wheel base, about 80 g. The motor
+    force limit (0.6 N) lets one robot push a 60 g box with ground friction coefficient 0.5
+    (friction 0.29 N) but not a 150 g one (0.74 N), which two robots can move together.
+    """
+
+    radius: float = 0.0275
+    wheel_base: float = 0.053
+    wheel_radius: float = 0.008
+    max_wheel_speed: float = 0.5
+    mass: float = 0.08
+    max_motor_force: float = 0.6
+    friction: float = 0.4
+    elasticity: float = 0.0
+
+    def __post_init__(self) -> None:
+        for field in ("radius", "wheel_base", "wheel_radius", "max_wheel_speed", "mass", "max_motor_force"):
+            value = getattr(self, field)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+                raise ValueError(f"RobotSpec.{field} must be a finite number > 0, got {value!r}")
+        if self.wheel_base > 2 * self.radius:
+            raise ValueError(
+                f"RobotSpec.wheel_base ({self.wheel_base}) cannot exceed the robot's diameter ({2 * self.radius})"
+            )
+
+    @property
+    def max_speed(self) -> float:
+        """Largest linear speed (both wheels at their limit)."""
+        return self.max_wheel_speed
+
+    @property
+    def max_turn_rate(self) -> float:
+        """Largest angular speed (wheels at opposite limits), rad/s."""
+        return 2.0 * self.max_wheel_speed / self.wheel_base
+
+    @property
+    def max_motor_torque(self) -> float:
+        """Torque limit: each wheel pushes with half the force at lever arm L/2."""
+        return self.max_motor_force * self.wheel_base / 2.0
+
+
+def wheel_speeds(v: float, omega: float, wheel_base: float) -> tuple[float, float]:
+    """Wheel rim speeds ``(v_L, v_R)`` for a body command ``(v, ω)``; eq. (6) of paper 001, CCW form."""
+    half = 0.5 * wheel_base * omega
+    return v - half, v + half
+
+
+def body_command(v_left: float, v_right: float, wheel_base: float) -> tuple[float, float]:
+    """Inverse of :func:`wheel_speeds`: ``(v, ω)`` from wheel rim speeds."""
+    return 0.5 * (v_left + v_right), (v_right - v_left) / wheel_base
+
+
+def saturate(v: float, omega: float, spec: RobotSpec) -> tuple[float, float]:
+    """Scale ``(v, ω)`` so that no wheel exceeds ``spec.max_wheel_speed``.
+
+    Both wheel speeds are scaled by the same factor, which keeps the curvature ω / v of
+    the commanded arc.
+    """
+    v_left, v_right = wheel_speeds(v, omega, spec.wheel_base)
+    peak = max(abs(v_left), abs(v_right))
+    if peak > spec.max_wheel_speed:
+        scale = spec.max_wheel_speed / peak
+        return v * scale, omega * scale
+    return v, omega
+
+
+@dataclass
+class EncoderReading:
+    """Wheel rotation over the last control step, in radians of wheel angle.
+
+    ``commanded_*`` is what the motors were asked to turn, ``actual_*`` what the wheels
+    turned given the robot's real motion. A robot pushing something immovable shows
+    commanded rotation with almost no actual rotation (paper 004's "no rotation" fact).
+    """
+
+    commanded_left: float = 0.0
+    commanded_right: float = 0.0
+    actual_left: float = 0.0
+    actual_right: float = 0.0
+
+    @property
+    def slip(self) -> float:
+        """Fraction of commanded rotation that did not happen (0 = none lost, 1 = stalled)."""
+        commanded = abs(self.commanded_left) + abs(self.commanded_right)
+        if commanded < 1e-12:
+            return 0.0
+        lost = abs(self.commanded_left - self.actual_left) + abs(self.commanded_right - self.actual_right)
+        return min(1.0, lost / commanded)
+
+
+class DiffDriveRobot(Entity):
+    """A disc-shaped differential-drive robot with force-limited motors and wheel encoders."""
+
+    kind = Category.ROBOT
+
+    def __init__(
+        self,
+        name: str,
+        position: tuple[float, float],
+        angle: float = 0.0,
+        spec: RobotSpec | None = None,
+    ) -> None:
+        super().__init__(name)
+        self.spec = spec or RobotSpec()
+        s = self.spec
+        self.group = next(_group_ids)
+        moment = pymunk.moment_for_circle(s.mass, 0.0, s.radius)
+        self.body = pymunk.Body(s.mass, moment)
+        self.body.position = position
+        self.body.angle = angle
+        shape = self._own(pymunk.Circle(self.body, s.radius), group=self.group)
+        shape.friction = s.friction
+        shape.elasticity = s.elasticity
+        self.control = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
+        self.control.position = position
+        self.control.angle = angle
+        self.pivot = pymunk.PivotJoint(self.control, self.body, (0.0, 0.0), (0.0, 0.0))
+        self.pivot.max_bias = 0.0
+        self.pivot.max_force = s.max_motor_force
+        self.gear = pymunk.GearJoint(self.control, self.body, 0.0, 1.0)
+        self.gear.max_bias = 0.0
+        self.gear.max_force = s.max_motor_torque
+        self.bodies = [self.body, self.control]
+        self.constraints = [self.pivot, self.gear]
+        self.command = (0.0, 0.0)
+        self.applied_command = (0.0, 0.0)
+        self.actuation_delay = 0.0
+        self.encoders = EncoderReading()
+        self.odometer = 0.0
+        self.enabled = True
+        self._start_pose = (float(position[0]), float(position[1]), float(angle))
+
+    # -- commands -------------------------------------------------------------------
+    def set_command(self, v: float, omega: float) -> None:
+        """Command linear speed ``v`` (m/s) and angular speed ``ω`` (rad/s, CCW positive).
+
+        The command is saturated at the wheel-speed limit (see :func:`saturate`) and takes
+        effect at the next call of :meth:`apply_command` (the world does this at the start
+        of a control step or of a delay phase).
+        """
+        if not (math.isfinite(v) and math.isfinite(omega)):
+            raise ValueError(f"robot {self.name!r}: command must be finite, got v={v!r}, omega={omega!r}")
+        if not self.enabled:
+            v, omega = 0.0, 0.0
+        self.command = saturate(float(v), float(omega), self.spec)
+
+    def set_wheel_speeds(self, v_left: float, v_right: float) -> None:
+        """Command the wheel rim speeds directly (m/s), converted by eq. (6) of paper 001."""
+        self.set_command(*body_command(v_left, v_right, self.spec.wheel_base))
+
+    def apply_command(self, command: tuple[float, float] | None = None) -> None:
+        """Re-anchor the control body so that the robot follows the arc of ``command``."""
+        v, omega = self.command if command is None else command
+        body, control = self.body, self.control
+        theta = body.angle
+        x, y = body.position
+        control.angle = theta
+        if abs(omega) < 1e-9:
+            control.position = (x, y)
+            control.velocity = (v * math.cos(theta), v * math.sin(theta))
+            control.angular_velocity = 0.0
+            self.pivot.anchor_a = (0.0, 0.0)
+        else:
+            radius = v / omega
+            control.position = (x - radius * math.sin(theta), y + radius * math.cos(theta))
+            control.velocity = (0.0, 0.0)
+            control.angular_velocity = omega
+            self.pivot.anchor_a = (0.0, -radius)
+
+    def disable(self) -> None:
+        """Break down: stop the motors for good; the robot stays in the world as an obstacle."""
+        self.enabled = False
+        self.command = (0.0, 0.0)
+
+    # -- bookkeeping around a control step ------------------------------------------
+    def begin_step(self) -> None:
+        """Start a control step: remember the pose and start the command in effect.
+
+        With an ``actuation_delay`` the previous command stays in effect first; the world
+        switches to the new one after the delay.
+        """
+        x, y = self.body.position
+        self._start_pose = (x, y, self.body.angle)
+        delayed = 0.0 < self.actuation_delay
+        self.apply_command(self.applied_command if delayed else self.command)
+
+    def end_step(self, dt: float) -> None:
+        """Update encoders and odometer after a control step of length ``dt``."""
+        x0, y0, a0 = self._start_pose
+        x1, y1 = self.body.position
+        a1 = self.body.angle
+        dx, dy = x1 - x0, y1 - y0
+        mid = 0.5 * (a0 + a1)
+        ds = dx * math.cos(mid) + dy * math.sin(mid)
+        da = a1 - a0
+        half_base = 0.5 * self.spec.wheel_base
+        r = self.spec.wheel_radius
+        v, omega = self.command
+        if 0.0 < self.actuation_delay < dt:
+            share = self.actuation_delay / dt
+            v = share * self.applied_command[0] + (1 - share) * v
+            omega = share * self.applied_command[1] + (1 - share) * omega
+        self.applied_command = self.command
+        self.encoders = EncoderReading(
+            commanded_left=(v - half_base * omega) * dt / r,
+            commanded_right=(v + half_base * omega) * dt / r,
+            actual_left=(ds - half_base * da) / r,
+            actual_right=(ds + half_base * da) / r,
+        )
+        self.odometer += math.hypot(dx, dy)
+
+    # -- state ----------------------------------------------------------------------
+    @property
+    def pose(self) -> tuple[float, float, float]:
+        """``(x, y, θ)`` with θ wrapped to ``(-π, π]``."""
+        x, y = self.body.position
+        return x, y, wrap_angle(self.body.angle)
+
+    @property
+    def velocity(self) -> tuple[float, float]:
+        """Actual ``(v, ω)``: speed along the heading and angular speed."""
+        vx, vy = self.body.velocity
+        theta = self.body.angle
+        return vx * math.cos(theta) + vy * math.sin(theta), self.body.angular_velocity
+
+    def teleport(self, position: tuple[float, float], angle: float | None = None) -> None:
+        """Place the robot (for resets and scripted events), at rest."""
+        self.body.position = position
+        if angle is not None:
+            self.body.angle = angle
+        self.body.velocity = (0.0, 0.0)
+        self.body.angular_velocity = 0.0
+        if self.space is not None:
+            self.space.reindex_shapes_for_body(self.body)
+
+
+def wrap_angle(angle: float | np.ndarray) -> float | np.ndarray:
+    """Wrap an angle (or array of angles) to ``(-π, π]``."""
+    return np.pi - np.mod(np.pi - angle, 2.0 * np.pi)
