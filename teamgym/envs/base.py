@@ -45,7 +45,9 @@ class TeamEnv(ParallelEnv):
 
     def __init__(self, render_mode: str | None = None, **config: Any) -> None:
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(f"render_mode={render_mode!r} is not supported; choose one of {self.metadata['render_modes']} or None")
+            raise ValueError(
+                f"render_mode={render_mode!r} is not supported; choose one of {self.metadata['render_modes']} or None"
+            )
         self.render_mode = render_mode
         self.config = self.config_class.from_kwargs(**config)
         self.possible_agents: list[str] = self._agent_names()

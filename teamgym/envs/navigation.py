@@ -129,8 +129,12 @@ class Navigation(TeamEnv):
     def __init__(self, render_mode: str | None = None, **config: Any) -> None:
         super().__init__(render_mode, **config)
         c = self.config
-        self.spec_robot = RobotSpec(radius=c.robot_radius, max_wheel_speed=c.max_wheel_speed, max_motor_force=c.max_motor_force,
-                                    wheel_base=min(RobotSpec.wheel_base, 2 * c.robot_radius))
+        self.spec_robot = RobotSpec(
+            radius=c.robot_radius,
+            max_wheel_speed=c.max_wheel_speed,
+            max_motor_force=c.max_motor_force,
+            wheel_base=min(RobotSpec.wheel_base, 2 * c.robot_radius),
+        )
         self.heuristic = HeadingHeuristic(c.v_opt, c.alpha, c.beta, c.target_threshold, c.object_threshold)
         self.ring = ProximityRing(KHEPERA_RING, c.sensor_range, c.sensor_noise)
         n, m = c.n_robots, c.n_obstacles
@@ -143,7 +147,9 @@ class Navigation(TeamEnv):
 
     def _make_action_type(self) -> ActionType:
         c = self.config
-        spec = RobotSpec(radius=c.robot_radius, max_wheel_speed=c.max_wheel_speed, wheel_base=min(RobotSpec.wheel_base, 2 * c.robot_radius))
+        spec = RobotSpec(
+            radius=c.robot_radius, max_wheel_speed=c.max_wheel_speed, wheel_base=min(RobotSpec.wheel_base, 2 * c.robot_radius)
+        )
         if c.action_type == "velocity":
             return VelocityAction(spec)
         if c.action_type == "wheels":
@@ -177,25 +183,26 @@ class Navigation(TeamEnv):
         self.robot_list = list(self.robots.values())
         self.goals = goals
         self.obstacles = self._spawn_obstacles(rng, starts, goals)
-        n, m = c.n_robots, c.n_obstacles
+        n = c.n_robots
         self._obstacle_radii = np.array([o.bounding_radius for o in self.obstacles], dtype=float)
         self._index = {a: i for i, a in enumerate(self.possible_agents)}
         self._arrived = np.zeros(n, dtype=bool)
         self._arrival_time = np.full(n, np.nan)
         self._collisions = np.zeros(n, dtype=int)
+        self._new_collisions = np.zeros(n, dtype=int)
         self._smooth_sum = np.zeros(n)
         self._smooth_steps = np.zeros(n, dtype=int)
         self._last_command = np.zeros((n, 2))
         self._prev_command = np.zeros((n, 2))
+        self.world.read_states()
         self._read_state()
         self._goal_distance = np.linalg.norm(self.goals - self._pos, axis=1)
         self._min_clearance = np.full(n, np.inf)
         self._min_center = np.full(n, np.inf)
         self._update_distances()
         self._proximity = np.full((n, self.ring.n_rays), c.sensor_range, dtype=np.float32)
-        if m == 0:
-            self._obs_pos = np.zeros((0, 2))
-            self._obs_vel = np.zeros((0, 2))
+        for i, robot in enumerate(self.robot_list):
+            self.ring.read(robot, self.world.space, rng, out=self._proximity[i])
 
     def _sample_starts_and_goals(self, rng: np.random.Generator):
         c = self.config
@@ -260,53 +267,42 @@ class Navigation(TeamEnv):
 
     # -- per-step state --------------------------------------------------------------
     def _read_state(self) -> None:
-        robots = self.robot_list
-        n = len(robots)
-        self._pos = np.empty((n, 2))
-        self._theta = np.empty(n)
-        self._vel = np.empty((n, 2))
-        for i, robot in enumerate(robots):
-            body = robot.body
-            self._pos[i] = body.position
-            self._theta[i] = body.angle
-            vx, vy = body.velocity
-            cos_t, sin_t = math.cos(body.angle), math.sin(body.angle)
-            self._vel[i, 0] = vx * cos_t + vy * sin_t
-            self._vel[i, 1] = body.angular_velocity
-        self._theta = np.pi - np.mod(np.pi - self._theta, 2 * np.pi)
-        m = len(self.obstacles) if hasattr(self, "obstacles") else 0
-        if m:
-            self._obs_pos = np.array([o.body.position for o in self.obstacles], dtype=float)
-            self._obs_vel = np.array([o.body.velocity for o in self.obstacles], dtype=float)
+        """Copy robot and obstacle states from the world's last batch read."""
+        robots, movers = self.world.robot_states, self.world.mover_states
+        if len(robots) != len(self.robot_list):
+            robots, movers = self.world.read_states()
+        self._pos = robots[:, 0:2]
+        self._theta = np.pi - np.mod(np.pi - robots[:, 2], 2 * np.pi)
+        cos_t, sin_t = np.cos(robots[:, 2]), np.sin(robots[:, 2])
+        self._vel = np.column_stack([robots[:, 3] * cos_t + robots[:, 4] * sin_t, robots[:, 5]])
+        self._obs_pos = movers[:, 0:2]
+        self._obs_vel = movers[:, 3:5]
 
     def _update_distances(self) -> None:
         """Nearest-object distances of every robot (to other robots and obstacles)."""
-        c = self.config
-        r = c.robot_radius
-        n = len(self.robot_list)
-        big = np.inf
-        centre = np.full(n, big)
-        approx = np.full(n, big)
-        if n > 1:
-            d = np.linalg.norm(self._pos[:, None, :] - self._pos[None, :, :], axis=2)
-            np.fill_diagonal(d, big)
-            centre = d.min(axis=1)
-            approx = centre - 2 * r
-        exact = approx.copy()
+        r = self.config.robot_radius
+        pos = self._pos
+        diff = pos[:, None, :] - pos[None, :, :]
+        d = np.sqrt(np.einsum("ijk,ijk->ij", diff, diff))
+        np.fill_diagonal(d, np.inf)
+        centre = d.min(axis=1)
+        approx = centre - 2 * r
+        exact = approx
         if self.obstacles:
-            d_obs = np.linalg.norm(self._pos[:, None, :] - self._obs_pos[None, :, :], axis=2)
+            diff = pos[:, None, :] - self._obs_pos[None, :, :]
+            d_obs = np.sqrt(np.einsum("ijk,ijk->ij", diff, diff))
             centre = np.minimum(centre, d_obs.min(axis=1))
-            gap = d_obs - r - self._obstacle_radii[None, :]
+            gap = d_obs - (r + self._obstacle_radii)
             approx = np.minimum(approx, gap.min(axis=1))
             # Bounding circles under-estimate the gap; measure the polygon exactly when near.
-            refined = gap.copy()
-            for i, k in zip(*np.nonzero(gap < 0.1)):
-                refined[i, k] = self.obstacles[k].shape.point_query(tuple(self._pos[i])).distance - r
-            exact_obs = refined.min(axis=1)
-            exact = np.minimum(exact, exact_obs)
+            near = gap < 0.1
+            if near.any():
+                for i, k in zip(*np.nonzero(near)):
+                    gap[i, k] = self.obstacles[k].shape.point_query(tuple(pos[i])).distance - r
+            exact = np.minimum(exact, gap.min(axis=1))
         self._nearest_approx = approx
-        self._min_clearance = np.minimum(self._min_clearance, exact)
-        self._min_center = np.minimum(self._min_center, centre)
+        np.minimum(self._min_clearance, exact, out=self._min_clearance)
+        np.minimum(self._min_center, centre, out=self._min_center)
 
     def _command_context(self, agent: str) -> CommandContext:
         i = self._index[agent]
@@ -315,76 +311,74 @@ class Navigation(TeamEnv):
 
     def _before_physics(self) -> None:
         c = self.config
-        for agent in self.agents:
-            i = self._index[agent]
-            robot = self.robots[agent]
-            self._prev_command[i] = self._last_command[i]
-            self._last_command[i] = robot.command
+        live = [self._index[a] for a in self.agents]
+        self._prev_command[live] = self._last_command[live]
+        self._last_command[live] = [self.robot_list[i].command for i in live]
         if c.actuation_delay > 0:
             delta = np.clip(self.np_random.normal(0.5, 0.25, size=len(self.robot_list)), 0.0, 1.0)
-            for robot, d in zip(self.robot_list, delta):
-                robot.actuation_delay = 0.5 * c.actuation_delay * (1.0 + float(d))
+            for robot, d in zip(self.robot_list, delta.tolist()):
+                robot.actuation_delay = 0.5 * c.actuation_delay * (1.0 + d)
 
     def _evaluate(self) -> tuple[dict[str, float], dict[str, bool]]:
         c = self.config
         self._read_state()
         self._update_distances()
-        new_collisions = np.zeros(len(self.robot_list), dtype=int)
+        live = np.array([self._index[a] for a in self.agents], dtype=int)
         for contact in self.world.contacts:
             for name in (contact.a, contact.b):
                 i = self._index.get(name)
-                if i is not None:
-                    new_collisions[i] += 1
-        distance = np.linalg.norm(self.goals - self._pos, axis=1)
+                if i is not None and name in self.agents:
+                    self._collisions[i] += 1
+                    self._new_collisions[i] += 1
+        offset = self.goals - self._pos
+        distance = np.sqrt(np.einsum("ij,ij->i", offset, offset))
         progress = self._goal_distance - distance
         self._goal_distance = distance
-        rewards, terminations = {}, {}
-        t = self.cycles * c.dt
-        for agent in self.agents:
-            i = self._index[agent]
-            self._collisions[i] += new_collisions[i]
-            du = self._last_command[i] - self._prev_command[i]
-            self._smooth_sum[i] += du[0] ** 2 + du[1] ** 2
-            self._smooth_steps[i] += 1
-            reward = c.progress_reward * progress[i] - c.time_penalty - c.collision_penalty * new_collisions[i]
-            arrived = bool(distance[i] < c.goal_tolerance)
-            if arrived:
-                self._arrived[i] = True
-                self._arrival_time[i] = t
-                reward += c.arrival_bonus
-            rewards[agent] = float(reward)
-            terminations[agent] = arrived
-        for agent in self.agents:
-            i = self._index[agent]
-            self._proximity[i] = self.ring.read(self.robot_list[i], self.world.space, self.np_random)
+        du = self._last_command[live] - self._prev_command[live]
+        self._smooth_sum[live] += np.einsum("ij,ij->i", du, du)
+        self._smooth_steps[live] += 1
+        arrived = distance[live] < c.goal_tolerance
+        reward = c.progress_reward * progress[live] - c.time_penalty - c.collision_penalty * self._new_collisions[live]
+        reward += c.arrival_bonus * arrived
+        self._new_collisions[live] = 0
+        newly = live[arrived]
+        self._arrived[newly] = True
+        self._arrival_time[newly] = self.cycles * c.dt
+        rewards = dict(zip(self.agents, reward.tolist()))
+        terminations = dict(zip(self.agents, arrived.tolist()))
+        space, rng, read = self.world.space, self.np_random, self.ring.read
+        for i, done in zip(live.tolist(), arrived.tolist()):
+            if not done:
+                read(self.robot_list[i], space, rng, out=self._proximity[i])
         return rewards, terminations
 
     def _observe(self, out: np.ndarray) -> None:
-        layout = self.layout
         rows = np.array([self._index[a] for a in self.agents], dtype=int)
         if len(rows) == 0:
             return
+        s = self.layout.slices
         pos, theta, vel = self._pos, self._theta, self._vel
-        s = layout.slices
-        out[:, s["pose"]] = np.column_stack([pos[rows], theta[rows]])
+        own = pos[rows]
+        out[:, 0:2] = own
+        out[:, 2] = theta[rows]
         out[:, s["velocity"]] = vel[rows]
-        out[:, s["last_command"]] = [self.robot_list[i].applied_command for i in rows]
+        out[:, s["last_command"]] = self._last_command[rows]
         out[:, s["radius"]] = self.config.robot_radius
-        out[:, s["goal_offset"]] = self.goals[rows] - pos[rows]
+        out[:, s["goal_offset"]] = self.goals[rows] - own
+        k = len(rows)
         if self.config.n_robots > 1:
             others = self._others[rows]
-            mates = np.concatenate(
-                [pos[others] - pos[rows][:, None, :], theta[others][..., None], vel[others]], axis=2
-            )
-            out[:, s["mates"]] = mates.reshape(len(rows), -1)
+            mates = out[:, s["mates"]].reshape(k, -1, 5)
+            mates[:, :, 0:2] = pos[others] - own[:, None, :]
+            mates[:, :, 2] = theta[others]
+            mates[:, :, 3:5] = vel[others]
+            out[:, s["mates"]] = mates.reshape(k, -1)
         if self.obstacles:
-            rel = self._obs_pos[None, :, :] - pos[rows][:, None, :]
-            m = len(self.obstacles)
-            block = np.concatenate(
-                [rel, np.broadcast_to(self._obs_vel, (len(rows), m, 2)), np.broadcast_to(self._obstacle_radii[None, :, None], (len(rows), m, 1))],
-                axis=2,
-            )
-            out[:, s["obstacles"]] = block.reshape(len(rows), -1)
+            block = out[:, s["obstacles"]].reshape(k, -1, 5)
+            block[:, :, 0:2] = self._obs_pos[None, :, :] - own[:, None, :]
+            block[:, :, 2:4] = self._obs_vel[None, :, :]
+            block[:, :, 4] = self._obstacle_radii[None, :]
+            out[:, s["obstacles"]] = block.reshape(k, -1)
         out[:, s["proximity"]] = self._proximity[rows]
 
     def _metrics(self, agent: str) -> dict[str, Any]:
@@ -405,7 +399,6 @@ class Navigation(TeamEnv):
     def state(self) -> np.ndarray:
         if self.world is None:
             raise RuntimeError("state() called before reset()")
-        self._read_state()
         robots = np.column_stack([self._pos, self._theta, self._vel, self.goals]).ravel()
         obstacles = np.column_stack([self._obs_pos, self._obs_vel]).ravel() if self.obstacles else np.zeros(0)
         return np.concatenate([robots, obstacles]).astype(np.float32)

@@ -63,7 +63,9 @@ def check_action(agent: str, action, space: spaces.Space):
                 raise TypeError(f"action for {agent!r} must be an integer in [0, {space.n}), got {action!r}")
         value = int(scalar.reshape(()))
         if not space.start <= value < space.start + space.n:
-            raise ValueError(f"action for {agent!r} is {value}, outside Discrete({space.n}) = [{space.start}, {space.start + space.n})")
+            raise ValueError(
+                f"action for {agent!r} is {value}, outside Discrete({space.n}) = [{space.start}, {space.start + space.n})"
+            )
         return value
     if isinstance(space, spaces.Box):
         try:
@@ -72,12 +74,25 @@ def check_action(agent: str, action, space: spaces.Space):
             raise TypeError(f"action for {agent!r} must be numeric with shape {space.shape}, got {action!r}") from None
         if array.shape != space.shape:
             raise ValueError(f"action for {agent!r} has shape {array.shape}, expected {space.shape} (space {space})")
-        if not np.all(np.isfinite(array)):
-            raise ValueError(f"action for {agent!r} contains NaN or infinite values: {array.tolist()}")
-        if np.any(array < space.low) or np.any(array > space.high):
-            raise ValueError(
-                f"action for {agent!r} is {array.tolist()}, outside the space bounds "
-                f"low={space.low.tolist()} high={space.high.tolist()}"
-            )
-        return array
+        values = array.ravel().tolist()
+        # One pass: NaN fails every comparison, so in-bounds implies finite.
+        if all(lo <= v <= hi for v, lo, hi in zip(values, _bounds(space)[0], _bounds(space)[1])):
+            return array
+        if not all(np.isfinite(values)):
+            raise ValueError(f"action for {agent!r} contains NaN or infinite values: {values}")
+        raise ValueError(
+            f"action for {agent!r} is {values}, outside the space bounds low={space.low.tolist()} high={space.high.tolist()}"
+        )
     raise TypeError(f"unsupported action space {space!r} for {agent!r}")
+
+
+_BOUNDS_CACHE: dict[int, tuple[spaces.Box, list[float], list[float]]] = {}
+
+
+def _bounds(space: spaces.Box) -> tuple[list[float], list[float]]:
+    """Flat lower and upper bounds of a Box as Python floats (cached per space object)."""
+    cached = _BOUNDS_CACHE.get(id(space))
+    if cached is None or cached[0] is not space:
+        cached = (space, space.low.ravel().astype(float).tolist(), space.high.ravel().astype(float).tolist())
+        _BOUNDS_CACHE[id(space)] = cached
+    return cached[1], cached[2]

@@ -28,12 +28,7 @@ class Category(IntEnum):
 
 #: Kinds that physically collide with each other (targets are points, they collide with nothing).
 SOLID = (
-    Category.WALL.bit
-    | Category.ROBOT.bit
-    | Category.OBSTACLE.bit
-    | Category.BOX.bit
-    | Category.DOOR.bit
-    | Category.FURNITURE.bit
+    Category.WALL.bit | Category.ROBOT.bit | Category.OBSTACLE.bit | Category.BOX.bit | Category.DOOR.bit | Category.FURNITURE.bit
 )
 
 #: Kinds a proximity ray or the light path can hit.

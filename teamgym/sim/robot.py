@@ -34,6 +34,7 @@ import numpy as np
 import pymunk
 
 from teamgym.sim.categories import Category
+from teamgym.sim.chipmunk import set_kinematic_motion, set_pivot_anchor_a
 from teamgym.sim.entity import Entity
 
 _group_ids = itertools.count(1)
@@ -63,9 +64,7 @@ class RobotSpec:
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise ValueError(f"RobotSpec.{field} must be a finite number > 0, got {value!r}")
         if self.wheel_base > 2 * self.radius:
-            raise ValueError(
-                f"RobotSpec.wheel_base ({self.wheel_base}) cannot exceed the robot's diameter ({2 * self.radius})"
-            )
+            raise ValueError(f"RobotSpec.wheel_base ({self.wheel_base}) cannot exceed the robot's diameter ({2 * self.radius})")
 
     @property
     def max_speed(self) -> float:
@@ -192,24 +191,25 @@ class DiffDriveRobot(Entity):
         """Command the wheel rim speeds directly (m/s), converted by eq. (6) of paper 001."""
         self.set_command(*body_command(v_left, v_right, self.spec.wheel_base))
 
-    def apply_command(self, command: tuple[float, float] | None = None) -> None:
-        """Re-anchor the control body so that the robot follows the arc of ``command``."""
+    def apply_command(self, command: tuple[float, float] | None = None, state: list[float] | None = None) -> None:
+        """Re-anchor the control body so that the robot follows the arc of ``command``.
+
+        ``state`` optionally gives the body's current ``(x, y, angle, ...)``.
+        """
         v, omega = self.command if command is None else command
-        body, control = self.body, self.control
-        theta = body.angle
-        x, y = body.position
-        control.angle = theta
+        if state is None:
+            x, y = self.body.position
+            theta = self.body.angle
+        else:
+            x, y, theta = state[0], state[1], state[2]
         if abs(omega) < 1e-9:
-            control.position = (x, y)
-            control.velocity = (v * math.cos(theta), v * math.sin(theta))
-            control.angular_velocity = 0.0
-            self.pivot.anchor_a = (0.0, 0.0)
+            set_kinematic_motion(self.control, (x, y), theta, (v * math.cos(theta), v * math.sin(theta)), 0.0)
+            set_pivot_anchor_a(self.pivot, (0.0, 0.0))
         else:
             radius = v / omega
-            control.position = (x - radius * math.sin(theta), y + radius * math.cos(theta))
-            control.velocity = (0.0, 0.0)
-            control.angular_velocity = omega
-            self.pivot.anchor_a = (0.0, -radius)
+            centre = (x - radius * math.sin(theta), y + radius * math.cos(theta))
+            set_kinematic_motion(self.control, centre, theta, (0.0, 0.0), omega)
+            set_pivot_anchor_a(self.pivot, (0.0, -radius))
 
     def disable(self) -> None:
         """Break down: stop the motors for good; the robot stays in the world as an obstacle."""
@@ -217,22 +217,24 @@ class DiffDriveRobot(Entity):
         self.command = (0.0, 0.0)
 
     # -- bookkeeping around a control step ------------------------------------------
-    def begin_step(self) -> None:
+    def begin_step(self, state: list[float] | None = None) -> None:
         """Start a control step: remember the pose and start the command in effect.
 
-        With an ``actuation_delay`` the previous command stays in effect first; the world
-        switches to the new one after the delay.
+        ``state`` is the body's ``(x, y, angle, vx, vy, ω)`` if the caller has read it
+        already. With an ``actuation_delay`` the previous command stays in effect first;
+        the world switches to the new one after the delay.
         """
-        x, y = self.body.position
-        self._start_pose = (x, y, self.body.angle)
-        delayed = 0.0 < self.actuation_delay
-        self.apply_command(self.applied_command if delayed else self.command)
+        if state is None:
+            x, y = self.body.position
+            state = [x, y, self.body.angle]
+        self._start_pose = (state[0], state[1], state[2])
+        delayed = self.actuation_delay > 0.0
+        self.apply_command(self.applied_command if delayed else self.command, state)
 
-    def end_step(self, dt: float) -> None:
-        """Update encoders and odometer after a control step of length ``dt``."""
-        x0, y0, a0 = self._start_pose
-        x1, y1 = self.body.position
-        a1 = self.body.angle
+    def end_step(self, dt: float, start: list[float], end: list[float]) -> None:
+        """Update encoders and odometer from the body states at the start and end of a step."""
+        x0, y0, a0 = start[0], start[1], start[2]
+        x1, y1, a1 = end[0], end[1], end[2]
         dx, dy = x1 - x0, y1 - y0
         mid = 0.5 * (a0 + a1)
         ds = dx * math.cos(mid) + dy * math.sin(mid)

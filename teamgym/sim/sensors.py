@@ -15,6 +15,7 @@ import numpy as np
 import pymunk
 
 from teamgym.sim.categories import OPAQUE, RAY_HITS, Category
+from teamgym.sim.chipmunk import RayCaster
 from teamgym.sim.entity import Entity
 from teamgym.sim.robot import DiffDriveRobot
 
@@ -45,6 +46,7 @@ class ProximityRing:
         self.noise_std = float(noise_std)
         self._cos = np.cos(self.angles).tolist()
         self._sin = np.sin(self.angles).tolist()
+        self._caster = RayCaster()
 
     @property
     def n_rays(self) -> int:
@@ -65,12 +67,13 @@ class ProximityRing:
         if space.bb_query(pymunk.BB(x - reach, y - reach, x + reach, y + reach), query_filter):
             c, s = math.cos(body.angle), math.sin(body.angle)
             span = self.max_range
+            cast = self._caster.cast
             for i, (ca, sa) in enumerate(zip(self._cos, self._sin)):
                 dx, dy = c * ca - s * sa, s * ca + c * sa
                 start = (x + r * dx, y + r * dy)
-                hit = space.segment_query_first(start, (start[0] + span * dx, start[1] + span * dy), 0.0, query_filter)
-                if hit is not None:
-                    out[i] = hit.alpha * span
+                alpha = cast(space, start, (start[0] + span * dx, start[1] + span * dy), query_filter)
+                if alpha is not None:
+                    out[i] = alpha * span
         if self.noise_std > 0 and rng is not None:
             out += rng.normal(0.0, self.noise_std, size=self.n_rays)
             np.clip(out, 0.0, self.max_range, out=out)

@@ -1,0 +1,113 @@
+"""Fast paths into Chipmunk for the simulation's hot loop.
+
+pymunk's public property setters cost about 2 µs each in Python (a mixin ``__setattr__``,
+an assert and the cffi call); driving five robots needs some fifty of them per control
+step. These helpers call the same Chipmunk functions through pymunk's cffi handles
+(``Body._body``, ``Constraint._constraint``, ``Space._space``), which are stable across
+pymunk 7.x (the version range pinned in ``pyproject.toml``). ``tests/test_sim_chipmunk.py``
+checks them against the public API.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pymunk
+from pymunk import batch as _batch
+from pymunk._chipmunk import lib as _lib
+
+space_step = _lib.cpSpaceStep
+_BODY_FIELDS = (
+    _batch.BodyFields.BODY_ID
+    | _batch.BodyFields.POSITION
+    | _batch.BodyFields.ANGLE
+    | _batch.BodyFields.VELOCITY
+    | _batch.BodyFields.ANGULAR_VELOCITY
+)
+
+
+def set_kinematic_motion(
+    body: pymunk.Body, position: tuple[float, float], angle: float, velocity: tuple[float, float], angular_velocity: float
+) -> None:
+    """Set position, angle, velocity and angular velocity of a (kinematic) body in one go."""
+    handle = body._body
+    _lib.cpBodySetPosition(handle, position)
+    _lib.cpBodySetAngle(handle, angle)
+    _lib.cpBodySetVelocity(handle, velocity)
+    _lib.cpBodySetAngularVelocity(handle, angular_velocity)
+
+
+def set_pivot_anchor_a(pivot: pymunk.PivotJoint, anchor: tuple[float, float]) -> None:
+    """Set a pivot joint's anchor on its first body (local coordinates)."""
+    _lib.cpPivotJointSetAnchorA(pivot._constraint, anchor)
+
+
+class BodyReader:
+    """Reads ``(x, y, angle, vx, vy, ω)`` of chosen bodies of a space in one batch call.
+
+    Rows come back in the order of ``bodies``. The row mapping is recomputed only when the
+    space's body order changes (bodies added or removed).
+    """
+
+    def __init__(self, bodies: list[pymunk.Body]) -> None:
+        self.bodies = list(bodies)
+        self._setup()
+
+    def _setup(self) -> None:
+        self.ids = np.array([b.id for b in self.bodies], dtype=np.uintp)
+        self._rows: np.ndarray | None = None
+        self._buffer = _batch.Buffer()
+
+    def read(self, space: pymunk.Space) -> np.ndarray:
+        """Array of shape ``(len(bodies), 6)``: x, y, angle, vx, vy, angular velocity."""
+        buffer = self._buffer
+        buffer.clear()
+        _batch.get_space_bodies(space, _BODY_FIELDS, buffer)
+        ids = np.frombuffer(buffer.int_buf(), dtype=np.uintp)
+        values = np.frombuffer(buffer.float_buf(), dtype=np.float64).reshape(-1, 6)
+        rows = self._rows
+        if rows is None or len(ids) <= rows.max(initial=-1) or not np.array_equal(ids[rows], self.ids):
+            order = np.argsort(ids)
+            found = np.searchsorted(ids, self.ids, sorter=order)
+            rows = order[np.minimum(found, len(ids) - 1)]
+            if not np.array_equal(ids[rows], self.ids):
+                raise KeyError("BodyReader: some bodies are not in the space")
+            self._rows = rows
+        return values[rows]
+
+    def __getstate__(self) -> dict:
+        return {"bodies": self.bodies}
+
+    def __setstate__(self, state: dict) -> None:
+        # Body ids are memory addresses: they change when a space is unpickled.
+        self.bodies = state["bodies"]
+        self._setup()
+
+
+_ffi = pymunk._chipmunk.ffi
+_NULL = _ffi.NULL
+
+
+class RayCaster:
+    """First-hit segment queries without building pymunk result objects.
+
+    ``cast(space, start, end, shape_filter)`` returns the hit fraction ``alpha`` in
+    ``[0, 1]`` along the segment, or ``None`` when nothing is hit; the hit shape's owner
+    is not needed by the proximity ring, which is what this serves.
+    """
+
+    def __init__(self) -> None:
+        self._info = _ffi.new("cpSegmentQueryInfo *")
+
+    def cast(
+        self, space: pymunk.Space, start: tuple[float, float], end: tuple[float, float], shape_filter: pymunk.ShapeFilter
+    ) -> float | None:
+        info = self._info
+        if _lib.cpSpaceSegmentQueryFirst(space._space, start, end, 0.0, shape_filter, info) == _NULL:
+            return None
+        return info.alpha
+
+    def __getstate__(self) -> dict:
+        return {}
+
+    def __setstate__(self, state: dict) -> None:
+        self._info = _ffi.new("cpSegmentQueryInfo *")
