@@ -201,8 +201,7 @@ class Navigation(TeamEnv):
         self._min_center = np.full(n, np.inf)
         self._update_distances()
         self._proximity = np.full((n, self.ring.n_rays), c.sensor_range, dtype=np.float32)
-        for i, robot in enumerate(self.robot_list):
-            self.ring.read(robot, self.world.space, rng, out=self._proximity[i])
+        self._read_proximity(np.arange(n))
 
     def _sample_starts_and_goals(self, rng: np.random.Generator):
         c = self.config
@@ -346,11 +345,14 @@ class Navigation(TeamEnv):
         self._arrival_time[newly] = self.cycles * c.dt
         rewards = dict(zip(self.agents, reward.tolist()))
         terminations = dict(zip(self.agents, arrived.tolist()))
-        space, rng, read = self.world.space, self.np_random, self.ring.read
-        for i, done in zip(live.tolist(), arrived.tolist()):
-            if not done:
-                read(self.robot_list[i], space, rng, out=self._proximity[i])
+        self._read_proximity(live[~arrived])
         return rewards, terminations
+
+    def _read_proximity(self, indices: np.ndarray) -> None:
+        space, rng, read, states = self.world.space, self.np_random, self.ring.read, self.world.robot_states
+        for i in indices.tolist():
+            x, y, theta = states[i, :3].tolist()
+            read(self.robot_list[i], space, rng, out=self._proximity[i], pose=(x, y, theta))
 
     def _observe(self, out: np.ndarray) -> None:
         rows = np.array([self._index[a] for a in self.agents], dtype=int)

@@ -44,8 +44,9 @@ def set_pivot_anchor_a(pivot: pymunk.PivotJoint, anchor: tuple[float, float]) ->
 class BodyReader:
     """Reads ``(x, y, angle, vx, vy, ω)`` of chosen bodies of a space in one batch call.
 
-    Rows come back in the order of ``bodies``. The row mapping is recomputed only when the
-    space's body order changes (bodies added or removed).
+    Rows come back in the order of ``bodies``. The mapping from the space's body order is
+    computed on the first read; make a new reader after adding or removing bodies (the
+    :class:`~teamgym.sim.world.World` does this).
     """
 
     def __init__(self, bodies: list[pymunk.Body]) -> None:
@@ -62,17 +63,16 @@ class BodyReader:
         buffer = self._buffer
         buffer.clear()
         _batch.get_space_bodies(space, _BODY_FIELDS, buffer)
-        ids = np.frombuffer(buffer.int_buf(), dtype=np.uintp)
         values = np.frombuffer(buffer.float_buf(), dtype=np.float64).reshape(-1, 6)
-        rows = self._rows
-        if rows is None or len(ids) <= rows.max(initial=-1) or not np.array_equal(ids[rows], self.ids):
+        if self._rows is None:
+            ids = np.frombuffer(buffer.int_buf(), dtype=np.uintp)
             order = np.argsort(ids)
-            found = np.searchsorted(ids, self.ids, sorter=order)
-            rows = order[np.minimum(found, len(ids) - 1)]
+            found = np.minimum(np.searchsorted(ids, self.ids, sorter=order), len(ids) - 1)
+            rows = order[found]
             if not np.array_equal(ids[rows], self.ids):
                 raise KeyError("BodyReader: some bodies are not in the space")
             self._rows = rows
-        return values[rows]
+        return values[self._rows]
 
     def __getstate__(self) -> dict:
         return {"bodies": self.bodies}
@@ -97,6 +97,13 @@ class RayCaster:
 
     def __init__(self) -> None:
         self._info = _ffi.new("cpSegmentQueryInfo *")
+        self._near = _ffi.new("cpPointQueryInfo *")
+
+    def anything_within(
+        self, space: pymunk.Space, point: tuple[float, float], distance: float, shape_filter: pymunk.ShapeFilter
+    ) -> bool:
+        """Whether any shape passing ``shape_filter`` lies within ``distance`` of ``point``."""
+        return _lib.cpSpacePointQueryNearest(space._space, point, distance, shape_filter, self._near) != _NULL
 
     def cast(
         self, space: pymunk.Space, start: tuple[float, float], end: tuple[float, float], shape_filter: pymunk.ShapeFilter
@@ -110,4 +117,4 @@ class RayCaster:
         return {}
 
     def __setstate__(self, state: dict) -> None:
-        self._info = _ffi.new("cpSegmentQueryInfo *")
+        self.__init__()

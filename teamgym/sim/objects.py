@@ -134,10 +134,12 @@ class _DrivenBody(Entity):
         self.gear.max_force = max_torque
         self.bodies = [self.body, self.control]
         self.constraints = [self.pivot, self.gear]
+        self._bounding_radius = max(math.hypot(x, y) for x, y in self.local_vertices)
 
     @property
     def bounding_radius(self) -> float:
-        return max(math.hypot(x, y) for x, y in self.local_vertices)
+        """Radius of the smallest origin-centred circle containing the polygon (m)."""
+        return self._bounding_radius
 
     @property
     def velocity(self) -> Point:
@@ -168,7 +170,7 @@ class MovingPolygon(_DrivenBody):
         self.control.velocity = self.target_velocity
         self.body.velocity = self.target_velocity
 
-    def plan_bounce(self, bounds: tuple[float, float, float, float], dt: float) -> None:
+    def plan_bounce(self, bounds: tuple[float, float, float, float], dt: float, state: list[float] | None = None) -> None:
         """Reflect the scripted velocity if the next control step would leave ``bounds``.
 
         ``bounds`` is ``(x_min, y_min, x_max, y_max)`` of the free arena interior. Also
@@ -176,18 +178,22 @@ class MovingPolygon(_DrivenBody):
         e.g. by another obstacle.
         """
         vx, vy = self.target_velocity
-        x, y = self.body.position
-        r = self.bounding_radius
+        if state is None:
+            x, y = self.body.position
+            actual_x, actual_y = self.body.velocity
+        else:
+            x, y, actual_x, actual_y = state[0], state[1], state[3], state[4]
+        r = self._bounding_radius
         x_min, y_min, x_max, y_max = bounds
         if (x + vx * dt + r > x_max and vx > 0) or (x + vx * dt - r < x_min and vx < 0):
             vx = -vx
         if (y + vy * dt + r > y_max and vy > 0) or (y + vy * dt - r < y_min and vy < 0):
             vy = -vy
-        actual_x, actual_y = self.body.velocity
         if (vx, vy) == self.target_velocity and actual_x * vx + actual_y * vy < 0.25 * (vx * vx + vy * vy):
             vx, vy = -vx, -vy
-        self.target_velocity = (vx, vy)
-        self.control.velocity = self.target_velocity
+        if (vx, vy) != self.target_velocity:
+            self.target_velocity = (vx, vy)
+            self.control.velocity = self.target_velocity
 
 
 class Box(_DrivenBody):

@@ -33,7 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 import pymunk
 
-from teamgym.sim.categories import Category
+from teamgym.sim.categories import RAY_HITS, Category
 from teamgym.sim.chipmunk import set_kinematic_motion, set_pivot_anchor_a
 from teamgym.sim.entity import Entity
 
@@ -147,6 +147,8 @@ class DiffDriveRobot(Entity):
         self.spec = spec or RobotSpec()
         s = self.spec
         self.group = next(_group_ids)
+        #: Filter for this robot's own sensors: sees every solid except the robot itself.
+        self.sensor_filter = pymunk.ShapeFilter(group=self.group, mask=RAY_HITS)
         moment = pymunk.moment_for_circle(s.mass, 0.0, s.radius)
         self.body = pymunk.Body(s.mass, moment)
         self.body.position = position

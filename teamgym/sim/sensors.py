@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 import pymunk
 
-from teamgym.sim.categories import OPAQUE, RAY_HITS, Category
+from teamgym.sim.categories import OPAQUE, Category
 from teamgym.sim.chipmunk import RayCaster
 from teamgym.sim.entity import Entity
 from teamgym.sim.robot import DiffDriveRobot
@@ -53,21 +53,28 @@ class ProximityRing:
         return len(self.angles)
 
     def read(
-        self, robot: DiffDriveRobot, space: pymunk.Space, rng: np.random.Generator | None = None, out: np.ndarray | None = None
+        self,
+        robot: DiffDriveRobot,
+        space: pymunk.Space,
+        rng: np.random.Generator | None = None,
+        out: np.ndarray | None = None,
+        pose: tuple[float, float, float] | None = None,
     ) -> np.ndarray:
-        """Distances for every ray into ``out`` (allocated if not given)."""
+        """Distances for every ray into ``out`` (allocated if not given).
+
+        ``pose`` may give the robot's ``(x, y, θ)`` when the caller has it already.
+        """
         if out is None:
             out = np.empty(self.n_rays, dtype=np.float32)
         out.fill(self.max_range)
-        body = robot.body
-        x, y = body.position
+        x, y, theta = pose if pose is not None else (*robot.body.position, robot.body.angle)
         r = robot.spec.radius
-        reach = r + self.max_range
-        query_filter = pymunk.ShapeFilter(group=robot.group, mask=RAY_HITS)
-        if space.bb_query(pymunk.BB(x - reach, y - reach, x + reach, y + reach), query_filter):
-            c, s = math.cos(body.angle), math.sin(body.angle)
+        query_filter = robot.sensor_filter
+        caster = self._caster
+        if caster.anything_within(space, (x, y), r + self.max_range, query_filter):
+            c, s = math.cos(theta), math.sin(theta)
             span = self.max_range
-            cast = self._caster.cast
+            cast = caster.cast
             for i, (ca, sa) in enumerate(zip(self._cos, self._sin)):
                 dx, dy = c * ca - s * sa, s * ca + c * sa
                 start = (x + r * dx, y + r * dy)

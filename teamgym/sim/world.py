@@ -69,7 +69,7 @@ class World:
         self.space.on_collision(begin=self._on_contact_begin)
         self.robots: list[DiffDriveRobot] = []
         self.movers: list[MovingPolygon] = []
-        self._readers: tuple[BodyReader, BodyReader] | None = None
+        self._reader: BodyReader | None = None
         #: ``(x, y, angle, vx, vy, ω)`` of every robot / moving obstacle after the last step.
         self.robot_states = np.zeros((0, 6))
         self.mover_states = np.zeros((0, 6))
@@ -85,7 +85,7 @@ class World:
             self.robots.append(entity)
         elif isinstance(entity, MovingPolygon):
             self.movers.append(entity)
-        self._readers = None
+        self._reader = None
         return entity
 
     def add_boundary(self, thickness: float = 0.02) -> list[Wall]:
@@ -109,7 +109,7 @@ class World:
             self.robots.remove(entity)
         if entity in self.movers:
             self.movers.remove(entity)
-        self._readers = None
+        self._reader = None
         return entity
 
     def of_kind(self, kind: Category) -> list[Entity]:
@@ -133,11 +133,12 @@ class World:
         """
         dt = self.dt
         self.contacts = []
-        bounds = (0.0, 0.0, self.size[0], self.size[1])
-        for mover in self.movers:
-            mover.plan_bounce(bounds, dt)
+        before, movers = self.read_states()
+        if self.movers:
+            bounds = (0.0, 0.0, self.size[0], self.size[1])
+            for mover, state in zip(self.movers, movers.tolist()):
+                mover.plan_bounce(bounds, dt, state)
         switches: dict[float, list[DiffDriveRobot]] = {}
-        before = self.read_states()[0]
         for robot, row in zip(self.robots, before.tolist()):
             robot.begin_step(row)
             delay = robot.actuation_delay
@@ -162,11 +163,11 @@ class World:
 
     def read_states(self) -> tuple[np.ndarray, np.ndarray]:
         """Refresh and return ``(robot_states, mover_states)``, rows ``(x, y, angle, vx, vy, ω)``."""
-        if self._readers is None:
-            self._readers = (BodyReader([r.body for r in self.robots]), BodyReader([m.body for m in self.movers]))
-        robots, movers = self._readers
-        self.robot_states = robots.read(self.space) if self.robots else np.zeros((0, 6))
-        self.mover_states = movers.read(self.space) if self.movers else np.zeros((0, 6))
+        if self._reader is None:
+            self._reader = BodyReader([r.body for r in self.robots] + [m.body for m in self.movers])
+        states = self._reader.read(self.space) if self._reader.bodies else np.zeros((0, 6))
+        n = len(self.robots)
+        self.robot_states, self.mover_states = states[:n], states[n:]
         return self.robot_states, self.mover_states
 
     def _integrate(self, h: float, n: int) -> None:
