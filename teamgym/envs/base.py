@@ -62,6 +62,7 @@ class TeamEnv(ParallelEnv):
         self.cycles = 0
         self._renderer: Renderer | None = None
         self._trails: dict[str, list[tuple[float, float]]] = {}
+        self._log: list[tuple] = []
 
     # -- hooks for subclasses --------------------------------------------------------
     def _agent_names(self) -> list[str]:
@@ -112,10 +113,11 @@ class TeamEnv(ParallelEnv):
 
     # -- episode protocol ------------------------------------------------------------
     def reset(self, seed: int | None = None, options: dict | None = None):
-        if seed is not None:
-            self.np_random = np.random.default_rng(seed)
         if options is not None and not isinstance(options, dict):
             raise TypeError(f"reset options must be a dict or None, got {type(options).__name__}")
+        self._log = [("reset", self.np_random.bit_generator.state, seed, copy.deepcopy(options))]
+        if seed is not None:
+            self.np_random = np.random.default_rng(seed)
         self.agents = list(self.possible_agents)
         self.cycles = 0
         self._build(self.np_random)
@@ -134,6 +136,7 @@ class TeamEnv(ParallelEnv):
                 f"{type(self).__name__}.step() called after the episode ended (all agents are done); call reset()"
             )
         checked = self._check_actions(actions)
+        self._log.append(("step", checked))
         for agent, action in checked.items():
             robot = self.robots[agent]
             robot.set_command(*self.action_type.command(action, self._command_context(agent)))
@@ -207,18 +210,48 @@ class TeamEnv(ParallelEnv):
         """Named fields of a flat observation (see :class:`ObservationLayout`)."""
         return self.layout.decode(observation)
 
-    def __deepcopy__(self, memo: dict):
-        # pymunk objects copy correctly only through pickling of the whole object graph.
-        import pickle
-
-        clone = pickle.loads(pickle.dumps(self))
-        memo[id(self)] = clone
-        return clone
+    # -- copying and pickling ---------------------------------------------------------
+    # Chipmunk keeps solver state that pymunk cannot pickle (accumulated joint impulses and
+    # cached contacts used for warm starting), so a pickled space continues slightly
+    # differently. An env is therefore pickled as its config plus the log of everything
+    # that changed it since the last reset (the RNG state and seed of that reset, every
+    # checked joint action and every recorded event) and rebuilt by replaying the log: the
+    # simulation is deterministic, so the copy continues exactly as the original would.
+    # Subclasses route run-time events (adding robots, opening doors...) through
+    # :meth:`_record` so that they are replayed too.
+    def _record(self, method: str, *args: Any) -> None:
+        """Log a call of ``self.<method>(*args)`` made during the episode, for replay."""
+        self._log.append(("call", method, copy.deepcopy(args)))
 
     def __getstate__(self) -> dict:
-        state = dict(self.__dict__)
-        state["_renderer"] = None
-        return state
+        return {
+            "render_mode": self.render_mode,
+            "config": self.config.as_dict(),
+            "log": self._log,
+            "np_random": self.np_random.bit_generator.state,
+            "spaces": (self._observation_spaces, self._action_spaces),
+        }
+
+    def __setstate__(self, state: dict) -> None:
+        self.__init__(render_mode=None, **state["config"])
+        for entry in state["log"]:
+            if entry[0] == "reset":
+                _, rng_state, seed, options = entry
+                self.np_random.bit_generator.state = rng_state
+                self.reset(seed=seed, options=options)
+            elif entry[0] == "step":
+                self.step(entry[1])
+            else:
+                getattr(self, entry[1])(*entry[2])
+        self.np_random.bit_generator.state = state["np_random"]
+        self._observation_spaces, self._action_spaces = state["spaces"]
+        self.render_mode = state["render_mode"]
+
+    def __deepcopy__(self, memo: dict) -> TeamEnv:
+        clone = type(self).__new__(type(self))
+        clone.__setstate__(copy.deepcopy(self.__getstate__(), memo))
+        memo[id(self)] = clone
+        return clone
 
     def copy(self) -> TeamEnv:
         """An independent copy of the env mid-episode (same as ``copy.deepcopy``)."""
