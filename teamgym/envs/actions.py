@@ -30,6 +30,8 @@ class ActionType(ABC):
     """Maps an agent's action to a body command ``(v, ω)`` in SI units."""
 
     name: str = ""
+    #: Whether :meth:`command` reads its ``context`` (the env skips computing it otherwise).
+    needs_context: bool = False
 
     @abstractmethod
     def space(self) -> spaces.Space: ...
@@ -79,6 +81,7 @@ class HeadingAction(ActionType):
     """
 
     name = "heading"
+    needs_context = True
 
     def __init__(self, levels: int, max_rate_deg: float, heuristic: HeadingHeuristic) -> None:
         if levels < 2:

@@ -137,14 +137,14 @@ class TeamEnv(ParallelEnv):
             )
         checked = self._check_actions(actions)
         self._log.append(("step", checked))
+        action_type, no_context = self.action_type, CommandContext()
         for agent, action in checked.items():
-            robot = self.robots[agent]
-            robot.set_command(*self.action_type.command(action, self._command_context(agent)))
+            context = self._command_context(agent) if action_type.needs_context else no_context
+            self.robots[agent].set_command(*action_type.command(action, context))
         self._before_physics()
         self.world.step()
         self.cycles += 1
-        for agent in self.agents:
-            self._trails[agent].append(self.robots[agent].position)
+        self._record_trails()
         rewards, terminations = self._evaluate()
         truncated = self.cycles >= self.config.max_cycles
         truncations = {a: truncated and not terminations[a] for a in self.agents}
@@ -157,6 +157,14 @@ class TeamEnv(ParallelEnv):
         if self.render_mode == "human":
             self.render()
         return observations, rewards, terminations, truncations, infos
+
+    def _record_trails(self) -> None:
+        states = self.world.robot_states
+        index = {robot.name: i for i, robot in enumerate(self.world.robots)} if len(states) else {}
+        for agent in self.agents:
+            row = index.get(agent)
+            point = tuple(states[row, :2].tolist()) if row is not None else self.robots[agent].position
+            self._trails[agent].append(point)
 
     def _check_actions(self, actions: dict) -> dict:
         """Validate every action before anything changes; raise naming the culprit."""

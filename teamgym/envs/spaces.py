@@ -69,7 +69,7 @@ def check_action(agent: str, action, space: spaces.Space):
         return value
     if isinstance(space, spaces.Box):
         try:
-            array = np.asarray(action, dtype=np.float64)
+            array = np.array(action, dtype=np.float64)
         except (TypeError, ValueError):
             raise TypeError(f"action for {agent!r} must be numeric with shape {space.shape}, got {action!r}") from None
         if array.shape != space.shape:
