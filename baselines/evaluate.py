@@ -1,0 +1,503 @@
+"""Evaluate a policy on a teamgym env over seeded episodes; write a summary, a CSV and plots.
+
+Command line::
+
+    python -m baselines.evaluate [--env Navigation-v0] [--policy goto] [--episodes 10] [--seed 0]
+        [--set key=value ...] [--max-cycles M] [--out DIR] [--gif] [--workers W] [--quiet]
+
+Episode ``i`` resets the env with seed ``S + i`` and the policy with ``policy.reset(S + i)``,
+so results do not depend on ``--workers``. ``--policy sb3:PATH`` evaluates a saved
+Stable-Baselines3 model (see :mod:`baselines.sb3_policy`). Files written to ``DIR``
+(default ``results/<env>_<policy>/``):
+
+* ``summary.json``: env, policy, resolved config, episodes, seed, ``success_rate``,
+  ``mean_episode_length``, ``mean_return`` and ``mean_<metric>`` for every numeric
+  metric, plus ``metrics`` (mean/std/min/max/count of each);
+* ``episodes.csv``: one row per episode (seed, length, success, mean return over robots
+  and the per-episode mean of every metric over the robots that report it);
+* ``trajectories.png``: the robots' paths in the first episode;
+* ``episode.gif`` (with ``--gif``): an animation of the first episode.
+
+Metric means pool all (robot, episode) values: a metric a robot does not report (such as
+``time_to_goal`` before arrival) is left out rather than counted as zero; booleans count
+as 0/1 (so ``mean_arrived`` is the arrival rate). Non-finite means are written as ``null``.
+
+From Python::
+
+    from baselines.evaluate import evaluate, summarise
+    results = evaluate("Navigation-v0", "goto", episodes=20, seed=0, config={"n_robots": 5}, workers=2)
+    summary = summarise(results)
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import os
+import re
+import sys
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+__all__ = [
+    "EpisodeResult",
+    "evaluate",
+    "main",
+    "metric_names",
+    "run_episode",
+    "summarise",
+    "summary_table",
+    "write_episodes_csv",
+    "write_summary_json",
+]
+
+
+@dataclass
+class EpisodeResult:
+    """The outcome of one episode.
+
+    ``metrics`` maps each agent to the numeric metrics of the last ``infos`` it received
+    (booleans kept as ``bool``); ``returns`` is each agent's summed reward. Equality
+    compares only seed, length, success, returns and metrics (not the recordings).
+    """
+
+    seed: int
+    length: int
+    success: bool
+    returns: dict[str, float]
+    metrics: dict[str, dict[str, float | int | bool]]
+    trajectories: dict[str, list[tuple[float, float]]] | None = field(default=None, compare=False, repr=False)
+    goals: dict[str, tuple[float, float]] | None = field(default=None, compare=False, repr=False)
+    arena: tuple[float, float] | None = field(default=None, compare=False, repr=False)
+    frames: list[np.ndarray] | None = field(default=None, compare=False, repr=False)
+
+    @property
+    def mean_return(self) -> float:
+        """Summed reward averaged over the agents."""
+        return float(np.mean(list(self.returns.values()))) if self.returns else math.nan
+
+    def metric_values(self, name: str) -> list[float]:
+        """Values of metric ``name`` over the agents that report it."""
+        return [float(m[name]) for m in self.metrics.values() if name in m]
+
+    def metric_means(self) -> dict[str, float]:
+        """Per-episode mean of every metric over the agents that report it."""
+        return {name: float(np.mean(self.metric_values(name))) for name in metric_names([self])}
+
+
+def metric_names(results: Iterable[EpisodeResult]) -> list[str]:
+    """Every metric name in ``results``, in first-seen order."""
+    names: dict[str, None] = {}
+    for result in results:
+        for metrics in result.metrics.values():
+            names.update(dict.fromkeys(metrics))
+    return list(names)
+
+
+def _numeric(value: Any) -> float | int | bool | None:
+    """``value`` as a plain Python number if it is a numeric scalar, else ``None``."""
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    if isinstance(value, (int, np.integer)):
+        return int(value)
+    if isinstance(value, (float, np.floating)):
+        return float(value)
+    if isinstance(value, np.ndarray) and value.shape == () and np.issubdtype(value.dtype, np.number):
+        return value.item()
+    return None
+
+
+def _episode_success(env: Any, final_infos: Mapping[str, Mapping[str, Any]]) -> bool:
+    """``env.episode_success(final_infos)`` if the env defines it, else every agent ``arrived``."""
+    method = getattr(env, "episode_success", None)
+    if callable(method):
+        return bool(method(final_infos))
+    return bool(final_infos) and all(bool(info.get("arrived", False)) for info in final_infos.values())
+
+
+def run_episode(env: Any, policy: Any, seed: int, record_frames: bool = False, record_trajectories: bool = True) -> EpisodeResult:
+    """Play one episode of ``policy`` on ``env`` with ``seed`` and collect its results.
+
+    The env is reset with ``seed`` and then the policy with ``policy.reset(seed)``. With
+    ``record_frames`` the env must have ``render_mode="rgb_array"``; every frame (after
+    reset and after each step) is kept in ``result.frames``.
+    """
+    if record_frames and getattr(env, "render_mode", None) != "rgb_array":
+        raise ValueError("record_frames needs an env made with render_mode='rgb_array'")
+    observations, infos = env.reset(seed=seed)
+    policy.reset(seed)
+    final: dict[str, dict[str, Any]] = {a: dict(infos.get(a, {})) for a in env.possible_agents if a in infos}
+    returns = {a: 0.0 for a in env.agents}
+    frames = [env.render()] if record_frames else None
+    limit = getattr(getattr(env, "config", None), "max_cycles", None)
+    length = 0
+    while env.agents:
+        actions = policy.act({a: observations[a] for a in env.agents}, infos)
+        observations, rewards, _terminations, _truncations, infos = env.step(actions)
+        length += 1
+        for agent, reward in rewards.items():
+            returns[agent] = returns.get(agent, 0.0) + float(reward)
+        for agent, info in infos.items():
+            final[agent] = dict(info)
+        if frames is not None:
+            frames.append(env.render())
+        if limit is not None and length > limit:
+            raise RuntimeError(f"episode with seed {seed} ran past max_cycles={limit}; the env does not truncate")
+    metrics: dict[str, dict[str, float | int | bool]] = {}
+    for agent, info in final.items():
+        values = {k: _numeric(v) for k, v in info.items()}
+        metrics[agent] = {k: v for k, v in values.items() if v is not None}
+    trajectories = goals = arena = None
+    if record_trajectories:
+        trajectories = env.trajectories() if hasattr(env, "trajectories") else None
+        world = getattr(env, "world", None)
+        arena = tuple(float(s) for s in world.size) if world is not None and hasattr(world, "size") else None
+        raw_goals = getattr(env, "goals", None)
+        if raw_goals is not None:
+            try:
+                points = np.asarray(raw_goals, dtype=float).reshape(-1, 2)
+                if len(points) == len(env.possible_agents):
+                    goals = {a: (float(p[0]), float(p[1])) for a, p in zip(env.possible_agents, points)}
+            except (TypeError, ValueError):
+                goals = None
+    return EpisodeResult(
+        seed=int(seed),
+        length=length,
+        success=_episode_success(env, final),
+        returns=returns,
+        metrics=metrics,
+        trajectories=trajectories,
+        goals=goals,
+        arena=arena,
+        frames=frames,
+    )
+
+
+class _Runner:
+    """An env and a policy built once and reused for many episodes."""
+
+    def __init__(self, env_id: str, policy_name: str, config: Mapping[str, Any] | None, render_mode: str | None = None) -> None:
+        import teamgym
+        from baselines.registry import make_policy
+
+        self.env = teamgym.make(env_id, render_mode=render_mode, **dict(config or {}))
+        self.policy = make_policy(policy_name, self.env)
+
+    def run(self, seed: int, record_frames: bool = False, record_trajectories: bool = False) -> EpisodeResult:
+        return run_episode(self.env, self.policy, seed, record_frames=record_frames, record_trajectories=record_trajectories)
+
+    def close(self) -> None:
+        self.env.close()
+
+
+_WORKER: _Runner | None = None
+
+
+def _init_worker(env_id: str, policy_name: str, config: Mapping[str, Any] | None) -> None:
+    """Process-pool initializer: one env and policy per worker process, single-threaded torch."""
+    global _WORKER
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    _WORKER = _Runner(env_id, policy_name, config)
+    if "torch" in sys.modules:
+        sys.modules["torch"].set_num_threads(1)
+
+
+def _worker_run(seed: int, record_trajectories: bool) -> EpisodeResult:
+    assert _WORKER is not None, "worker not initialised"
+    return _WORKER.run(seed, record_trajectories=record_trajectories)
+
+
+def evaluate(
+    env_id: str = "Navigation-v0",
+    policy_name: str = "goto",
+    episodes: int = 10,
+    seed: int = 0,
+    config: Mapping[str, Any] | None = None,
+    workers: int = 1,
+    *,
+    progress: bool = False,
+    keep_trajectories: bool = False,
+) -> list[EpisodeResult]:
+    """Run ``episodes`` episodes (seeds ``seed .. seed+episodes-1``) and return their results in seed order.
+
+    ``config`` is passed to ``teamgym.make`` (strings are parsed as on the command line).
+    With ``workers > 1`` episodes run in that many spawned processes, each with its own
+    env and policy; results are identical to a sequential run. Trajectories are kept for
+    the first episode only unless ``keep_trajectories``. Config, env-id and policy errors
+    raise (``ConfigError``/``KeyError``/``FileNotFoundError``) before any episode runs.
+    """
+    if episodes < 1:
+        raise ValueError(f"episodes must be >= 1, got {episodes}")
+    if workers < 1:
+        raise ValueError(f"workers must be >= 1, got {workers}")
+    from tqdm import tqdm
+
+    config = dict(config or {})
+    runner = _Runner(env_id, policy_name, config)  # validates env id, config and policy here
+    seeds = [seed + i for i in range(episodes)]
+    keep = [keep_trajectories or i == 0 for i in range(episodes)]
+    bar = tqdm(total=episodes, desc=f"{env_id} {policy_name}", unit="ep", disable=not progress, leave=False)
+    try:
+        if workers == 1 or episodes == 1:
+            results = []
+            for s, k in zip(seeds, keep):
+                results.append(runner.run(s, record_trajectories=k))
+                bar.update(1)
+            return results
+        runner.close()
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor, as_completed
+
+        context = multiprocessing.get_context("spawn")
+        slots: list[EpisodeResult | None] = [None] * episodes
+        with ProcessPoolExecutor(
+            max_workers=min(workers, episodes),
+            mp_context=context,
+            initializer=_init_worker,
+            initargs=(env_id, policy_name, config),
+        ) as pool:
+            futures = {pool.submit(_worker_run, s, k): i for i, (s, k) in enumerate(zip(seeds, keep))}
+            for future in as_completed(futures):
+                slots[futures[future]] = future.result()
+                bar.update(1)
+        return [r for r in slots if r is not None]
+    finally:
+        bar.close()
+        runner.close()
+
+
+def _stats(values: Sequence[float]) -> dict[str, float | int]:
+    array = np.asarray(values, dtype=float)
+    if array.size == 0:
+        return {"mean": math.nan, "std": math.nan, "min": math.nan, "max": math.nan, "count": 0}
+    with np.errstate(invalid="ignore"):
+        return {
+            "mean": float(np.mean(array)),
+            "std": float(np.std(array)),
+            "min": float(np.min(array)),
+            "max": float(np.max(array)),
+            "count": int(array.size),
+        }
+
+
+def summarise(results: Sequence[EpisodeResult]) -> dict[str, Any]:
+    """Aggregate episode results.
+
+    Returns ``episodes``, ``success_rate``, ``mean_episode_length``, ``mean_return`` (mean
+    over robots and episodes), ``mean_<metric>`` for every numeric metric (pooled over
+    every robot of every episode that reports it) and ``metrics``: per metric (plus
+    ``episode_length`` and ``return``) its ``mean``, ``std``, ``min``, ``max`` and ``count``.
+    """
+    if not results:
+        raise ValueError("summarise() needs at least one episode result")
+    names = metric_names(results)
+    stats: dict[str, dict[str, float | int]] = {
+        "episode_length": _stats([r.length for r in results]),
+        "return": _stats([v for r in results for v in r.returns.values()]),
+    }
+    for name in names:
+        stats[name] = _stats([v for r in results for v in r.metric_values(name)])
+    summary: dict[str, Any] = {
+        "episodes": len(results),
+        "success_rate": float(np.mean([r.success for r in results])),
+        "mean_episode_length": stats["episode_length"]["mean"],
+        "mean_return": stats["return"]["mean"],
+    }
+    for name in names:
+        summary[f"mean_{name}"] = stats[name]["mean"]
+    summary["metrics"] = stats
+    return summary
+
+
+def summary_table(summary: Mapping[str, Any], title: str | None = None) -> str:
+    """A plain-text, column-aligned table of a :func:`summarise` result."""
+
+    def fmt(value: Any) -> str:
+        if isinstance(value, int):
+            return str(value)
+        if value is None or (isinstance(value, float) and math.isnan(value)):
+            return "-"
+        return f"{value:.4g}"
+
+    rows = [
+        ("metric", "mean", "std", "min", "max", "n"),
+        ("success_rate", fmt(summary["success_rate"]), "", "", "", fmt(summary["episodes"])),
+    ]
+    for name, s in summary["metrics"].items():
+        rows.append((name, fmt(s["mean"]), fmt(s["std"]), fmt(s["min"]), fmt(s["max"]), fmt(s["count"])))
+    widths = [max(len(row[c]) for row in rows) for c in range(len(rows[0]))]
+    lines = [title] if title else []
+    for i, row in enumerate(rows):
+        cells = [row[0].ljust(widths[0])] + [cell.rjust(w) for cell, w in zip(row[1:], widths[1:])]
+        lines.append("  ".join(cells).rstrip())
+        if i == 0:
+            lines.append("  ".join("-" * w for w in widths))
+    return "\n".join(lines)
+
+
+def _json_safe(value: Any) -> Any:
+    """Replace non-finite floats with ``None`` (strict JSON) and numpy scalars/tuples with Python ones."""
+    if isinstance(value, Mapping):
+        return {str(k): _json_safe(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_json_safe(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return _json_safe(value.tolist())
+    if isinstance(value, (np.bool_, bool)):
+        return bool(value)
+    if isinstance(value, (np.integer, int)):
+        return int(value)
+    if isinstance(value, (np.floating, float)):
+        return float(value) if math.isfinite(value) else None
+    return value
+
+
+def write_summary_json(path: str | Path, summary: Mapping[str, Any]) -> Path:
+    """Write ``summary`` as strict JSON (non-finite numbers become ``null``)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(_json_safe(summary), indent=2, allow_nan=False) + "\n")
+    return path
+
+
+def write_episodes_csv(path: str | Path, results: Sequence[EpisodeResult]) -> Path:
+    """One row per episode: ``episode, seed, length, success, return`` and the mean of every metric."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    names = metric_names(results)
+    with path.open("w", newline="") as handle:
+        writer = csv.writer(handle)
+        writer.writerow(["episode", "seed", "length", "success", "return", *names])
+        for i, result in enumerate(results):
+            means = result.metric_means()
+            cells = [repr(means[n]) if n in means else "" for n in names]
+            writer.writerow([i, result.seed, result.length, int(result.success), repr(result.mean_return), *cells])
+    return path
+
+
+# -- command line -----------------------------------------------------------------------
+
+
+class _UsageError(Exception):
+    """A command-line or configuration mistake: reported in one line, exit code 2."""
+
+
+def _parse_sets(items: Sequence[str] | None) -> dict[str, str]:
+    config: dict[str, str] = {}
+    for item in items or []:
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip():
+            raise _UsageError(f"--set expects key=value, got {item!r}")
+        config[key.strip()] = value.strip()
+    return config
+
+
+def _slug(text: str) -> str:
+    if text.startswith("sb3:"):
+        text = "sb3-" + Path(text[4:]).stem
+    return re.sub(r"[^A-Za-z0-9_.-]+", "-", text).strip("-") or "policy"
+
+
+def _message(error: BaseException) -> str:
+    if isinstance(error, KeyError) and error.args:
+        return str(error.args[0])
+    return str(error) or type(error).__name__
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The ``python -m baselines.evaluate`` argument parser."""
+    parser = argparse.ArgumentParser(
+        prog="python -m baselines.evaluate",
+        description="Evaluate a policy on a teamgym env over seeded episodes.",
+    )
+    parser.add_argument("--env", default="Navigation-v0", help="env id (default: Navigation-v0)")
+    parser.add_argument("--policy", default="goto", help="policy name or sb3:PATH (default: goto)")
+    parser.add_argument("--episodes", type=int, default=10, help="number of episodes (default: 10)")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the first episode; episode i uses seed+i (default: 0)")
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="env config override (repeatable)")
+    parser.add_argument("--max-cycles", type=int, default=None, help="shorthand for --set max_cycles=M")
+    parser.add_argument("--out", default=None, help="output directory (default: results/<env>_<policy>/)")
+    parser.add_argument("--gif", action="store_true", help="also write an animated GIF of the first episode")
+    parser.add_argument("--workers", type=int, default=1, help="parallel worker processes (default: 1)")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar or table")
+    parser.add_argument("--list", action="store_true", help="list env ids and policy names and exit")
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the evaluation CLI; returns the exit code (2 for usage or configuration errors)."""
+    args = build_parser().parse_args(argv)
+    import teamgym
+    from baselines.registry import policies
+
+    if args.list:
+        print("envs:     " + " ".join(teamgym.envs()))
+        print("policies: " + " ".join(policies()) + " sb3:PATH")
+        return 0
+    try:
+        if args.episodes < 1:
+            raise _UsageError(f"--episodes must be >= 1, got {args.episodes}")
+        if args.workers < 1:
+            raise _UsageError(f"--workers must be >= 1, got {args.workers}")
+        config = _parse_sets(args.set)
+        if args.max_cycles is not None:
+            config["max_cycles"] = str(args.max_cycles)
+        try:
+            probe = _Runner(args.env, args.policy, config)
+        except (ValueError, KeyError, FileNotFoundError, ImportError) as error:
+            raise _UsageError(_message(error)) from error
+        resolved = probe.env.config.as_dict() if hasattr(probe.env.config, "as_dict") else dict(config)
+        if "torch" in sys.modules:  # an SB3 policy: tiny batches run fastest single-threaded
+            sys.modules["torch"].set_num_threads(1)
+        probe.close()
+    except _UsageError as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 2
+
+    out = Path(args.out) if args.out else Path("results") / f"{_slug(args.env)}_{_slug(args.policy)}"
+    results = evaluate(args.env, args.policy, args.episodes, args.seed, config, args.workers, progress=not args.quiet)
+    summary = {"env": args.env, "policy": args.policy, "config": resolved, "seed": args.seed, "workers": args.workers}
+    summary.update(summarise(results))
+    out.mkdir(parents=True, exist_ok=True)
+    written = [write_summary_json(out / "summary.json", summary), write_episodes_csv(out / "episodes.csv", results)]
+
+    from baselines.plots import plot_trajectories
+
+    first = results[0]
+    if first.trajectories:
+        title = f"{args.env} · {args.policy} · seed {first.seed} · {'success' if first.success else 'no success'}"
+        written.append(
+            plot_trajectories(first.trajectories, out / "trajectories.png", arena=first.arena, goals=first.goals, title=title)
+        )
+    if args.gif:
+        from teamgym.sim.render import save_gif
+
+        recorder = _Runner(args.env, args.policy, config, render_mode="rgb_array")
+        try:
+            replay = recorder.run(first.seed, record_frames=True)
+            fps = float(recorder.env.metadata.get("render_fps") or 10)
+        finally:
+            recorder.close()
+        if replay != first:
+            print(f"warning: the rendered replay of seed {first.seed} differs from the evaluated episode", file=sys.stderr)
+        written.append(save_gif(replay.frames or [], out / "episode.gif", fps=fps))
+
+    if not args.quiet:
+        seeds = f"seed {args.seed}" if args.episodes == 1 else f"seeds {args.seed}-{args.seed + args.episodes - 1}"
+        print(summary_table(summary, title=f"{args.env} | {args.policy} | {args.episodes} episodes ({seeds})"))
+        for path in written:
+            print(f"wrote {path}")
+    return 0
+
+
+if __name__ == "__main__":
+    # Re-enter through the importable module so spawned workers can unpickle its functions.
+    from baselines.evaluate import main as _main
+
+    sys.exit(_main())

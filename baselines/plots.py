@@ -1,0 +1,66 @@
+"""Plots of evaluation results (matplotlib, Agg backend, no pyplot global state)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+from teamgym.sim.render import robot_colour
+
+
+def _rgb(index: int) -> tuple[float, float, float]:
+    r, g, b = robot_colour(index)
+    return r / 255.0, g / 255.0, b / 255.0
+
+
+def plot_trajectories(
+    trajectories: Mapping[str, Sequence[tuple[float, float]]],
+    path: str | Path,
+    arena: tuple[float, float] | None = None,
+    goals: Mapping[str, tuple[float, float]] | None = None,
+    title: str | None = None,
+) -> Path:
+    """Draw every robot's path of one episode and save it as a PNG at ``path``.
+
+    ``trajectories`` maps agent name to its positions (m); starts are marked with a
+    circle, end points with a dot, goals (if given, agent -> ``(x, y)``) with a cross in
+    the robot's colour. ``arena`` ``(width, height)`` draws the arena bounds. Returns the path.
+    """
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+    from matplotlib.patches import Rectangle
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig = Figure(figsize=(6, 6), dpi=100)
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot(1, 1, 1)
+    goals = goals or {}
+    for i, (agent, points) in enumerate(trajectories.items()):
+        colour = _rgb(i)
+        if len(points) == 0:
+            continue
+        xs = [p[0] for p in points]
+        ys = [p[1] for p in points]
+        ax.plot(xs, ys, "-", color=colour, linewidth=1.5, label=agent)
+        ax.plot(xs[0], ys[0], "o", color=colour, markersize=8, markerfacecolor="none", markeredgewidth=2)
+        ax.plot(xs[-1], ys[-1], ".", color=colour, markersize=8)
+        if agent in goals:
+            gx, gy = goals[agent]
+            ax.plot(gx, gy, "x", color=colour, markersize=10, markeredgewidth=2)
+    if arena is not None:
+        width, height = arena
+        ax.add_patch(Rectangle((0.0, 0.0), width, height, fill=False, edgecolor="black", linewidth=2))
+        pad = 0.03 * max(width, height)
+        ax.set_xlim(-pad, width + pad)
+        ax.set_ylim(-pad, height + pad)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    legend_note = "o start, . end" + (", x goal" if goals else "")
+    ax.set_title(f"{title}\n({legend_note})" if title else f"({legend_note})", fontsize=10)
+    if 0 < len(trajectories) <= 12:
+        ax.legend(loc="upper right", fontsize=8, framealpha=0.7)
+    fig.tight_layout()
+    fig.savefig(path, format="png")
+    return path

@@ -1,0 +1,156 @@
+"""``SB3Policy``: a saved Stable-Baselines3 model as a parameter-shared teamgym policy.
+
+The model (trained with :class:`baselines.sb3_env.TeamVecEnv`, or any model whose
+spaces match one agent's) acts for every robot: the live agents' observations are
+stacked and passed to one deterministic ``model.predict`` call.
+
+Stable-Baselines3 (and torch) are imported only when a model is loaded, so
+``import baselines`` works without them.
+"""
+
+from __future__ import annotations
+
+import json
+import zipfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+
+from baselines.policy import Policy
+from teamgym.envs.base import TeamEnv
+
+__all__ = ["ALGORITHMS", "SB3Policy", "algorithm_class", "detect_algorithm"]
+
+#: algorithm name -> Stable-Baselines3 class name
+ALGORITHMS: dict[str, str] = {"ppo": "PPO", "a2c": "A2C", "sac": "SAC", "td3": "TD3", "ddpg": "DDPG", "dqn": "DQN"}
+
+
+def algorithm_class(name: str) -> type:
+    """The Stable-Baselines3 class of algorithm ``name`` (``"ppo"``, ``"sac"``, ...)."""
+    import stable_baselines3
+
+    key = name.lower()
+    if key not in ALGORITHMS:
+        raise ValueError(f"unknown SB3 algorithm {name!r}; choose one of {sorted(ALGORITHMS)}")
+    return getattr(stable_baselines3, ALGORITHMS[key])
+
+
+def _resolve(path: str | Path) -> Path:
+    path = Path(path)
+    if path.is_file():
+        return path
+    if path.suffix != ".zip" and path.with_name(path.name + ".zip").is_file():
+        return path.with_name(path.name + ".zip")
+    raise FileNotFoundError(f"no saved SB3 model at {str(path)!r}")
+
+
+def detect_algorithm(path: str | Path) -> str | None:
+    """The algorithm (``"ppo"``, ``"sac"``, ...) a saved model was trained with, or ``None`` if unknown.
+
+    Uses the ``algo`` of a sidecar ``<model>.json`` written by ``baselines.train`` when
+    present, else the saved policy class (SAC/TD3/DDPG/DQN have their own) and, for
+    actor-critic policies, PPO-only hyperparameters to tell PPO from A2C.
+    """
+    path = _resolve(path)
+    sidecar = path.with_suffix(".json")
+    if sidecar.is_file():
+        try:
+            algo = json.loads(sidecar.read_text()).get("algo")
+        except (OSError, ValueError, AttributeError):
+            algo = None
+        if isinstance(algo, str) and algo.lower() in ALGORITHMS:
+            return algo.lower()
+    try:
+        with zipfile.ZipFile(path) as archive:
+            data = json.loads(archive.read("data"))
+    except (OSError, KeyError, ValueError, zipfile.BadZipFile):
+        return None
+    module = str(data.get("policy_class", {}).get("__module__", ""))
+    for algo in ("sac", "td3", "dqn"):  # DDPG saves TD3 policies and loads (for prediction) as TD3
+        if module == f"stable_baselines3.{algo}.policies":
+            return algo
+    if module == "stable_baselines3.common.policies":
+        return "ppo" if "clip_range" in data else "a2c"
+    return None
+
+
+class SB3Policy(Policy):
+    """Deterministic actions of one Stable-Baselines3 model shared by every robot."""
+
+    name = "sb3"
+
+    def __init__(self, env: TeamEnv, model: Any, deterministic: bool = True) -> None:
+        super().__init__(env)
+        self.model = model
+        self.deterministic = deterministic
+        self.algo: str | None = None
+        self.path: Path | None = None
+        self._check_spaces()
+
+    @classmethod
+    def load(
+        cls, path: str | Path, env: TeamEnv, algo: str | None = None, device: str = "cpu", deterministic: bool = True
+    ) -> SB3Policy:
+        """Load the model saved at ``path`` (``.zip``) for ``env``.
+
+        ``algo`` (``"ppo"``, ``"a2c"``, ``"sac"``, ``"td3"``, ``"ddpg"``, ``"dqn"``) is
+        detected from the file when omitted (see :func:`detect_algorithm`); if detection
+        fails every algorithm is tried in turn.
+        """
+        path = _resolve(path)
+        algo = algo or detect_algorithm(path)
+        candidates = [algo] if algo else list(ALGORITHMS)
+        errors = []
+        for name in candidates:
+            try:
+                model = algorithm_class(name).load(str(path), device=device)
+            except Exception as error:  # noqa: BLE001 - try the next algorithm
+                errors.append(f"{name}: {error}")
+                continue
+            try:
+                policy = cls(env, model, deterministic=deterministic)
+            except ValueError as error:
+                sidecar = path.with_suffix(".json")
+                hint = f"; the training settings are in {str(sidecar)!r}" if sidecar.is_file() else ""
+                raise ValueError(f"{error}{hint}") from None
+            policy.algo = name
+            policy.path = path
+            return policy
+        raise ValueError(f"could not load SB3 model {str(path)!r} ({'; '.join(errors)})")
+
+    def _check_spaces(self) -> None:
+        env = self.env
+        if not env.possible_agents:
+            return
+        agent = env.possible_agents[0]
+        env_obs, env_act = env.observation_space(agent), env.action_space(agent)
+        model_obs, model_act = self.model.observation_space, self.model.action_space
+        if getattr(model_obs, "shape", None) != getattr(env_obs, "shape", None):
+            raise ValueError(
+                f"the SB3 model expects observations of shape {getattr(model_obs, 'shape', None)}, "
+                f"but the env's are {getattr(env_obs, 'shape', None)} (different env or config?)"
+            )
+        if type(model_act) is not type(env_act) or getattr(model_act, "shape", None) != getattr(env_act, "shape", None):
+            raise ValueError(f"the SB3 model's action space {model_act} does not match the env's {env_act}")
+        if isinstance(env_act, spaces.Discrete) and model_act.n != env_act.n:
+            raise ValueError(f"the SB3 model's action space {model_act} does not match the env's {env_act}")
+
+    def act(self, observations: dict[str, np.ndarray], infos: dict[str, dict[str, Any]] | None = None) -> dict[str, Any]:
+        """Actions for every agent in ``observations`` from one batched ``model.predict`` call."""
+        agents = list(observations)
+        if not agents:
+            return {}
+        batch = np.stack([np.asarray(observations[a], dtype=np.float32) for a in agents])
+        actions, _ = self.model.predict(batch, deterministic=self.deterministic)
+        space = self.env.action_space(agents[0])
+        out: dict[str, Any] = {}
+        for i, agent in enumerate(agents):
+            if isinstance(space, spaces.Discrete):
+                out[agent] = int(np.asarray(actions[i]).reshape(()))
+            elif isinstance(space, spaces.Box):
+                out[agent] = np.clip(np.asarray(actions[i], dtype=space.dtype).reshape(space.shape), space.low, space.high)
+            else:
+                out[agent] = actions[i]
+        return out

@@ -1,0 +1,180 @@
+"""Tests of ``baselines.evaluate``: the CLI end to end, parallel workers, error messages."""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import teamgym
+from baselines import make_policy
+from baselines.evaluate import EpisodeResult, evaluate, main, run_episode, summarise, summary_table
+
+REPO = Path(__file__).resolve().parents[1]
+SHORT = ["--set", "max_cycles=30"]
+
+
+def run_cli(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
+    env = {**os.environ, "PYTHONPATH": str(REPO)}
+    return subprocess.run(
+        [sys.executable, "-m", "baselines.evaluate", *args], capture_output=True, text=True, cwd=cwd or REPO, env=env, timeout=120
+    )
+
+
+def read_csv(path: Path) -> list[dict[str, str]]:
+    with path.open() as handle:
+        return list(csv.DictReader(handle))
+
+
+@pytest.fixture(scope="module")
+def cli_run(tmp_path_factory) -> tuple[subprocess.CompletedProcess, Path]:
+    out = tmp_path_factory.mktemp("eval") / "run"
+    proc = run_cli("--episodes", "2", "--seed", "5", *SHORT, "--out", str(out), "--gif")
+    return proc, out
+
+
+def test_cli_end_to_end(cli_run):
+    proc, out = cli_run
+    assert proc.returncode == 0, proc.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    for key in ("env", "policy", "config", "episodes", "seed", "success_rate", "mean_episode_length", "mean_return", "metrics"):
+        assert key in summary
+    assert summary["env"] == "Navigation-v0"
+    assert summary["policy"] == "goto"
+    assert summary["episodes"] == 2
+    assert summary["seed"] == 5
+    assert summary["config"]["max_cycles"] == 30
+    for metric in ("arrived", "distance_to_goal", "path_length", "collisions", "min_clearance", "smoothness"):
+        assert f"mean_{metric}" in summary
+
+    rows = read_csv(out / "episodes.csv")
+    assert [int(r["seed"]) for r in rows] == [5, 6]
+    lengths = [int(r["length"]) for r in rows]
+    assert all(1 <= n <= 30 for n in lengths)
+    assert summary["mean_episode_length"] == pytest.approx(np.mean(lengths))
+    assert summary["success_rate"] == pytest.approx(np.mean([int(r["success"]) for r in rows]))
+    # Metrics every robot reports: pooled mean == mean of per-episode means (equal team sizes).
+    for metric in ("distance_to_goal", "path_length", "collisions", "arrived"):
+        assert summary[f"mean_{metric}"] == pytest.approx(np.mean([float(r[metric]) for r in rows]))
+    assert summary["mean_return"] == pytest.approx(np.mean([float(r["return"]) for r in rows]))
+
+    assert (out / "trajectories.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert (out / "episode.gif").read_bytes()[:6] in (b"GIF89a", b"GIF87a")
+    assert "success_rate" in proc.stdout and "path_length" in proc.stdout
+
+
+def test_cli_workers_match_sequential(cli_run, tmp_path):
+    _, out1 = cli_run
+    proc = run_cli("--episodes", "2", "--seed", "5", *SHORT, "--out", str(tmp_path), "--workers", "2", "--quiet")
+    assert proc.returncode == 0, proc.stderr
+    assert read_csv(tmp_path / "episodes.csv") == read_csv(out1 / "episodes.csv")
+    s1 = json.loads((out1 / "summary.json").read_text())
+    s2 = json.loads((tmp_path / "summary.json").read_text())
+    s1.pop("workers"), s2.pop("workers")
+    assert s1 == s2
+
+
+def test_evaluate_function_workers_identical():
+    config = {"max_cycles": 15, "n_robots": 2}
+    sequential = evaluate("Navigation-v0", "random", episodes=3, seed=11, config=config, workers=1)
+    parallel = evaluate("Navigation-v0", "random", episodes=3, seed=11, config=config, workers=2)
+    assert [r.seed for r in parallel] == [11, 12, 13]
+    assert sequential == parallel
+    assert sequential[0].trajectories is not None and parallel[0].trajectories is not None
+    assert sequential[1].trajectories is None
+
+
+def test_bad_set_key_exits_2_with_message():
+    proc = run_cli("--set", "bogus_key=3", "--episodes", "1")
+    assert proc.returncode == 2
+    assert "bogus_key" in proc.stderr
+    assert "Traceback" not in proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize(
+    ("args", "needle"),
+    [
+        (["--set", "n_robots=many"], "n_robots"),
+        (["--set", "n_robots"], "key=value"),
+        (["--env", "Nowhere-v0"], "unknown env id 'Nowhere-v0'"),
+        (["--policy", "no_such_policy"], "unknown policy 'no_such_policy'"),
+        (["--policy", "sb3:/no/such/model.zip"], "no saved SB3 model"),
+        (["--episodes", "0"], "--episodes"),
+    ],
+)
+def test_usage_errors(args, needle, capsys, tmp_path):
+    assert main([*args, "--out", str(tmp_path / "x"), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert needle in err
+    assert err.startswith("error: ")
+    assert not (tmp_path / "x").exists()
+
+
+def test_run_episode_collects_final_metrics():
+    env = teamgym.make("Navigation-v0", max_cycles=200, n_obstacles=0)
+    policy = make_policy("goto", env)
+    result = run_episode(env, policy, seed=3)
+    assert set(result.metrics) == set(env.possible_agents)
+    assert result.length <= 200
+    for metrics in result.metrics.values():
+        assert ("time_to_goal" in metrics) == bool(metrics["arrived"])
+    assert result.success == all(m["arrived"] for m in result.metrics.values())
+    assert set(result.trajectories) == set(env.possible_agents)
+    assert result.arena == (2.0, 2.0)
+    assert set(result.goals) == set(env.possible_agents)
+    again = run_episode(env, policy, seed=3)
+    assert again == result
+
+
+def test_episode_success_hook():
+    env = teamgym.make("Navigation-v0", max_cycles=3)
+    policy = make_policy("goto", env)
+    seen = {}
+
+    def episode_success(final_infos):
+        seen.update(final_infos)
+        return True
+
+    env.episode_success = episode_success
+    result = run_episode(env, policy, seed=0)
+    assert result.success is True
+    assert set(seen) == set(env.possible_agents)
+
+
+def test_summarise_pools_robots_and_episodes():
+    a = EpisodeResult(0, 10, True, {"r0": 1.0, "r1": 3.0}, {"r0": {"arrived": True, "t": 2.0}, "r1": {"arrived": True, "t": 4.0}})
+    b = EpisodeResult(1, 20, False, {"r0": 0.0, "r1": 0.0}, {"r0": {"arrived": True, "t": 6.0}, "r1": {"arrived": False}})
+    summary = summarise([a, b])
+    assert summary["success_rate"] == 0.5
+    assert summary["mean_episode_length"] == 15
+    assert summary["mean_return"] == 1.0
+    assert summary["mean_arrived"] == pytest.approx(0.75)
+    assert summary["mean_t"] == pytest.approx(4.0)  # only robots that report it
+    assert summary["metrics"]["t"]["count"] == 3
+    table = summary_table(summary, title="demo")
+    lines = table.splitlines()
+    assert lines[0] == "demo"
+    mean_end = lines[1].index("mean") + len("mean")  # numeric columns are right-aligned under their header
+    for line in lines[3:]:
+        assert line[mean_end - 1] != " " and line[mean_end] == " "
+    assert any(line.startswith("success_rate") for line in lines)
+
+
+def test_non_finite_metrics_written_as_null(tmp_path):
+    # One robot and no obstacles: min_clearance stays +inf; strict JSON has no Infinity.
+    args = ["--set", "n_robots=1", "--set", "n_obstacles=0", "--max-cycles", "5", "--episodes", "1"]
+    assert main([*args, "--out", str(tmp_path), "--quiet"]) == 0
+    text = (tmp_path / "summary.json").read_text()
+    assert "Infinity" not in text and "NaN" not in text
+    summary = json.loads(text)
+    assert summary["mean_min_clearance"] is None
+    assert summary["config"]["n_robots"] == 1
+    assert math.isinf(float(read_csv(tmp_path / "episodes.csv")[0]["min_clearance"]))

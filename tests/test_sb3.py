@@ -1,0 +1,244 @@
+"""Tests of the Stable-Baselines3 adapter (``TeamVecEnv``), ``SB3Policy`` and training."""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+import numpy as np
+import pytest
+from gymnasium import spaces
+
+pytest.importorskip("stable_baselines3")
+
+from stable_baselines3 import PPO  # noqa: E402
+from stable_baselines3.common.vec_env import VecEnv  # noqa: E402
+
+import teamgym  # noqa: E402
+from baselines.evaluate import evaluate  # noqa: E402
+from baselines.sb3_env import TeamVecEnv  # noqa: E402
+from baselines.sb3_policy import SB3Policy, detect_algorithm  # noqa: E402
+
+CONFIG = {"max_cycles": 12, "n_robots": 2, "n_obstacles": 1}
+
+
+@pytest.fixture(autouse=True)
+def single_thread_torch():
+    """Tiny MLPs run far faster on one thread (and the tests share the CPU with other jobs)."""
+    import torch
+
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)
+    yield
+    torch.set_num_threads(threads)
+
+
+def make_env():
+    return teamgym.make("Navigation-v0", **CONFIG)
+
+
+class StaggeredEnv:
+    """A minimal parallel env: agent ``i`` terminates after ``i + 1`` steps, the rest truncate at ``horizon``."""
+
+    metadata: dict[str, Any] = {"render_modes": []}
+    render_mode = None
+
+    def __init__(self, n: int = 3, horizon: int = 4) -> None:
+        self.possible_agents = [f"a{i}" for i in range(n)]
+        self.agents: list[str] = []
+        self.horizon = horizon
+        self.t = 0
+        self.finish = {a: i + 1 for i, a in enumerate(self.possible_agents)}
+        self.resets = 0
+
+    def observation_space(self, agent):
+        return spaces.Box(-np.inf, np.inf, shape=(2,), dtype=np.float32)
+
+    def action_space(self, agent):
+        return spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32)
+
+    def _obs(self, agent):
+        return np.array([1.0 + self.possible_agents.index(agent), 1.0 + self.t], dtype=np.float32)
+
+    def reset(self, seed=None, options=None):
+        self.agents = list(self.possible_agents)
+        self.t = 0
+        self.resets += 1
+        return {a: self._obs(a) for a in self.agents}, {a: {} for a in self.agents}
+
+    def step(self, actions):
+        assert set(actions) == set(self.agents)
+        for a in actions:
+            assert -1.0 <= float(actions[a][0]) <= 1.0
+        self.t += 1
+        obs = {a: self._obs(a) for a in self.agents}
+        rewards = {a: 1.0 for a in self.agents}
+        terms = {a: self.t >= self.finish[a] for a in self.agents}
+        truncs = {a: self.t >= self.horizon and not terms[a] for a in self.agents}
+        infos = {a: {"arrived": terms[a]} for a in self.agents}
+        self.agents = [a for a in self.agents if not (terms[a] or truncs[a])]
+        return obs, rewards, terms, truncs, infos
+
+    def close(self):
+        pass
+
+
+def test_team_vec_env_contract():
+    venv = TeamVecEnv(make_env, n_envs=2)
+    assert isinstance(venv, VecEnv)
+    assert venv.num_envs == 4
+    assert venv.observation_space == make_env().observation_space("robot_0")
+    venv.seed(7)
+    obs = venv.reset()
+    assert obs.shape == (4, *venv.observation_space.shape) and obs.dtype == np.float32
+    assert all(venv.observation_space.contains(o) for o in obs)
+    assert not np.array_equal(obs[0], obs[2])  # env copies get different seeds
+    episodes = 0
+    for _ in range(2 * CONFIG["max_cycles"] + 2):
+        actions = np.stack([venv.action_space.sample() for _ in range(venv.num_envs)])
+        obs, rewards, dones, infos = venv.step(actions)
+        assert obs.shape == (4, *venv.observation_space.shape) and obs.dtype == np.float32
+        assert rewards.shape == (4,) and rewards.dtype == np.float32
+        assert dones.shape == (4,) and dones.dtype == bool
+        assert isinstance(infos, list) and len(infos) == 4
+        for k in np.nonzero(dones)[0]:
+            terminal = infos[k]["terminal_observation"]
+            assert terminal.shape == venv.observation_space.shape
+            assert isinstance(infos[k]["TimeLimit.truncated"], bool)
+            if "episode" in infos[k]:
+                episodes += 1
+    assert episodes >= 4
+    # Reseeding reproduces the first observations.
+    again = TeamVecEnv(make_env, n_envs=2)
+    again.seed(7)
+    venv.seed(7)
+    assert np.array_equal(again.reset(), venv.reset())
+    assert venv.get_attr("render_mode") == [None] * 4
+    assert venv.env_is_wrapped(object) == [False] * 4
+    venv.close()
+
+
+def test_team_vec_env_padding_scheme():
+    venv = TeamVecEnv(lambda: StaggeredEnv(n=3, horizon=4), n_envs=1)
+    venv.reset()
+    actions = np.full((3, 1), 5.0, dtype=np.float32)  # out of bounds: must be clipped, not rejected
+    # step 1: a0 terminates (done once, real reward, terminal obs)
+    obs, rew, done, info = venv.step(actions)
+    assert done.tolist() == [True, False, False]
+    assert rew.tolist() == [1.0, 1.0, 1.0]
+    assert np.array_equal(info[0]["terminal_observation"], [1.0, 2.0])
+    assert info[0]["TimeLimit.truncated"] is False and info[0]["is_success"] is True
+    assert info[0]["episode"]["r"] == 1.0 and info[0]["episode"]["l"] == 1
+    assert np.all(obs[0] == 0) and np.array_equal(obs[1], [2.0, 2.0])
+    # step 2: a0 is padding, a1 terminates
+    obs, rew, done, info = venv.step(actions)
+    assert done.tolist() == [False, True, False]
+    assert rew.tolist() == [0.0, 1.0, 1.0]
+    assert info[0] == {"padding": True}
+    assert np.all(obs[0] == 0) and np.all(obs[1] == 0)
+    # step 3: a2 terminates, the episode is over -> auto reset; padding slots close their pseudo-episode
+    obs, rew, done, info = venv.step(actions)
+    assert venv.envs[0].resets == 2
+    assert done.all()
+    assert info[2]["episode"]["l"] == 3 and info[2]["is_success"] is True
+    assert info[0]["padding"] and info[1]["padding"]
+    assert np.all(info[0]["terminal_observation"] == 0) and info[0]["TimeLimit.truncated"] is False
+    assert "episode" not in info[0]
+    assert rew.tolist() == [0.0, 0.0, 1.0]
+    assert np.array_equal(obs, [[1.0, 1.0], [2.0, 1.0], [3.0, 1.0]])  # first observations of the new episode
+
+
+def test_team_vec_env_truncation_bootstraps():
+    venv = TeamVecEnv(lambda: StaggeredEnv(n=2, horizon=1), n_envs=1)
+    venv.envs[0].finish = {"a0": 5, "a1": 5}
+    venv.reset()
+    _, _, done, info = venv.step(np.zeros((2, 1), dtype=np.float32))
+    assert done.all()
+    assert all(i["TimeLimit.truncated"] is True for i in info)
+    assert all(i["is_success"] is False for i in info)
+
+
+def test_ppo_learns_saves_and_evaluates(tmp_path):
+    venv = TeamVecEnv(make_env, n_envs=1)
+    model = PPO("MlpPolicy", venv, n_steps=64, batch_size=64, n_epochs=1, seed=0, device="cpu")
+    model.learn(total_timesteps=256)
+    assert model.num_timesteps >= 256
+    path = tmp_path / "ppo_model.zip"
+    model.save(str(path))
+    venv.close()
+    assert detect_algorithm(path) == "ppo"
+
+    env = make_env()
+    policy = SB3Policy.load(path, env)
+    calls = []
+    predict = policy.model.predict
+
+    def counting_predict(batch, **kwargs):
+        calls.append(batch.shape)
+        return predict(batch, **kwargs)
+
+    policy.model.predict = counting_predict
+    observations, _ = env.reset(seed=0)
+    actions = policy.act(observations)
+    assert calls == [(2, env.observation_space("robot_0").shape[0])]  # one batched call for both robots
+    for agent, action in actions.items():
+        assert env.action_space(agent).contains(action)
+    repeat = policy.act(observations)  # deterministic
+    assert all(np.array_equal(actions[a], repeat[a]) for a in actions)
+
+    results = evaluate("Navigation-v0", f"sb3:{path}", episodes=1, seed=0, config=CONFIG)
+    assert len(results) == 1 and 1 <= results[0].length <= CONFIG["max_cycles"]
+    assert set(results[0].metrics) == {"robot_0", "robot_1"}
+
+
+def test_sb3_policy_rejects_mismatched_env(tmp_path):
+    venv = TeamVecEnv(make_env, n_envs=1)
+    model = PPO("MlpPolicy", venv, n_steps=16, batch_size=16, device="cpu")
+    model.save(str(tmp_path / "m.zip"))
+    other = teamgym.make("Navigation-v0", n_robots=4)
+    with pytest.raises(ValueError, match="observations of shape"):
+        SB3Policy.load(tmp_path / "m", other)
+
+
+def test_train_cli_ppo_and_dqn(tmp_path):
+    from baselines.train import main as train_main
+
+    out = tmp_path / "ppo"
+    assert (
+        train_main(
+            [
+                "--timesteps",
+                "64",
+                "--set",
+                "n_robots=2",
+                "--max-cycles",
+                "10",
+                "--n-envs",
+                "1",
+                "--out",
+                str(out),
+                "--verbose",
+                "0",
+            ]
+        )
+        == 0
+    )
+    meta = json.loads((tmp_path / "ppo.json").read_text())
+    assert meta["algo"] == "ppo" and meta["config"]["n_robots"] == 2 and meta["agents_per_env"] == 2
+    policy = SB3Policy.load(tmp_path / "ppo.zip", teamgym.make("Navigation-v0", n_robots=2))
+    assert policy.algo == "ppo"
+
+    dqn = tmp_path / "dqn.zip"
+    args = ["--algo", "dqn", "--timesteps", "64", "--set", "action_type=heading", "--max-cycles", "10", "--hp", "buffer_size=500"]
+    assert train_main([*args, "--hp", "learning_starts=16", "--out", str(dqn), "--verbose", "0"]) == 0
+    assert detect_algorithm(dqn) == "dqn"
+    results = evaluate("Navigation-v0", f"sb3:{dqn}", episodes=1, seed=0, config={"action_type": "heading", "max_cycles": 10})
+    assert results[0].length == 10 or results[0].success
+
+
+def test_train_cli_bad_config_exits_2(tmp_path, capsys):
+    from baselines.train import main as train_main
+
+    assert train_main(["--set", "bogus=1", "--out", str(tmp_path / "m.zip")]) == 2
+    assert "bogus" in capsys.readouterr().err
+    assert not (tmp_path / "m.zip").exists()
