@@ -1,0 +1,352 @@
+"""Navigation-v0: configuration, observations, rewards, arrival and the heading action of paper 001."""
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+from gymnasium import spaces
+
+import teamgym
+from teamgym.control.heading import HeadingHeuristic
+from teamgym.envs.navigation import NavigationConfig
+
+# -- configuration -------------------------------------------------------------------
+
+EVERY_KEY = dict(
+    max_cycles=50,
+    dt=0.05,
+    substeps=10,
+    n_robots=4,
+    n_obstacles=3,
+    arena_size=1.5,
+    layout="circle",
+    robot_radius=0.03,
+    max_wheel_speed=0.35,
+    max_motor_force=0.8,
+    obstacle_speed=0.15,
+    obstacle_radius=0.07,
+    action_type="heading",
+    heading_levels=7,
+    heading_max_rate=180.0,
+    v_opt=0.2,
+    alpha=80.0,
+    beta=30.0,
+    target_threshold=0.04,
+    object_threshold=0.12,
+    actuation_delay=0.02,
+    goal_tolerance=0.04,
+    min_goal_distance=0.5,
+    sensor_range=0.08,
+    sensor_noise=0.002,
+    progress_reward=5.0,
+    collision_penalty=2.0,
+    arrival_bonus=20.0,
+    time_penalty=0.02,
+)
+
+
+def test_every_documented_key_is_covered():
+    assert set(EVERY_KEY) == set(NavigationConfig.field_names())
+    defaults = NavigationConfig()
+    for key, value in EVERY_KEY.items():
+        assert getattr(defaults, key) != value, f"{key}: pick a non-default value"
+
+
+def test_make_with_every_key():
+    env = teamgym.make("Navigation-v0", **EVERY_KEY)
+    assert env.config.as_dict() == EVERY_KEY
+    observations, _ = env.reset(seed=0)
+    assert env.possible_agents == [f"robot_{i}" for i in range(4)]
+    assert len(env.obstacles) == 3
+    assert env.world.size == (1.5, 1.5) and env.world.dt == 0.05 and env.world.substeps == 10
+    assert all(r.spec.radius == 0.03 and r.spec.max_motor_force == 0.8 for r in env.robots.values())
+    assert env.action_space("robot_0") == spaces.Discrete(7)
+    assert all(o.bounding_radius == pytest.approx(0.07) for o in env.obstacles)
+    assert all(math.hypot(*o.velocity) == pytest.approx(0.15) for o in env.obstacles)
+    # circle layout: goals are the antipodes of the starts about the arena centre
+    starts = np.array([r.pose[:2] for r in env.robots.values()])
+    np.testing.assert_allclose(starts + env.goals, 1.5, atol=1e-9)
+    assert env.decode(observations["robot_0"])["radius"] == pytest.approx(0.03)
+    assert np.all(env.decode(observations["robot_0"])["proximity"] <= np.float32(0.08))
+    for _ in range(50):
+        *_, truncations, _ = env.step({a: 3 for a in env.agents})
+    assert env.agents == [] and all(truncations.values())
+
+
+def test_string_values_are_parsed():
+    env = teamgym.make("Navigation-v0", n_robots="5", arena_size="1.5", layout="circle", dt="0.05")
+    assert env.config.n_robots == 5 and env.config.arena_size == 1.5 and env.config.dt == 0.05
+    assert env.config.layout == "circle"
+    assert isinstance(env.config.arena_size, float)
+    assert teamgym.make("Navigation-v0", arena_size=2).config.arena_size == 2.0
+
+
+BAD_CONFIGS = [
+    ({"n_robot": 3}, ["n_robot", "n_robots"]),  # unknown key, valid keys listed
+    ({"n_robots": 0}, ["n_robots", "0"]),
+    ({"n_robots": 65}, ["n_robots", "65"]),
+    ({"n_robots": 2.5}, ["n_robots", "2.5", "int"]),
+    ({"n_robots": True}, ["n_robots", "True"]),
+    ({"n_robots": "three"}, ["n_robots", "three"]),
+    ({"n_robots": None}, ["n_robots", "None"]),
+    ({"n_obstacles": -1}, ["n_obstacles", "-1"]),
+    ({"arena_size": 0.4}, ["arena_size", "0.4"]),
+    ({"arena_size": math.nan}, ["arena_size", "nan"]),
+    ({"arena_size": math.inf}, ["arena_size", "inf"]),
+    ({"layout": "grid"}, ["layout", "grid"]),
+    ({"action_type": "torque"}, ["action_type", "torque"]),
+    ({"dt": 0.0}, ["dt", "0.0"]),
+    ({"substeps": 0}, ["substeps", "0"]),
+    ({"max_cycles": 0}, ["max_cycles", "0"]),
+    ({"actuation_delay": 0.2}, ["actuation_delay", "0.2"]),
+    ({"actuation_delay": -0.01}, ["actuation_delay", "-0.01"]),
+    ({"v_opt": 0.5}, ["v_opt", "0.5"]),
+    ({"robot_radius": 0.001}, ["robot_radius", "0.001"]),
+    ({"max_wheel_speed": 0.0}, ["max_wheel_speed", "0.0"]),
+    ({"max_motor_force": -1.0}, ["max_motor_force", "-1.0"]),
+    ({"obstacle_speed": -0.1}, ["obstacle_speed", "-0.1"]),
+    ({"obstacle_radius": 1.0}, ["obstacle_radius", "1.0"]),
+    ({"heading_levels": 1}, ["heading_levels", "1"]),
+    ({"heading_max_rate": 0.0}, ["heading_max_rate", "0.0"]),
+    ({"goal_tolerance": 0.0}, ["goal_tolerance", "0.0"]),
+    ({"min_goal_distance": 2.0}, ["min_goal_distance", "2.0"]),
+    ({"sensor_range": 0.0}, ["sensor_range", "0.0"]),
+    ({"sensor_noise": -0.1}, ["sensor_noise", "-0.1"]),
+    ({"n_robots": 64, "arena_size": 1.0}, ["n_robots", "64", "room"]),  # arena too small for the team
+]
+
+
+@pytest.mark.parametrize(("config", "fragments"), BAD_CONFIGS, ids=[str(c) for c, _ in BAD_CONFIGS])
+def test_invalid_config_fails_at_make(config, fragments):
+    with pytest.raises(teamgym.ConfigError) as info:
+        teamgym.make("Navigation-v0", **config)
+    assert isinstance(info.value, ValueError)
+    for fragment in fragments:
+        assert fragment in str(info.value), f"{fragment!r} not in {str(info.value)!r}"
+
+
+@pytest.mark.xfail(
+    strict=True,
+    raises=RuntimeError,
+    reason="NavigationConfig.check (teamgym/envs/navigation.py) accepts arenas in which "
+    "_sample_starts_and_goals/_scatter cannot place goals or obstacles, so reset() raises "
+    "RuntimeError after rejection sampling instead of make() raising ConfigError",
+)
+@pytest.mark.parametrize(
+    "config",
+    [
+        dict(arena_size=0.5, min_goal_distance=0.3),
+        dict(n_robots=10, arena_size=0.8, n_obstacles=2, min_goal_distance=0.2),
+    ],
+    ids=["small-arena", "crowded-arena"],
+)
+def test_config_accepted_by_make_can_reset(config):
+    try:
+        env = teamgym.make("Navigation-v0", **config)
+    except teamgym.ConfigError:
+        return  # rejected up front: fine
+    for seed in range(3):
+        env.reset(seed=seed)
+
+
+def test_config_is_frozen():
+    env = teamgym.make("Navigation-v0")
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        env.config.n_robots = 7
+
+
+# -- observations ------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def stepped_env():
+    env = teamgym.make("Navigation-v0", n_robots=4, n_obstacles=3, max_cycles=100)
+    env.reset(seed=6)
+    rng = np.random.default_rng(6)
+    for _ in range(10):
+        commands = {a: np.array([rng.uniform(0, 0.3), rng.uniform(-2, 2)], dtype=np.float32) for a in env.agents}
+        observations, *_ = env.step(commands)
+    return env, observations, commands
+
+
+def test_observation_fields_match_the_world(stepped_env):
+    env, observations, commands = stepped_env
+    n, m = env.config.n_robots, env.config.n_obstacles
+    for i, agent in enumerate(env.possible_agents):
+        fields = env.decode(observations[agent])
+        assert set(fields) == {"pose", "velocity", "last_command", "radius", "goal_offset", "mates", "obstacles", "proximity"}
+        robot = env.robots[agent]
+        x, y, theta = robot.pose
+        np.testing.assert_allclose(fields["pose"], [x, y, theta], atol=1e-6)
+        np.testing.assert_allclose(fields["velocity"], robot.velocity, atol=1e-5)
+        np.testing.assert_allclose(fields["last_command"], commands[agent], atol=1e-6)
+        assert fields["radius"] == pytest.approx(env.config.robot_radius)
+        np.testing.assert_allclose(fields["goal_offset"], env.goals[i] - [x, y], atol=1e-6)
+        mates = [a for a in env.possible_agents if a != agent]
+        assert fields["mates"].shape == (n - 1, 5)
+        for row, mate in zip(fields["mates"], mates):
+            other = env.robots[mate]
+            np.testing.assert_allclose(row[:2], np.array(other.pose[:2]) - [x, y], atol=1e-6)
+            np.testing.assert_allclose(row[2:], [other.pose[2], *other.velocity], atol=1e-5)
+        assert fields["obstacles"].shape == (m, 5)
+        for row, obstacle in zip(fields["obstacles"], env.obstacles):
+            np.testing.assert_allclose(row[:2], np.array(obstacle.position) - [x, y], atol=1e-6)
+            np.testing.assert_allclose(row[2:4], obstacle.velocity, atol=1e-6)
+            assert row[4] == pytest.approx(obstacle.bounding_radius)
+        np.testing.assert_allclose(fields["proximity"], env.ring.read(robot, env.world.space), atol=1e-6)
+
+
+def test_state_layout(stepped_env):
+    env, _, _ = stepped_env
+    state = env.state()
+    n = env.config.n_robots
+    robots = state[: 7 * n].reshape(n, 7)
+    for row, robot, goal in zip(robots, env.robots.values(), env.goals):
+        np.testing.assert_allclose(row[:3], robot.pose, atol=1e-6)
+        np.testing.assert_allclose(row[5:7], goal, atol=1e-6)
+    obstacles = state[7 * n :].reshape(-1, 4)
+    for row, obstacle in zip(obstacles, env.obstacles):
+        np.testing.assert_allclose(row[:2], obstacle.position, atol=1e-6)
+
+
+def test_proximity_sees_arena_wall():
+    env = teamgym.make("Navigation-v0", n_robots=1, n_obstacles=0)
+    env.reset(seed=0)
+    robot = env.robots["robot_0"]
+    robot.teleport((env.config.robot_radius + 0.04, 1.0), math.pi / 2)  # west wall 4 cm to the robot's left
+    observations, *_ = env.step({"robot_0": np.zeros(2, dtype=np.float32)})
+    proximity = env.decode(observations["robot_0"])["proximity"]
+    assert proximity[0] == pytest.approx(0.04, abs=1e-3)
+    assert proximity[5] == pytest.approx(env.config.sensor_range)
+
+
+# -- rewards, arrival, metrics ------------------------------------------------------------
+
+
+def test_reward_is_progress_minus_time():
+    env = teamgym.make("Navigation-v0", n_robots=2, n_obstacles=0, max_cycles=20)
+    _, infos = env.reset(seed=2)
+    c = env.config
+    for _ in range(5):
+        _, rewards, _, _, new_infos = env.step({a: np.array([0.2, 0.3], dtype=np.float32) for a in env.agents})
+        for agent in env.possible_agents:
+            assert new_infos[agent]["collisions"] == 0
+            progress = infos[agent]["distance_to_goal"] - new_infos[agent]["distance_to_goal"]
+            assert rewards[agent] == pytest.approx(c.progress_reward * progress - c.time_penalty, abs=1e-9)
+        infos = new_infos
+
+
+def test_collision_is_penalised_and_counted():
+    env = teamgym.make("Navigation-v0", n_robots=1, n_obstacles=0, max_cycles=100)
+    _, infos = env.reset(seed=0)
+    c = env.config
+    unexplained = 0.0
+    while env.agents:
+        _, rewards, _, _, new_infos = env.step({"robot_0": np.array([0.4, 0.0], dtype=np.float32)})  # into a wall
+        progress = infos["robot_0"]["distance_to_goal"] - new_infos["robot_0"]["distance_to_goal"]
+        unexplained += c.progress_reward * progress - c.time_penalty - rewards["robot_0"]
+        infos = new_infos
+    collisions = infos["robot_0"]["collisions"]
+    assert collisions >= 1
+    assert unexplained == pytest.approx(collisions * c.collision_penalty, abs=1e-9)
+
+
+def go_home(env, agent, observations, steps=400):
+    omega_max = float(env.action_space(agent).high[1])
+    for _ in range(steps):
+        fields = env.decode(observations[agent])
+        gx, gy = fields["goal_offset"]
+        error = math.remainder(math.atan2(gy, gx) - fields["pose"][2], math.tau)
+        command = [0.3 * max(math.cos(error), 0.0), float(np.clip(6 * error, -omega_max, omega_max))]
+        actions = {a: np.zeros(2, dtype=np.float32) for a in env.agents}
+        actions[agent] = np.array(command, dtype=np.float32)
+        observations, rewards, terminations, truncations, infos = env.step(actions)
+        if terminations[agent]:
+            return rewards, terminations, truncations, infos
+    raise AssertionError(f"{agent} did not arrive")
+
+
+def test_arrival_terminates_with_bonus_and_stops_the_robot():
+    env = teamgym.make("Navigation-v0", n_robots=2, n_obstacles=0, arena_size=1.0, min_goal_distance=0.3)
+    observations, _ = env.reset(seed=3)
+    rewards, terminations, truncations, infos = go_home(env, "robot_0", observations)
+    info = infos["robot_0"]
+    assert terminations == {"robot_0": True, "robot_1": False}
+    assert not any(truncations.values())
+    assert info["arrived"] and info["distance_to_goal"] < env.config.goal_tolerance
+    assert info["time_to_goal"] == pytest.approx(env.cycles * env.config.dt)
+    assert rewards["robot_0"] > env.config.arrival_bonus - 1
+    assert env.agents == ["robot_1"]
+    robot = env.robots["robot_0"]
+    assert robot.command == (0.0, 0.0)
+    for _ in range(5):
+        _, rewards, *_ = env.step({"robot_1": np.zeros(2, dtype=np.float32)})
+        assert set(rewards) == {"robot_1"}
+    assert robot.space is env.world.space  # it stays in the world as an obstacle
+    assert np.hypot(*(np.array(robot.pose[:2]) - env.goals[0])) < env.config.goal_tolerance + 0.01
+
+
+def test_metrics_are_consistent():
+    env = teamgym.make("Navigation-v0", n_robots=3, n_obstacles=2, max_cycles=30)
+    env.reset(seed=1)
+    rng = np.random.default_rng(1)
+    previous = None
+    while env.agents:
+        _, _, _, _, infos = env.step({a: rng.uniform(-1, 1, 2).astype(np.float32) * [0.3, 3] for a in env.agents})
+        for agent, info in infos.items():
+            assert info["min_center_distance"] >= info["min_clearance"] + 2 * env.config.robot_radius - 1e-9
+            assert info["path_length"] >= 0 and info["smoothness"] >= 0
+            if previous is not None:
+                assert info["path_length"] >= previous[agent]["path_length"]
+                assert info["min_clearance"] <= previous[agent]["min_clearance"]
+        previous = infos
+    trail = env.trajectories()["robot_0"]
+    assert len(trail) == 31
+    steps = np.hypot(*np.diff(np.array(trail), axis=0).T).sum()
+    assert previous["robot_0"]["path_length"] == pytest.approx(steps, rel=1e-6)
+
+
+# -- heading action (eqs. 11-13) ----------------------------------------------------------
+
+
+def test_heading_heuristic_eq12():
+    h = HeadingHeuristic()
+    assert h.speed(np.inf, np.inf) == pytest.approx(h.v_opt)
+    assert h.speed(h.target_threshold, np.inf) == pytest.approx(h.v_opt / 2)
+    assert h.speed(np.inf, h.object_threshold) == pytest.approx(0.75 * h.v_opt)
+    assert h.speed(0.0, np.inf) == pytest.approx(h.v_opt / (1 + math.exp(5.0)))
+    assert h.speed(0.10, 1.0) > 0.99 * h.v_opt * (1 + 1 / (1 + math.exp(-40 * 0.85))) / 2
+    distances = np.array([0.0, 0.05, 0.1, 1.0])
+    np.testing.assert_allclose(h.speed(distances, np.inf), [h.speed(d, np.inf) for d in distances])
+    assert np.all(np.diff(h.speed(distances, 0.3)) > 0)
+
+
+def test_heading_levels_are_eq11_set():
+    env = teamgym.make("Navigation-v0", action_type="heading", n_robots=1, n_obstacles=0)
+    env.reset(seed=0)
+    assert env.action_space("robot_0") == spaces.Discrete(5)
+    rates = []
+    for k in range(5):
+        env.step({"robot_0": k})
+        v, omega = env.robots["robot_0"].command
+        assert 0 < v <= env.config.v_opt
+        rates.append(omega)
+    np.testing.assert_allclose(np.rad2deg(rates), [-225, -112.5, 0, 112.5, 225])
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="Navigation._command_context (teamgym/envs/navigation.py) takes min(nearest_approx, "
+    "proximity.min()); a ring that sees nothing reads sensor_range (0.1 m) < object_threshold (0.15 m), "
+    "so w_R <= 0.12 and an unobstructed robot drives at 0.56 v_opt instead of v_opt",
+)
+def test_heading_speed_in_open_space_is_v_opt():
+    env = teamgym.make("Navigation-v0", action_type="heading", n_robots=1, n_obstacles=0, layout="circle")
+    observations, infos = env.reset(seed=0)
+    assert infos["robot_0"]["distance_to_goal"] > 1.0
+    assert np.all(env.decode(observations["robot_0"])["proximity"] == np.float32(env.config.sensor_range))
+    env.step({"robot_0": 2})
+    v, omega = env.robots["robot_0"].command
+    assert omega == 0.0
+    assert v == pytest.approx(env.config.v_opt, rel=0.02)
