@@ -103,14 +103,6 @@ def test_wrong_shape_box_action(velocity_env, action):
     assert_rejected(velocity_env, with_action(velocity_env, "robot_2", action), ValueError, "robot_2", "shape")
 
 
-STRING_ACCEPTED = pytest.mark.xfail(
-    strict=True,
-    raises=pytest.fail.Exception,
-    reason="teamgym/envs/spaces.py check_action: np.array(action, dtype=np.float64) parses numeric "
-    "strings (and drops imaginary parts), so wrong-typed Box actions are accepted",
-)
-
-
 @pytest.mark.parametrize(
     "action",
     [
@@ -118,11 +110,11 @@ STRING_ACCEPTED = pytest.mark.xfail(
         {"v": 0.1},
         object(),
         [0.1, "x"],
-        pytest.param(["0.1", "0.2"], marks=STRING_ACCEPTED, id="numeric-strings"),
-        pytest.param(np.array(["0.1", "0.2"]), marks=STRING_ACCEPTED, id="numeric-str-array"),
+        pytest.param(["0.1", "0.2"], id="numeric-strings"),
+        pytest.param(np.array(["0.1", "0.2"]), id="numeric-str-array"),
         pytest.param(
             np.array([0.1 + 0j, 0.0]),
-            marks=[STRING_ACCEPTED, pytest.mark.filterwarnings("ignore:Casting complex values")],
+            marks=[pytest.mark.filterwarnings("ignore:Casting complex values")],
             id="complex",
         ),
     ],

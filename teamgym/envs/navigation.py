@@ -54,7 +54,7 @@ from gymnasium import spaces
 from teamgym.control.heading import HeadingHeuristic
 from teamgym.envs.actions import ActionType, CommandContext, HeadingAction, VelocityAction, WheelSpeedAction
 from teamgym.envs.base import TeamEnv
-from teamgym.envs.config import EnvConfig, require
+from teamgym.envs.config import ConfigError, EnvConfig, require
 from teamgym.envs.spaces import ObservationLayout
 from teamgym.sim.objects import MovingPolygon, regular_polygon
 from teamgym.sim.render import Overlay, robot_colour
@@ -63,6 +63,41 @@ from teamgym.sim.sensors import KHEPERA_RING, ProximityRing
 from teamgym.sim.world import World
 
 __all__ = ["Navigation", "NavigationConfig", "env", "parallel_env"]
+
+
+class PlacementError(RuntimeError):
+    """Robots, goals or obstacles could not be placed without overlap."""
+
+
+@dataclass(frozen=True)
+class NavigationScene:
+    """A sampled initial scene: robot starts, headings and goals, and obstacles."""
+
+    starts: np.ndarray
+    headings: np.ndarray
+    goals: np.ndarray
+    obstacles: list[tuple[list, tuple, tuple]]
+
+
+def _scatter(
+    rng: np.random.Generator, count: int, size: float, margin: float, separation: float, avoid: np.ndarray | None = None
+) -> np.ndarray:
+    """``count`` random points in ``[margin, size - margin]²``, pairwise (and from ``avoid``) ``separation`` apart."""
+    points = np.zeros((count, 2))
+    for i in range(count):
+        for _ in range(10_000):
+            p = rng.uniform(margin, size - margin, size=2)
+            if i and np.min(np.linalg.norm(points[:i] - p, axis=1)) < separation:
+                continue
+            if avoid is not None and len(avoid) and np.min(np.linalg.norm(avoid - p, axis=1)) < separation:
+                continue
+            points[i] = p
+            break
+        else:
+            raise PlacementError(
+                f"could not place {count} objects {separation:.3f} m apart in a {size} m arena; it is too crowded"
+            )
+    return points
 
 
 @dataclass(frozen=True)
@@ -86,6 +121,7 @@ class NavigationConfig(EnvConfig):
     beta: float = 40.0
     target_threshold: float = 0.05
     object_threshold: float = 0.15
+    speed_rule: Literal["ahead", "any"] = "ahead"
     actuation_delay: float = 0.0
     goal_tolerance: float = 0.03
     min_goal_distance: float = 0.6
@@ -137,8 +173,13 @@ class Navigation(TeamEnv):
         )
         self.heuristic = HeadingHeuristic(c.v_opt, c.alpha, c.beta, c.target_threshold, c.object_threshold)
         self.ring = ProximityRing(KHEPERA_RING, c.sensor_range, c.sensor_noise)
+        self._forward_rays = np.flatnonzero(np.cos(KHEPERA_RING) > -1e-9)
         n, m = c.n_robots, c.n_obstacles
         self.state_space = spaces.Box(-np.inf, np.inf, shape=(7 * n + 4 * m,), dtype=np.float32)
+        try:
+            self._sample_scene(np.random.default_rng(0))
+        except PlacementError as error:
+            raise ConfigError(f"NavigationConfig: {error}") from None
         self._others = np.array([[j for j in range(n) if j != i] for i in range(n)], dtype=int).reshape(n, n - 1)
 
     # -- construction ----------------------------------------------------------------
@@ -176,13 +217,20 @@ class Navigation(TeamEnv):
         c = self.config
         self.world = World((c.arena_size, c.arena_size), dt=c.dt, substeps=c.substeps)
         self.world.add_boundary()
-        starts, headings, goals = self._sample_starts_and_goals(rng)
+        try:
+            scene = self._sample_scene(rng)
+        except PlacementError as error:
+            raise ConfigError(f"NavigationConfig: {error}") from None
+        starts, headings, goals = scene.starts, scene.headings, scene.goals
         self.robots = {}
         for agent, start, heading in zip(self.possible_agents, starts, headings):
             self.robots[agent] = self.world.add(DiffDriveRobot(agent, tuple(start), float(heading), self.spec_robot))
         self.robot_list = list(self.robots.values())
         self.goals = goals
-        self.obstacles = self._spawn_obstacles(rng, starts, goals)
+        self.obstacles = [
+            self.world.add(MovingPolygon(f"obstacle_{k}", vertices, centre, velocity))
+            for k, (vertices, centre, velocity) in enumerate(scene.obstacles)
+        ]
         n = c.n_robots
         self._obstacle_radii = np.array([o.bounding_radius for o in self.obstacles], dtype=float)
         self._index = {a: i for i, a in enumerate(self.possible_agents)}
@@ -203,22 +251,28 @@ class Navigation(TeamEnv):
         self._proximity = np.full((n, self.ring.n_rays), c.sensor_range, dtype=np.float32)
         self._read_proximity(np.arange(n))
 
-    def _sample_starts_and_goals(self, rng: np.random.Generator):
+    def _sample_scene(self, rng: np.random.Generator) -> NavigationScene:
+        """Random starts, headings, goals and obstacles; raises PlacementError if they do not fit."""
+        starts, headings, goals = self._sample_starts_and_goals(rng)
+        return NavigationScene(starts, headings, goals, self._sample_obstacles(rng, starts))
+
+    def _sample_starts_and_goals(self, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         c = self.config
         n, size, r = c.n_robots, c.arena_size, c.robot_radius
         margin = r + 0.05
         if c.layout == "circle":
             radius = 0.5 * size - margin - 0.05
+            if n > 1 and 2 * radius * math.sin(math.pi / n) < 4 * r:
+                raise PlacementError(f"{n} robots of radius {r} m do not fit on a circle in a {size} m arena")
             phase = rng.uniform(0, 2 * np.pi)
             angles = phase + 2 * np.pi * np.arange(n) / n
             centre = np.full(2, size / 2)
             starts = centre + radius * np.stack([np.cos(angles), np.sin(angles)], axis=1)
             goals = centre - (starts - centre)
             offsets = goals - starts
-            headings = np.arctan2(offsets[:, 1], offsets[:, 0])
-            return starts, headings, goals
+            return starts, np.arctan2(offsets[:, 1], offsets[:, 0]), goals
         separation = 4 * r
-        starts = self._scatter(rng, n, margin, separation)
+        starts = _scatter(rng, n, size, margin, separation)
         goals = np.zeros_like(starts)
         for i in range(n):
             for _ in range(10_000):
@@ -230,38 +284,25 @@ class Navigation(TeamEnv):
                 goals[i] = g
                 break
             else:
-                raise RuntimeError("could not place goals; lower n_robots or min_goal_distance")
-        headings = rng.uniform(-np.pi, np.pi, size=n)
-        return starts, headings, goals
+                raise PlacementError(
+                    f"could not place {n} goals {c.min_goal_distance} m from their starts in a {size} m arena; "
+                    "lower n_robots or min_goal_distance"
+                )
+        return starts, rng.uniform(-np.pi, np.pi, size=n), goals
 
-    def _scatter(self, rng: np.random.Generator, count: int, margin: float, separation: float, avoid=None) -> np.ndarray:
-        size = self.config.arena_size
-        points = np.zeros((count, 2))
-        for i in range(count):
-            for _ in range(10_000):
-                p = rng.uniform(margin, size - margin, size=2)
-                if i and np.min(np.linalg.norm(points[:i] - p, axis=1)) < separation:
-                    continue
-                if avoid is not None and len(avoid) and np.min(np.linalg.norm(avoid - p, axis=1)) < separation:
-                    continue
-                points[i] = p
-                break
-            else:
-                raise RuntimeError("could not place all objects without overlap; the arena is too crowded")
-        return points
-
-    def _spawn_obstacles(self, rng: np.random.Generator, starts: np.ndarray, goals: np.ndarray) -> list[MovingPolygon]:
+    def _sample_obstacles(self, rng: np.random.Generator, starts: np.ndarray) -> list[tuple[list, tuple, tuple]]:
+        """Obstacles as (vertices, centre, velocity): 3–6 sides, clear of the robots' starts."""
         c = self.config
         radius = c.obstacle_radius
-        clear = radius + c.robot_radius + 0.1
-        centres = self._scatter(rng, c.n_obstacles, radius + 0.02, max(clear, 2 * radius + 0.05), avoid=starts)
+        clear = max(radius + c.robot_radius + 0.1, 2 * radius + 0.05)
+        centres = _scatter(rng, c.n_obstacles, c.arena_size, radius + 0.02, clear, avoid=starts)
         obstacles = []
-        for k, centre in enumerate(centres):
+        for centre in centres:
             sides = int(rng.integers(3, 7))
             vertices = regular_polygon(sides, radius, rotation=float(rng.uniform(0, 2 * np.pi)))
             direction = rng.uniform(0, 2 * np.pi)
             velocity = (c.obstacle_speed * math.cos(direction), c.obstacle_speed * math.sin(direction))
-            obstacles.append(self.world.add(MovingPolygon(f"obstacle_{k}", vertices, tuple(centre), velocity)))
+            obstacles.append((vertices, (float(centre[0]), float(centre[1])), velocity))
         return obstacles
 
     # -- per-step state --------------------------------------------------------------
@@ -281,32 +322,54 @@ class Navigation(TeamEnv):
         """Nearest-object distances of every robot (to other robots and obstacles)."""
         r = self.config.robot_radius
         pos = self._pos
-        diff = pos[:, None, :] - pos[None, :, :]
+        diff = pos[None, :, :] - pos[:, None, :]
         d = np.sqrt(np.einsum("ijk,ijk->ij", diff, diff))
         np.fill_diagonal(d, np.inf)
         centre = d.min(axis=1)
-        approx = centre - 2 * r
-        exact = approx
+        # Gaps by centre distance minus radii (bounding radius for obstacles), with the
+        # offsets from each robot to each object: used by the speed rule of eq. (12).
+        gaps, offsets = [d - 2 * r], [diff]
+        exact = gaps[0].min(axis=1)
         if self.obstacles:
-            diff = pos[:, None, :] - self._obs_pos[None, :, :]
+            diff = self._obs_pos[None, :, :] - pos[:, None, :]
             d_obs = np.sqrt(np.einsum("ijk,ijk->ij", diff, diff))
             centre = np.minimum(centre, d_obs.min(axis=1))
             gap = d_obs - (r + self._obstacle_radii)
-            approx = np.minimum(approx, gap.min(axis=1))
+            gaps.append(gap.copy())
+            offsets.append(diff)
             # Bounding circles under-estimate the gap; measure the polygon exactly when near.
             near = gap < 0.1
             if near.any():
                 for i, k in zip(*np.nonzero(near)):
                     gap[i, k] = self.obstacles[k].shape.point_query(tuple(pos[i])).distance - r
             exact = np.minimum(exact, gap.min(axis=1))
-        self._nearest_approx = approx
+        self._object_gaps = np.concatenate(gaps, axis=1)
+        self._object_offsets = np.concatenate(offsets, axis=1)
         np.minimum(self._min_clearance, exact, out=self._min_clearance)
         np.minimum(self._min_center, centre, out=self._min_center)
 
     def _command_context(self, agent: str) -> CommandContext:
         i = self._index[agent]
-        nearest = min(float(self._nearest_approx[i]), float(self._proximity[i].min()))
-        return CommandContext(float(self._goal_distance[i]), nearest)
+        return CommandContext(float(self._goal_distance[i]), self._nearest_for_speed(i))
+
+    def _nearest_for_speed(self, i: int) -> float:
+        """L_min,i of eq. (12): gap to the nearest object, ahead of the robot by default.
+
+        ``speed_rule="ahead"`` counts objects whose centre lies in the half-plane in front
+        of the robot and the proximity rays that point forward or sideways (0–5); with
+        ``"any"`` every object and ray counts (see docs/navigation.md). A ray that sees
+        nothing within its range does not count.
+        """
+        gaps = self._object_gaps[i]
+        proximity = self._proximity[i]
+        if self.config.speed_rule == "ahead":
+            heading = self._theta[i]
+            ahead = self._object_offsets[i] @ np.array([math.cos(heading), math.sin(heading)]) > 0
+            gaps = gaps[ahead]
+            proximity = proximity[self._forward_rays]
+        seen = proximity[proximity < self.config.sensor_range]
+        nearest = float(seen.min()) if len(seen) else np.inf
+        return min(nearest, float(gaps.min())) if len(gaps) else nearest
 
     def _before_physics(self) -> None:
         c = self.config

@@ -69,9 +69,12 @@ def check_action(agent: str, action, space: spaces.Space):
         return value
     if isinstance(space, spaces.Box):
         try:
-            array = np.array(action, dtype=np.float64)
+            raw = np.asarray(action)
         except (TypeError, ValueError):
             raise TypeError(f"action for {agent!r} must be numeric with shape {space.shape}, got {action!r}") from None
+        if raw.dtype.kind not in "biuf":
+            raise TypeError(f"action for {agent!r} must be real numbers with shape {space.shape}, got {action!r}")
+        array = raw.astype(np.float64, copy=True)
         if array.shape != space.shape:
             raise ValueError(f"action for {agent!r} has shape {array.shape}, expected {space.shape} (space {space})")
         values = array.ravel().tolist()

@@ -52,7 +52,7 @@ class RobotSpec:
     radius: float = 0.0275
     wheel_base: float = 0.053
     wheel_radius: float = 0.008
-    max_wheel_speed: float = 0.5
+    max_wheel_speed: float = 0.4
     mass: float = 0.08
     max_motor_force: float = 0.6
     friction: float = 0.4
