@@ -38,6 +38,7 @@ EVERY_KEY = dict(
     actuation_delay=0.02,
     goal_tolerance=0.04,
     min_goal_distance=0.5,
+    spawn_margin=0.1,
     sensor_range=0.08,
     sensor_noise=0.002,
     progress_reward=5.0,

@@ -35,3 +35,30 @@ class HeadingHeuristic:
         w_t = 1.0 / (1.0 + np.exp(-self.alpha * (np.asarray(target_distance) - self.target_threshold)))
         w_r = 1.0 / (1.0 + np.exp(-self.beta * (np.asarray(nearest_distance) - self.object_threshold)))
         return 0.5 * self.v_opt * w_t * (1.0 + w_r)
+
+
+def nearest_gap(
+    offsets: np.ndarray,
+    gaps: np.ndarray,
+    heading: float,
+    proximity: np.ndarray,
+    ray_angles: np.ndarray,
+    sensor_range: float,
+    rule: str = "ahead",
+) -> float:
+    """L_min of eq. (13): the gap to the nearest object, as ``Navigation-v0`` measures it.
+
+    ``offsets`` (k, 2) point from the robot to each object's centre and ``gaps`` (k,) are
+    the rim-to-object gaps; ``proximity`` are the ring's readings (a reading at
+    ``sensor_range`` means nothing seen and does not count). With ``rule="ahead"`` only
+    objects in the half-plane in front of the robot and rays pointing forward or sideways
+    count: the paper slows the robot so that it does not run into things, and slowing down
+    for an object behind would let a faster obstacle catch it. ``rule="any"`` counts all.
+    """
+    seen = proximity < sensor_range
+    if rule == "ahead":
+        direction = np.array([np.cos(heading), np.sin(heading)])
+        gaps = gaps[offsets @ direction > 0] if len(gaps) else gaps
+        seen &= np.cos(ray_angles) > -1e-9
+    nearest = float(proximity[seen].min()) if seen.any() else np.inf
+    return min(nearest, float(gaps.min())) if len(gaps) else nearest

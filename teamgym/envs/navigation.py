@@ -51,7 +51,7 @@ from typing import Any, Literal
 import numpy as np
 from gymnasium import spaces
 
-from teamgym.control.heading import HeadingHeuristic
+from teamgym.control.heading import HeadingHeuristic, nearest_gap
 from teamgym.envs.actions import ActionType, CommandContext, HeadingAction, VelocityAction, WheelSpeedAction
 from teamgym.envs.base import TeamEnv
 from teamgym.envs.config import ConfigError, EnvConfig, require
@@ -125,6 +125,7 @@ class NavigationConfig(EnvConfig):
     actuation_delay: float = 0.0
     goal_tolerance: float = 0.03
     min_goal_distance: float = 0.6
+    spawn_margin: float = 0.05
     sensor_range: float = 0.1
     sensor_noise: float = 0.0
     progress_reward: float = 10.0
@@ -148,6 +149,7 @@ class NavigationConfig(EnvConfig):
         require(self, "actuation_delay", 0 <= self.actuation_delay <= self.dt, "must be in [0, dt]")
         require(self, "goal_tolerance", self.goal_tolerance > 0, "must be > 0")
         require(self, "min_goal_distance", 0 <= self.min_goal_distance <= 0.8 * self.arena_size, "must be in [0, 0.8·arena_size]")
+        require(self, "spawn_margin", 0 <= self.spawn_margin < 0.4 * self.arena_size, "must be in [0, 0.4·arena_size)")
         require(self, "sensor_range", self.sensor_range > 0, "must be > 0")
         require(self, "sensor_noise", self.sensor_noise >= 0, "must be >= 0")
         free = (self.arena_size - 2 * self.robot_radius) ** 2
@@ -173,7 +175,6 @@ class Navigation(TeamEnv):
         )
         self.heuristic = HeadingHeuristic(c.v_opt, c.alpha, c.beta, c.target_threshold, c.object_threshold)
         self.ring = ProximityRing(KHEPERA_RING, c.sensor_range, c.sensor_noise)
-        self._forward_rays = np.flatnonzero(np.cos(KHEPERA_RING) > -1e-9)
         n, m = c.n_robots, c.n_obstacles
         self.state_space = spaces.Box(-np.inf, np.inf, shape=(7 * n + 4 * m,), dtype=np.float32)
         try:
@@ -259,7 +260,7 @@ class Navigation(TeamEnv):
     def _sample_starts_and_goals(self, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         c = self.config
         n, size, r = c.n_robots, c.arena_size, c.robot_radius
-        margin = r + 0.05
+        margin = r + c.spawn_margin
         if c.layout == "circle":
             radius = 0.5 * size - margin - 0.05
             if n > 1 and 2 * radius * math.sin(math.pi / n) < 4 * r:
@@ -353,23 +354,17 @@ class Navigation(TeamEnv):
         return CommandContext(float(self._goal_distance[i]), self._nearest_for_speed(i))
 
     def _nearest_for_speed(self, i: int) -> float:
-        """L_min,i of eq. (12): gap to the nearest object, ahead of the robot by default.
-
-        ``speed_rule="ahead"`` counts objects whose centre lies in the half-plane in front
-        of the robot and the proximity rays that point forward or sideways (0–5); with
-        ``"any"`` every object and ray counts (see docs/navigation.md). A ray that sees
-        nothing within its range does not count.
-        """
-        gaps = self._object_gaps[i]
-        proximity = self._proximity[i]
-        if self.config.speed_rule == "ahead":
-            heading = self._theta[i]
-            ahead = self._object_offsets[i] @ np.array([math.cos(heading), math.sin(heading)]) > 0
-            gaps = gaps[ahead]
-            proximity = proximity[self._forward_rays]
-        seen = proximity[proximity < self.config.sensor_range]
-        nearest = float(seen.min()) if len(seen) else np.inf
-        return min(nearest, float(gaps.min())) if len(gaps) else nearest
+        """L_min,i of eq. (12), by :func:`teamgym.control.heading.nearest_gap` (``speed_rule``)."""
+        c = self.config
+        return nearest_gap(
+            self._object_offsets[i],
+            self._object_gaps[i],
+            float(self._theta[i]),
+            self._proximity[i],
+            self.ring.angles,
+            c.sensor_range,
+            c.speed_rule,
+        )
 
     def _before_physics(self) -> None:
         c = self.config
