@@ -184,9 +184,10 @@ class _Runner:
 
     def __init__(self, env_id: str, policy_name: str, config: Mapping[str, Any] | None, render_mode: str | None = None) -> None:
         import teamgym
-        from baselines.registry import make_policy
+        from baselines.registry import make_policy, required_config
 
-        self.env = teamgym.make(env_id, render_mode=render_mode, **dict(config or {}))
+        config = {**required_config(policy_name), **dict(config or {})}
+        self.env = teamgym.make(env_id, render_mode=render_mode, **config)
         self.policy = make_policy(policy_name, self.env)
 
     def run(self, seed: int, record_frames: bool = False, record_trajectories: bool = False) -> EpisodeResult:

@@ -8,16 +8,18 @@ from typing import Any
 from baselines.policy import Policy
 from teamgym.envs.base import TeamEnv
 
-#: name -> "module:Class"
-_POLICIES: dict[str, str] = {
-    "goto": "baselines.goto_goal:GoToGoal",
-    "random": "baselines.policy:RandomPolicy",
+#: name -> ("module:Class", constructor keyword arguments)
+_POLICIES: dict[str, tuple[str, dict[str, Any]]] = {
+    "goto": ("baselines.goto_goal:GoToGoal", {}),
+    "random": ("baselines.policy:RandomPolicy", {}),
+    "nash": ("baselines.nash_navigation:NashNavigation", {}),
+    "nash-first": ("baselines.nash_navigation:NashNavigation", {"selection": "first"}),
 }
 
 
-def register_policy(name: str, entry_point: str) -> None:
-    """Register a policy class (``"module:Class"``, constructor ``Class(env, **kwargs)``) under ``name``."""
-    _POLICIES[name] = entry_point
+def register_policy(name: str, entry_point: str, **kwargs: Any) -> None:
+    """Register a policy class (``"module:Class"``, built as ``Class(env, **kwargs)``) under ``name``."""
+    _POLICIES[name] = (entry_point, kwargs)
 
 
 def policies() -> list[str]:
@@ -25,14 +27,26 @@ def policies() -> list[str]:
     return sorted(_POLICIES)
 
 
-def make_policy(name: str, env: TeamEnv, **kwargs: Any) -> Policy:
-    """Build policy ``name`` for ``env``; ``sb3:PATH`` loads a saved Stable-Baselines3 model."""
+def policy_class(name: str) -> type[Policy]:
+    """The class behind policy ``name`` (``sb3:PATH`` gives :class:`SB3Policy`)."""
     if name.startswith("sb3:"):
         from baselines.sb3_policy import SB3Policy
 
-        return SB3Policy.load(name[4:], env, **kwargs)
+        return SB3Policy
     if name not in _POLICIES:
         raise KeyError(f"unknown policy {name!r}; available: {policies()} or sb3:PATH")
-    module_name, _, class_name = _POLICIES[name].partition(":")
-    cls = getattr(importlib.import_module(module_name), class_name)
-    return cls(env, **kwargs)
+    module_name, _, class_name = _POLICIES[name][0].partition(":")
+    return getattr(importlib.import_module(module_name), class_name)
+
+
+def required_config(name: str) -> dict[str, Any]:
+    """Env config a policy needs (e.g. ``action_type="heading"`` for ``nash``); explicit settings override it."""
+    return dict(getattr(policy_class(name), "required_config", {}))
+
+
+def make_policy(name: str, env: TeamEnv, **kwargs: Any) -> Policy:
+    """Build policy ``name`` for ``env``; ``sb3:PATH`` loads a saved Stable-Baselines3 model."""
+    cls = policy_class(name)
+    if name.startswith("sb3:"):
+        return cls.load(name[4:], env, **kwargs)
+    return cls(env, **{**_POLICIES[name][1], **kwargs})

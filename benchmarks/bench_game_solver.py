@@ -55,13 +55,19 @@ def best_time(fn, repeat: int, min_total: float = 0.02) -> float:
 
 
 def gambit_game(losses: np.ndarray):
-    return pygambit.Game.from_arrays(*(-losses[i] for i in range(losses.shape[0])))
+    # pygambit 16: Game.from_arrays; 17: StrategicGame.from_arrays.
+    game_class = getattr(pygambit, "StrategicGame", pygambit.Game)
+    return game_class.from_arrays(*(-losses[i] for i in range(losses.shape[0])))
 
 
 def gambit_equilibria(game) -> set[tuple[int, ...]]:
     found = set()
+    players = list(game.players)
     for profile in pygambit.nash.enumpure_solve(game).equilibria:
-        found.add(tuple(next(k for k, s in enumerate(p.strategies) if profile[s] == 1) for p in game.players))
+        if players and isinstance(players[0], str):  # pygambit 17
+            found.add(tuple(next(k for k, (_, prob) in enumerate(profile[p]) if prob == 1) for p in players))
+        else:
+            found.add(tuple(next(k for k, s in enumerate(p.strategies) if profile[s] == 1) for p in players))
     return found
 
 

@@ -38,9 +38,7 @@ def time_teamgym(n_robots: int, steps: int, seed: int = 0) -> float:
     env.reset(seed=seed)
     rng = np.random.default_rng(seed)
     space = env.action_space(env.possible_agents[0])
-    pool = [
-        {a: rng.uniform(space.low, space.high).astype(np.float32) for a in env.possible_agents} for _ in range(256)
-    ]
+    pool = [{a: rng.uniform(space.low, space.high).astype(np.float32) for a in env.possible_agents} for _ in range(256)]
     start = time.perf_counter()
     for i in range(steps):
         if not env.agents:
@@ -167,7 +165,8 @@ def main() -> None:
                 rate = fn(n, args.steps)
                 if rate is not None:
                     best[(name, n)] = max(best.get((name, n), 0.0), rate)
-    print(f"Navigation-v0 speed, best of {args.rounds} rounds x {args.steps} steps ({platform.processor() or platform.machine()})")
+    machine = platform.processor() or platform.machine()
+    print(f"Navigation-v0 speed, best of {args.rounds} rounds x {args.steps} steps ({machine})")
     print(f"{'N':>3}  {'teamgym':>10}  {'bare pymunk':>12}  {'MPE2':>10}  {'env/bare time':>13}  {'teamgym/MPE2':>12}")
     rows = []
     for n in args.robots:

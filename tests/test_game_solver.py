@@ -340,14 +340,19 @@ def test_bad_selection_and_candidates_raise():
 
 def gambit_pure_equilibria(pygambit, losses):
     """All pure equilibria found by Gambit's enumpure (payoffs are maximised: pass -losses)."""
-    game = pygambit.Game.from_arrays(*(-losses[i] for i in range(losses.shape[0])))
+    # pygambit 16 builds strategic games with Game.from_arrays, 17 with StrategicGame.from_arrays.
+    game_class = getattr(pygambit, "StrategicGame", pygambit.Game)
+    game = game_class.from_arrays(*(-losses[i] for i in range(losses.shape[0])))
     result = pygambit.nash.enumpure_solve(game)
-    found = set()
-    for profile in result.equilibria:
-        found.add(
-            tuple(next(k for k, strategy in enumerate(player.strategies) if profile[strategy] == 1) for player in game.players)
-        )
-    return found
+    return {_pure_indices(game, profile) for profile in result.equilibria}
+
+
+def _pure_indices(game, profile):
+    """Joint action indices of a pure profile (pygambit 16 and 17 expose profiles differently)."""
+    players = list(game.players)
+    if players and isinstance(players[0], str):  # pygambit 17: labels; a player's entry iterates (label, prob)
+        return tuple(next(k for k, (_, prob) in enumerate(profile[p]) if prob == 1) for p in players)
+    return tuple(next(k for k, strategy in enumerate(player.strategies) if profile[strategy] == 1) for player in players)
 
 
 def test_matches_gambit_enumpure_on_random_games():

@@ -1,0 +1,249 @@
+"""Reproduce the experiments of paper 001 (section 6) with the ``nash`` baseline.
+
+    python experiments/paper001_navigation.py all --out results/paper001 [--seeds 100]
+
+Subcommands (each writes JSON, a Markdown table and PNG plots into ``--out``):
+
+* ``delay`` (section 6.1, Fig. 5): 2 robots crossing, Δt = 0.1 s, true actuation delay
+  T0_true = ½T0(1+δt) for T0 ∈ {0, 0.3, 0.6, 0.9}·Δt; the controller models T0 (eq. 17) or
+  assumes T0 = 0. Success rate and time to goal for both; trajectories at T0 = 0.9Δt.
+* ``decision-set`` (section 6.2, Figs. 6–7): K = 3, 5, 9, 17 angular-velocity levels;
+  smoothness J_1 of robot 1 and decision time per step.
+* ``obstacles`` (section 6.3, Figs. 8–9): 3 and 5 robots, 2 obstacles at 20 cm/s,
+  Δt = 0.2 s, robot radius 5 cm: distance to the nearest object over time for one seed;
+  then over ``--seeds`` seeds success (every robot at its goal, no collision), collisions,
+  minimum separation, and how often the arbiter saw one, several or no equilibria; the
+  same seeds with ``goto`` and ``nash-first`` (no arbiter) for comparison.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from collections import Counter
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+import teamgym
+from baselines.registry import make_policy, required_config
+
+DELAY_FRACTIONS = (0.0, 0.3, 0.6, 0.9)
+DECISION_SETS = (3, 5, 9, 17)
+OBSTACLE_SETTING = {"dt": 0.2, "robot_radius": 0.05, "n_obstacles": 2, "obstacle_speed": 0.2}
+
+
+def run(env_id: str, policy_name: str, seed: int, config: dict[str, Any], policy_kwargs: dict | None = None) -> dict[str, Any]:
+    """One episode; returns per-robot final metrics, per-step centre distances and policy statistics."""
+    env = teamgym.make(env_id, **{**required_config(policy_name), **config})
+    policy = make_policy(policy_name, env, **(policy_kwargs or {}))
+    observations, infos = env.reset(seed=seed)
+    policy.reset(seed)
+    final = dict(infos)
+    nearest: list[np.ndarray] = []
+    while env.agents:
+        actions = policy.act({a: observations[a] for a in env.agents}, infos)
+        observations, _, _, _, infos = env.step(actions)
+        final.update(infos)
+        nearest.append(_nearest_centre_distances(env))
+    robots = list(final.values())
+    return {
+        "seed": seed,
+        "success": all(m["arrived"] for m in robots) and sum(m["collisions"] for m in robots) == 0,
+        "arrived": all(m["arrived"] for m in robots),
+        "collisions": sum(m["collisions"] for m in robots),
+        "min_center_distance": min(m["min_center_distance"] for m in robots),
+        "min_clearance": min(m["min_clearance"] for m in robots),
+        "time_to_goal": float(np.mean([m["time_to_goal"] for m in robots if "time_to_goal" in m]))
+        if any("time_to_goal" in m for m in robots)
+        else float("nan"),
+        "smoothness": [final[a]["smoothness"] for a in env.possible_agents],
+        "steps": env.cycles,
+        "nearest": np.array(nearest),
+        "trajectories": env.trajectories(),
+        "goals": np.asarray(env.goals).tolist(),
+        "branches": dict(getattr(policy, "branch_counts", {})),
+        "decision_times": list(getattr(policy, "decision_times", [])),
+    }
+
+
+def _nearest_centre_distances(env) -> np.ndarray:
+    """Centre distance from every robot to the nearest other robot or obstacle centre (m)."""
+    state = env.state()
+    n, m = env.config.n_robots, env.config.n_obstacles
+    robots = state[: 7 * n].reshape(n, 7)[:, :2]
+    points = np.concatenate([robots, state[7 * n :].reshape(m, 4)[:, :2]]) if m else robots
+    d = np.linalg.norm(robots[:, None, :] - points[None, :, :], axis=2)
+    d[np.arange(n), np.arange(n)] = np.inf
+    return d.min(axis=1)
+
+
+# -- experiment 1: delay -------------------------------------------------------------------
+def experiment_delay(out: Path, seeds: int) -> dict:
+    rows = []
+    examples = {}
+    for fraction in DELAY_FRACTIONS:
+        config = {"n_robots": 2, "n_obstacles": 0, "layout": "circle", "dt": 0.1, "actuation_delay": fraction * 0.1}
+        for modelled in (False, True):
+            results = [run("Navigation-v0", "nash", s, config, {"model_delay": modelled}) for s in range(seeds)]
+            rows.append(
+                {
+                    "T0/dt": fraction,
+                    "T0 modelled": modelled,
+                    "success": float(np.mean([r["arrived"] for r in results])),
+                    "collisions": int(sum(r["collisions"] for r in results)),
+                    "time_to_goal_s": float(np.nanmean([r["time_to_goal"] for r in results])),
+                    "steps": float(np.mean([r["steps"] for r in results])),
+                }
+            )
+            if fraction == DELAY_FRACTIONS[-1]:
+                examples[modelled] = results[0]
+    _plot_pair(out / "delay_trajectories.png", examples, "T0_true up to 0.9Δt: T0 not modelled (left) vs modelled (right)")
+    return {"rows": rows}
+
+
+# -- experiment 2: decision-set size ---------------------------------------------------------
+def experiment_decision_set(out: Path, seeds: int) -> dict:
+    rows = []
+    for k in DECISION_SETS:
+        config = {"n_robots": 2, "n_obstacles": 0, "layout": "circle", "heading_levels": k}
+        results = [run("Navigation-v0", "nash", s, config) for s in range(seeds)]
+        times = np.concatenate([r["decision_times"] for r in results])
+        rows.append(
+            {
+                "K": k,
+                "J_1": float(np.mean([r["smoothness"][0] for r in results])),
+                "decision_ms": float(1000 * np.mean(times)),
+                "success": float(np.mean([r["arrived"] for r in results])),
+            }
+        )
+    _plot_decision_set(out / "decision_set.png", rows)
+    return {"rows": rows}
+
+
+# -- experiment 3 and statistics: moving obstacles ------------------------------------------
+def experiment_obstacles(out: Path, seeds: int) -> dict:
+    summary: dict[str, Any] = {"rows": [], "branches": {}}
+    for n in (3, 5):
+        config = {**OBSTACLE_SETTING, "n_robots": n}
+        example = run("Navigation-v0", "nash", 0, config)
+        _plot_nearest(out / f"obstacles_{n}_robots.png", example, n)
+        for policy in ("nash", "nash-first", "goto"):
+            started = time.perf_counter()
+            results = [run("Navigation-v0", policy, s, config) for s in range(seeds)]
+            summary["rows"].append(
+                {
+                    "robots": n,
+                    "policy": policy,
+                    "success": float(np.mean([r["success"] for r in results])),
+                    "all_arrived": float(np.mean([r["arrived"] for r in results])),
+                    "collisions_per_episode": float(np.mean([r["collisions"] for r in results])),
+                    "min_center_distance_m": float(np.min([r["min_center_distance"] for r in results])),
+                    "median_min_center_distance_m": float(np.median([r["min_center_distance"] for r in results])),
+                    "time_to_goal_s": float(np.nanmean([r["time_to_goal"] for r in results])),
+                    "wall_s": time.perf_counter() - started,
+                }
+            )
+            if policy == "nash":
+                counts: Counter[str] = Counter()
+                for r in results:
+                    counts.update(r["branches"])
+                summary["branches"][n] = dict(counts)
+    return summary
+
+
+# -- plots -----------------------------------------------------------------------------------
+def _figure(width: float = 6.0, height: float = 4.0):
+    from matplotlib.figure import Figure
+
+    return Figure(figsize=(width, height))
+
+
+def _draw_trajectories(ax, result: dict, title: str) -> None:
+    for i, (agent, points) in enumerate(result["trajectories"].items()):
+        pts = np.asarray(points)
+        ax.plot(pts[:, 0], pts[:, 1], label=agent)
+        ax.plot(*pts[0], "o", color=f"C{i}")
+        ax.plot(*result["goals"][i], "x", color=f"C{i}", markersize=10)
+    ax.set_aspect("equal")
+    ax.set_title(title, fontsize=9)
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+
+
+def _plot_pair(path: Path, examples: dict, title: str) -> None:
+    fig = _figure(10, 5)
+    for column, modelled in enumerate((False, True)):
+        ax = fig.add_subplot(1, 2, column + 1)
+        r = examples[modelled]
+        _draw_trajectories(ax, r, f"T0 {'modelled' if modelled else 'not modelled'}: arrived={r['arrived']}, {r['steps']} steps")
+    fig.suptitle(title)
+    fig.savefig(path, dpi=100)
+
+
+def _plot_decision_set(path: Path, rows: list[dict]) -> None:
+    fig = _figure(10, 4)
+    ks = [r["K"] for r in rows]
+    for column, (key, label) in enumerate((("J_1", "smoothness J_1"), ("decision_ms", "decision time per step (ms)"))):
+        ax = fig.add_subplot(1, 2, column + 1)
+        ax.plot(ks, [r[key] for r in rows], "o-")
+        ax.set_xlabel("decision-set size K")
+        ax.set_ylabel(label)
+        ax.set_xticks(ks)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+
+
+def _plot_nearest(path: Path, result: dict, n: int) -> None:
+    fig = _figure(11, 4.5)
+    ax = fig.add_subplot(1, 2, 1)
+    _draw_trajectories(ax, result, f"{n} robots, 2 obstacles (seed 0): success={result['success']}")
+    ax = fig.add_subplot(1, 2, 2)
+    nearest = result["nearest"]
+    t = 0.2 * np.arange(1, len(nearest) + 1)
+    for i in range(n):
+        ax.plot(t, nearest[:, i], label=f"robot_{i}")
+    ax.axhline(0.13, color="k", linestyle="--", linewidth=1, label="13 cm (paper)")
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("centre distance to nearest object (m)")
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+
+
+# -- tables and CLI ----------------------------------------------------------------------------
+def markdown_table(rows: list[dict]) -> str:
+    keys = list(rows[0])
+    lines = ["| " + " | ".join(keys) + " |", "|" + "---|" * len(keys)]
+    for row in rows:
+        cells = [f"{v:.3g}" if isinstance(v, float) else str(v) for v in row.values()]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+EXPERIMENTS = {"delay": experiment_delay, "decision-set": experiment_decision_set, "obstacles": experiment_obstacles}
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description="Reproduce paper 001's experiments with the nash baseline.")
+    parser.add_argument("experiment", choices=[*EXPERIMENTS, "all"])
+    parser.add_argument("--out", type=Path, default=Path("results/paper001"))
+    parser.add_argument("--seeds", type=int, default=100, help="seeds for the obstacle experiment (20 for the others)")
+    args = parser.parse_args(argv)
+    args.out.mkdir(parents=True, exist_ok=True)
+    names = list(EXPERIMENTS) if args.experiment == "all" else [args.experiment]
+    for name in names:
+        seeds = args.seeds if name == "obstacles" else min(args.seeds, 20)
+        result = EXPERIMENTS[name](args.out, seeds)
+        (args.out / f"{name}.json").write_text(json.dumps(result, indent=2, default=str))
+        text = f"## {name} ({seeds} seeds)\n\n{markdown_table(result['rows'])}\n"
+        if result.get("branches"):
+            text += "\nArbiter branches per step (nash): " + json.dumps(result["branches"]) + "\n"
+        (args.out / f"{name}.md").write_text(text)
+        print(text, flush=True)
+
+
+if __name__ == "__main__":
+    main()
