@@ -178,3 +178,20 @@ def test_non_finite_metrics_written_as_null(tmp_path):
     assert summary["mean_min_clearance"] is None
     assert summary["config"]["n_robots"] == 1
     assert math.isinf(float(read_csv(tmp_path / "episodes.csv")[0]["min_clearance"]))
+
+
+def test_policy_required_config_is_applied(tmp_path):
+    out = tmp_path / "nash"
+    result = run_cli(
+        "--policy", "nash", "--episodes", "1", "--set", "n_robots=3", "--max-cycles", "40", "--out", str(out), "--quiet"
+    )
+    assert result.returncode == 0, result.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["config"]["action_type"] == "heading"
+    assert summary["policy"] == "nash" and summary["episodes"] == 1
+
+
+def test_explicit_setting_overrides_required_config(tmp_path):
+    result = run_cli("--policy", "nash", "--episodes", "1", "--set", "action_type=velocity", "--out", str(tmp_path), "--quiet")
+    assert result.returncode == 2
+    assert "heading" in result.stderr
