@@ -39,6 +39,11 @@ def test_navigation_has_all_action_types():
     assert {"Navigation-v0-velocity", "Navigation-v0-wheels", "Navigation-v0-heading"} <= ids
 
 
+def test_box_pushing_has_all_action_types():
+    ids = {p.id for p in CASES}
+    assert {"BoxPushing-v0-primitives", "BoxPushing-v0-wheels"} <= ids
+
+
 @pytest.mark.parametrize(("env_id", "config"), CASES)
 def test_parallel_api(env_id, config):
     parallel_api_test(teamgym.make(env_id, **config), num_cycles=40)

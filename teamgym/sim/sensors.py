@@ -93,6 +93,8 @@ class LightSensor:
     Reading ``i`` is ``I₀ · max(0, cos(φ − α_i)) / max(d, d_min)²`` where ``φ`` is the lamp's
     bearing, ``α_i`` the sensor direction and ``d`` the distance, or 0 when an opaque object
     blocks the line of sight. Boxes are clear plastic (paper 004) and do not block light.
+    ``blockers`` is the category mask of what casts shadows (default :data:`OPAQUE`; 0 for a
+    lamp that every robot sees from anywhere, as in paper 004, section 2.1).
     """
 
     def __init__(
@@ -102,23 +104,33 @@ class LightSensor:
         angles: Iterable[float] = KHEPERA_RING,
         min_distance: float = 0.05,
         noise_std: float = 0.0,
+        blockers: int = OPAQUE,
     ) -> None:
         self.lamp = (float(lamp[0]), float(lamp[1]))
         self.intensity = float(intensity)
         self.angles = np.asarray(list(angles), dtype=float)
         self.min_distance = float(min_distance)
         self.noise_std = float(noise_std)
+        self.blockers = int(blockers)
 
     def read(
-        self, robot: DiffDriveRobot, space: pymunk.Space, rng: np.random.Generator | None = None, out: np.ndarray | None = None
+        self,
+        robot: DiffDriveRobot,
+        space: pymunk.Space,
+        rng: np.random.Generator | None = None,
+        out: np.ndarray | None = None,
+        pose: tuple[float, float, float] | None = None,
     ) -> np.ndarray:
+        """Intensities into ``out``; ``pose`` may give the robot's ``(x, y, θ)`` if already read."""
         if out is None:
             out = np.empty(len(self.angles), dtype=np.float32)
-        x, y, theta = robot.pose
+        x, y, theta = pose if pose is not None else robot.pose
         lx, ly = self.lamp
         d = math.hypot(lx - x, ly - y)
-        query_filter = pymunk.ShapeFilter(group=robot.group, mask=OPAQUE)
-        blocked = d > 1e-9 and space.segment_query_first((x, y), self.lamp, 0.0, query_filter) is not None
+        blocked = False
+        if self.blockers and d > 1e-9:
+            query_filter = pymunk.ShapeFilter(group=robot.group, mask=self.blockers)
+            blocked = space.segment_query_first((x, y), self.lamp, 0.0, query_filter) is not None
         if blocked:
             out.fill(0.0)
         else:

@@ -1,0 +1,513 @@
+"""BoxPushing-v0: Khepera robots push light and heavy boxes to a lamp-lit wall (paper 004).
+
+A 110 cm × 90 cm table enclosed by walls; a lamp beside it (default 15 cm outside the middle
+of the right wall); the goal is the wall nearest the lamp (section 2.1). ``n_light_boxes``
+boxes that one robot can slide and ``n_heavy_boxes`` that need two or more robots pushing
+together: the difference is only mass and ground friction against the motors' force limit
+(see :mod:`teamgym.envs.box_pushing_config`). Boxes are clear plastic: the light sensor sees
+the lamp through them; by default nothing casts a shadow ("a robot can sense the direction of
+the goal (lamp) at any place", section 2.1); ``light_shadows=True`` lets robots do so.
+There is no communication; the paper's situations S1–S4 are presets (``situation="S3"``).
+
+Observations (flat float32, the same sensor readings whatever the policy; ``env.decode``):
+
+=============  =====  ============================================================
+field          shape  meaning
+=============  =====  ============================================================
+``proximity``  (8,)   Khepera ring distances (m), ``sensor_range`` if free; rays as
+                      in the paper's Fig. 3 (0 left, 1–4 front, 5 right, 6–7 back)
+``light``      (8,)   lamp intensity per sensor direction, I₀ max(0, cos)/d², I₀ = 1
+``encoders``   (4,)   last step's commanded left/right and actual left/right wheel
+                      rotation (rad); actual ≪ commanded is the paper's "no-rotation"
+``busy``       (1,)   1 while a multi-cycle primitive runs (its choices are ignored)
+=============  =====  ============================================================
+
+``env.object_threshold`` (20 mm, section 3.1) is what the paper's policies call an "object".
+
+Actions (``action_type``): ``"primitives"``, ``Discrete(13)``, the paper's primitive actions
+(:class:`teamgym.control.primitives.Primitive`), each selected per 100 ms cycle; or
+``"wheels"``, continuous wheel rim speeds for RL.
+
+Reward (shared by the team, every step): ``progress_reward`` × (decrease of the gaps between
+boxes and the goal wall, m) − ``time_penalty``, + ``success_bonus`` on success. Success:
+``boxes_to_goal`` boxes (0: every box in the world) have touched the goal wall; every live
+robot then terminates. Episodes are truncated after ``max_cycles`` steps.
+
+Dynamic environment (section 4.2): :meth:`BoxPushing.add_robot`, :meth:`~BoxPushing.remove_robot`,
+:meth:`~BoxPushing.break_down`, :meth:`~BoxPushing.add_box`, :meth:`~BoxPushing.remove_box`
+between steps, or ``events`` in the config, applied at the end of the given step. Robots
+come from spares in ``possible_agents`` (``n_spare_robots``); an added robot joins ``agents``
+in the next step's returns, a removed or broken robot is terminated in them (a broken robot
+stays on the table as an obstacle).
+
+Metrics in ``infos[agent]``: ``success``, ``time_to_goal`` (s, once successful),
+``boxes_delivered``, ``box_progress`` (m, the team's), ``path_length``, ``collisions``,
+``stalled_steps`` (steps with commanded motion and wheel slip > 0.9), ``broken_down``, ``removed``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+
+from teamgym.control.primitives import PrimitiveExecutor, PrimitiveParams
+from teamgym.envs.actions import ActionType, CommandContext, WheelSpeedAction
+from teamgym.envs.base import EpisodeOverError, TeamEnv
+from teamgym.envs.box_pushing_config import SITUATIONS, BoxPushingConfig, Event
+from teamgym.envs.box_pushing_scene import GoalWall, Placer
+from teamgym.envs.primitive_action import PrimitiveAction, PrimitiveContext
+from teamgym.envs.spaces import ObservationLayout
+from teamgym.sim.categories import OPAQUE, Category
+from teamgym.sim.objects import Box
+from teamgym.sim.render import Overlay
+from teamgym.sim.robot import DiffDriveRobot, RobotSpec
+from teamgym.sim.sensors import KHEPERA_RING, LightSensor, ProximityRing
+from teamgym.sim.world import World
+
+__all__ = ["SITUATIONS", "BoxPushing", "BoxPushingConfig", "env", "parallel_env"]
+
+_ROBOT_WALL_GAP = 0.005
+_ROBOT_CLEARANCE = 0.01
+_STALL_SLIP = 0.9
+
+
+class BoxPushing(TeamEnv):
+    """Cooperative box pushing without communication (paper 004). See the module docstring."""
+
+    metadata = {**TeamEnv.metadata, "name": "box_pushing_v0"}
+    config_class = BoxPushingConfig
+    config: BoxPushingConfig
+    pixels_per_metre = 400.0
+
+    def __init__(self, render_mode: str | None = None, **config: Any) -> None:
+        super().__init__(render_mode, **config)
+        c = self.config
+        self.spec_robot = RobotSpec(max_wheel_speed=c.max_wheel_speed, max_motor_force=c.max_motor_force)
+        self.ring = ProximityRing(KHEPERA_RING, c.sensor_range, c.sensor_noise)
+        blockers = OPAQUE & ~Category.WALL.bit if c.light_shadows else 0
+        self.light = LightSensor(c.lamp, 1.0, KHEPERA_RING, noise_std=c.light_noise, blockers=blockers)
+        self.goal = GoalWall(c.goal_side(), c.table_width, c.table_height)
+        self.object_threshold = c.object_threshold
+        self.primitive_params = PrimitiveParams(
+            dt=c.dt,
+            cruise_speed=c.cruise_speed,
+            push_speed=c.push_speed,
+            follow_speed=c.follow_speed,
+            turn_rate=c.turn_rate,
+            turn_step=c.turn_step,
+            push_turn_rate=c.push_turn_rate,
+            direction_change_jitter=c.direction_change_jitter,
+            side_offset=c.side_offset,
+            contact_distance=c.object_threshold,
+            sensor_range=c.sensor_range,
+            ray_angles=tuple(KHEPERA_RING.tolist()),
+            wheel_radius=self.spec_robot.wheel_radius,
+            wheel_base=self.spec_robot.wheel_base,
+        )
+        self.events: list[Event] = c.parsed_events()
+        self.box_capacity = c.n_light_boxes + c.n_heavy_boxes + c.n_spare_boxes
+        n = len(self.possible_agents)
+        self.state_space = spaces.Box(-np.inf, np.inf, shape=(5 * n + 6 * self.box_capacity,), dtype=np.float32)
+        self._index = {a: i for i, a in enumerate(self.possible_agents)}
+        self._sample_initial(np.random.default_rng(0))  # an infeasible config fails at make()
+
+    # -- TeamEnv hooks ----------------------------------------------------------------------
+    def _agent_names(self) -> list[str]:
+        return [f"robot_{i}" for i in range(self.config.n_robots + self.config.n_spare_robots)]
+
+    def _make_action_type(self) -> ActionType:
+        if self.config.action_type == "wheels":
+            return WheelSpeedAction(RobotSpec(max_wheel_speed=self.config.max_wheel_speed))
+        return PrimitiveAction()
+
+    def _make_layout(self) -> ObservationLayout:
+        rays = len(KHEPERA_RING)
+        return ObservationLayout([("proximity", (rays,)), ("light", (rays,)), ("encoders", (4,)), ("busy", (1,))])
+
+    def _build(self, rng: np.random.Generator) -> None:
+        c = self.config
+        self.world = World((c.table_width, c.table_height), dt=c.dt, substeps=c.substeps)
+        self.world.add_boundary()
+        n = len(self.possible_agents)
+        self.robots = {}
+        self.executors = {a: PrimitiveExecutor(self.primitive_params) for a in self.possible_agents}
+        self.boxes: list[Box | None] = [None] * self.box_capacity
+        self._heavy = np.zeros(self.box_capacity, dtype=bool)
+        self._half = np.zeros(self.box_capacity)
+        self._gap = np.zeros(self.box_capacity)
+        self._delivered = np.zeros(self.box_capacity, dtype=bool)
+        self._n_boxes = 0
+        self._n_robots_used = 0
+        self._joining: list[str] = []
+        self._leaving: dict[str, str] = {}
+        self._status = {a: "" for a in self.possible_agents}
+        self._prox = np.full((n, len(KHEPERA_RING)), c.sensor_range, dtype=np.float32)
+        self._light = np.zeros((n, len(KHEPERA_RING)), dtype=np.float32)
+        self._enc = np.zeros((n, 4), dtype=np.float32)
+        self._collisions = np.zeros(n, dtype=int)
+        self._stalled = np.zeros(n, dtype=int)
+        self._progress = 0.0
+        self._success = False
+        self._success_time = math.nan
+        self._next_event = 0
+        self._rows: dict[str, int] | None = None
+        #: Scheduled events of this episode that could not be applied (robot already gone, table full).
+        self.skipped_events: list[Event] = []
+        boxes, robots = self._sample_initial(rng)
+        for heavy, (x, y, angle) in boxes:
+            self._place_box(heavy, x, y, angle)
+        for x, y, heading in robots:
+            self._place_robot(x, y, heading)
+        self.agents = [a for a in self.possible_agents if a in self.robots]
+        self._joining = []
+        self.world.read_states()
+        self._sense(self.agents)
+
+    def _command_context(self, agent: str) -> CommandContext:
+        return PrimitiveContext(executor=self.executors[agent], rng=self.np_random)
+
+    def _evaluate(self) -> tuple[dict[str, float], dict[str, bool]]:
+        c = self.config
+        self._count_contacts()
+        progress = self._update_boxes()
+        self._progress += progress
+        while self._next_event < len(self.events) and self.events[self._next_event].cycle <= self.cycles:
+            self._apply_event(self.events[self._next_event])
+            self._next_event += 1
+        newly_successful = not self._success and self._goal_reached()
+        if newly_successful:
+            self._success = True
+            self._success_time = self.cycles * c.dt
+        reward = c.progress_reward * progress - c.time_penalty + (c.success_bonus if newly_successful else 0.0)
+        rewards = {a: float(reward) for a in self.agents}
+        terminations = {a: self._success or a in self._leaving for a in self.agents}
+        for agent in self._joining:
+            self.agents.append(agent)
+            self._trails[agent] = [self.robots[agent].position]
+            rewards[agent], terminations[agent] = 0.0, self._success
+        self._joining = []
+        for agent in self._leaving:
+            self._status[agent] = self._leaving[agent]
+            self.executors[agent].cancel()
+        self._leaving = {}
+        live = [a for a in self.agents if not terminations[a]]
+        self._sense(live)
+        return rewards, terminations
+
+    def _observe(self, out: np.ndarray) -> None:
+        if not self.agents:
+            return
+        rows = [self._index[a] for a in self.agents]
+        s = self.layout.slices
+        out[:, s["proximity"]] = self._prox[rows]
+        out[:, s["light"]] = self._light[rows]
+        out[:, s["encoders"]] = self._enc[rows]
+        out[:, s["busy"].start] = [float(self.executors[a].busy) for a in self.agents]
+
+    def _metrics(self, agent: str) -> dict[str, Any]:
+        i = self._index[agent]
+        robot = self.robots.get(agent)
+        metrics = {
+            "success": bool(self._success),
+            "boxes_delivered": int(self._delivered.sum()),
+            "box_progress": float(self._progress),
+            "path_length": float(robot.odometer) if robot is not None else 0.0,
+            "collisions": int(self._collisions[i]),
+            "stalled_steps": int(self._stalled[i]),
+            "broken_down": self._status[agent] == "broken_down",
+            "removed": self._status[agent] == "removed",
+        }
+        if self._success:
+            metrics["time_to_goal"] = float(self._success_time)
+        return metrics
+
+    def episode_success(self, final_infos: dict | None = None) -> bool:
+        """Whether the episode reached its goal (``boxes_to_goal`` boxes at the goal wall)."""
+        return bool(self._success) if self.world is not None else False
+
+    # -- dynamic environment (paper 004, section 4.2) ---------------------------------------
+    def add_robot(self, position: tuple[float, float] | None = None, heading: float | None = None) -> str:
+        """Put a spare robot on the table now (random free spot and heading if not given).
+
+        Returns its agent name; it joins ``agents`` in the returns of the next ``step``.
+        Raises ``ValueError`` if no spare is left or the spot is not free.
+        """
+        self._require_running("add_robot")
+        self._check_spare()
+        x, y, theta = self._robot_spot(position, heading)
+        self._record("add_robot", (x, y), theta)
+        return self._place_robot(x, y, theta)
+
+    def remove_robot(self, agent: str) -> None:
+        """Take ``agent``'s robot off the table now; the agent terminates in the next step's returns."""
+        self._check_live(agent, "remove_robot")
+        self._record("remove_robot", agent)
+        self._remove_robot(agent)
+
+    def break_down(self, agent: str) -> None:
+        """``agent``'s robot breaks down now: it stops for good and stays as an obstacle; it terminates in the next step."""
+        self._check_live(agent, "break_down")
+        self._record("break_down", agent)
+        self._break_down(agent)
+
+    def add_box(self, heavy: bool = False, position: tuple[float, float] | None = None, angle: float | None = None) -> str:
+        """Put a light or heavy box on the table now (random free spot and angle if not given); returns its name."""
+        self._require_running("add_box")
+        if not isinstance(heavy, (bool, np.bool_)):
+            raise TypeError(f"add_box: heavy must be a bool, got {heavy!r}")
+        if self._n_boxes >= self.box_capacity:
+            raise ValueError(f"add_box: all {self.box_capacity} box slots are used; raise n_spare_boxes")
+        x, y, theta = self._box_spot(bool(heavy), position, angle)
+        self._record("add_box", bool(heavy), (x, y), theta)
+        return self._place_box(bool(heavy), x, y, theta)
+
+    def remove_box(self, name: str) -> None:
+        """Take box ``name`` off the table now."""
+        self._require_running("remove_box")
+        slot = self._box_slot(name)
+        self._record("remove_box", name)
+        self._remove_box(slot)
+
+    def box_names(self) -> list[str]:
+        """Names of the boxes on the table."""
+        return [b.name for b in self.boxes if b is not None]
+
+    def is_heavy(self, name: str) -> bool:
+        return bool(self._heavy[self._box_slot(name)])
+
+    # -- events -----------------------------------------------------------------------------
+    def _apply_event(self, event: Event) -> None:
+        """A scheduled event; impossible ones (robot gone, table full) are skipped and counted."""
+        try:
+            if event.kind == "add_robot":
+                self._check_spare()
+                x, y, theta = self._robot_spot(event.args[:2] or None, event.args[2] if len(event.args) > 2 else None)
+                self._place_robot(x, y, theta)
+            elif event.kind in ("remove_robot", "break_down"):
+                self._check_live(event.args[0], event.kind)
+                (self._remove_robot if event.kind == "remove_robot" else self._break_down)(event.args[0])
+            elif event.kind == "remove_box":
+                self._remove_box(self._box_slot(event.args[0]))
+            else:
+                heavy = event.kind == "add_heavy_box"
+                x, y, theta = self._box_spot(heavy, event.args[:2] or None, event.args[2] if len(event.args) > 2 else None)
+                self._place_box(heavy, x, y, theta)
+        except (ValueError, KeyError):
+            self.skipped_events.append(event)
+
+    def _place_robot(self, x: float, y: float, heading: float) -> str:
+        name = self.possible_agents[self._n_robots_used]
+        self._n_robots_used += 1
+        self.robots[name] = self.world.add(DiffDriveRobot(name, (x, y), heading, self.spec_robot))
+        self._rows = None
+        self._joining.append(name)
+        return name
+
+    def _remove_robot(self, agent: str) -> None:
+        self.world.remove(agent)
+        self.executors[agent].cancel()
+        self._rows = None
+        self._leaving[agent] = "removed"
+
+    def _break_down(self, agent: str) -> None:
+        self.robots[agent].disable()
+        self.executors[agent].cancel()
+        self._leaving[agent] = "broken_down"
+
+    def _place_box(self, heavy: bool, x: float, y: float, angle: float) -> str:
+        c = self.config
+        slot = self._n_boxes
+        self._n_boxes += 1
+        size, mass = (c.heavy_box_size, c.heavy_box_mass) if heavy else (c.light_box_size, c.light_box_mass)
+        box = self.world.add(Box(f"box_{slot}", (size, size), (x, y), mass, c.box_friction, angle))
+        self.boxes[slot] = box
+        self._heavy[slot], self._half[slot] = heavy, size / 2
+        self._gap[slot] = float(self.goal.gaps(np.array([[x, y, angle]]), self._half[slot : slot + 1])[0])
+        self._delivered[slot] = self._gap[slot] <= c.goal_tolerance
+        return box.name
+
+    def _remove_box(self, slot: int) -> None:
+        self.world.remove(self.boxes[slot].name)
+        self.boxes[slot] = None
+
+    # -- checks and spots -------------------------------------------------------------------
+    def _require_running(self, what: str) -> None:
+        if self.world is None or not self.agents:
+            raise EpisodeOverError(f"{what}() needs a running episode; call reset() first")
+
+    def _check_spare(self) -> None:
+        if self._n_robots_used >= len(self.possible_agents):
+            raise ValueError(
+                f"add_robot: no spare robot left; all {len(self.possible_agents)} possible agents are used (n_spare_robots)"
+            )
+
+    def _check_live(self, agent: str, what: str) -> None:
+        self._require_running(what)
+        if agent not in self.possible_agents:
+            raise KeyError(f"{what}: unknown agent {agent!r}; possible agents are {self.possible_agents}")
+        if agent not in self.agents or agent in self._leaving:
+            raise ValueError(f"{what}: {agent!r} is not a live agent; live agents are {self.agents}")
+
+    def _box_slot(self, name: str) -> int:
+        for slot, box in enumerate(self.boxes):
+            if box is not None and box.name == name:
+                return slot
+        raise KeyError(f"no box named {name!r} on the table; boxes are {self.box_names()}")
+
+    def _occupied(self) -> list[tuple[float, float, float]]:
+        spots = [(*r.position, r.spec.radius) for r in self.world.robots]
+        spots += [(*b.position, b.bounding_radius) for b in self.boxes if b is not None]
+        return spots
+
+    def _robot_spot(self, position, heading) -> tuple[float, float, float]:
+        r = self.spec_robot.radius
+        theta = float(self.np_random.uniform(-np.pi, np.pi)) if heading is None else _finite(heading, "heading")
+        placer = Placer(self.config.table_width, self.config.table_height, self.np_random)
+        if position is None:
+            x, y = placer.sample(r, _ROBOT_WALL_GAP, self._occupied(), _ROBOT_CLEARANCE, "robot")
+            return x, y, theta
+        x, y = self._spot(position, r, "robot")
+        if not placer.is_free(x, y, r, self._occupied(), 0.002):
+            raise ValueError(f"add_robot: position {(x, y)} is not free")
+        return x, y, theta
+
+    def _box_spot(self, heavy: bool, position, angle) -> tuple[float, float, float]:
+        c = self.config
+        half = (c.heavy_box_size if heavy else c.light_box_size) / 2
+        theta = float(self.np_random.uniform(0, np.pi / 2)) if angle is None else _finite(angle, "angle")
+        placer = Placer(c.table_width, c.table_height, self.np_random)
+        radius = half * math.sqrt(2)
+        if position is None:
+            x, y = placer.sample(radius, c.box_margin, self._occupied(), 2 * self.spec_robot.radius, "box")
+            return x, y, theta
+        x, y = self._spot(position, half * (abs(math.cos(theta)) + abs(math.sin(theta))), "box")
+        if not placer.is_free(x, y, radius, self._occupied(), 0.002):
+            raise ValueError(f"add_box: position {(x, y)} is not free")
+        return x, y, theta
+
+    def _spot(self, position, extent: float, what: str) -> tuple[float, float]:
+        try:
+            x, y = (_finite(v, "position") for v in position)
+        except (TypeError, ValueError):
+            raise ValueError(f"add_{what}: position must be two finite numbers (m), got {position!r}") from None
+        c = self.config
+        if not (extent <= x <= c.table_width - extent and extent <= y <= c.table_height - extent):
+            raise ValueError(f"add_{what}: position {(x, y)} puts the {what} off the table")
+        return x, y
+
+    def _sample_initial(self, rng: np.random.Generator) -> tuple[list, list]:
+        """Initial boxes (not touching walls, section 4) and robots, as ``(heavy, (x, y, angle))`` and ``(x, y, θ)``."""
+        c = self.config
+        placer = Placer(c.table_width, c.table_height, rng)
+        occupied: list[tuple[float, float, float]] = []
+        boxes = []
+        for heavy in [False] * c.n_light_boxes + [True] * c.n_heavy_boxes:
+            half = (c.heavy_box_size if heavy else c.light_box_size) / 2
+            x, y = placer.sample(half * math.sqrt(2), c.box_margin, occupied, 2 * self.spec_robot.radius, "box")
+            occupied.append((x, y, half * math.sqrt(2)))
+            boxes.append((heavy, (x, y, float(rng.uniform(0, np.pi / 2)))))
+        robots = []
+        for _ in range(c.n_robots):
+            x, y = placer.sample(self.spec_robot.radius, _ROBOT_WALL_GAP, occupied, _ROBOT_CLEARANCE, "robot")
+            occupied.append((x, y, self.spec_robot.radius))
+            robots.append((x, y, float(rng.uniform(-np.pi, np.pi))))
+        return boxes, robots
+
+    # -- per-step state ---------------------------------------------------------------------
+    def _robot_rows(self) -> dict[str, int]:
+        if self._rows is None or len(self._rows) != len(self.world.robots):
+            self.world.read_states()
+            self._rows = {r.name: i for i, r in enumerate(self.world.robots)}
+        return self._rows
+
+    def _sense(self, agents: list[str]) -> None:
+        """Proximity, light and encoder readings of ``agents``; executors see them too."""
+        rows, states = self._robot_rows(), self.world.robot_states
+        space, rng = self.world.space, self.np_random
+        for agent in agents:
+            i, robot = self._index[agent], self.robots[agent]
+            pose = tuple(states[rows[agent], :3].tolist())
+            self.ring.read(robot, space, rng, out=self._prox[i], pose=pose)
+            self.light.read(robot, space, rng, out=self._light[i], pose=pose)
+            e = robot.encoders
+            self._enc[i] = (e.commanded_left, e.commanded_right, e.actual_left, e.actual_right)
+            if e.slip > _STALL_SLIP:
+                self._stalled[i] += 1
+            self.executors[agent].observe(self._prox[i], self._enc[i])
+
+    def _count_contacts(self) -> None:
+        index = self._index
+        for contact in self.world.contacts:
+            for name in (contact.a, contact.b):
+                i = index.get(name)
+                if i is not None:
+                    self._collisions[i] += 1
+
+    def _box_poses(self) -> tuple[np.ndarray, np.ndarray]:
+        slots = [k for k, b in enumerate(self.boxes) if b is not None]
+        poses = np.array([(*self.boxes[k].body.position, self.boxes[k].body.angle) for k in slots]).reshape(-1, 3)
+        return np.array(slots, dtype=int), poses
+
+    def _update_boxes(self) -> float:
+        """Refresh box gaps to the goal and deliveries; return this step's progress (m)."""
+        slots, poses = self._box_poses()
+        if len(slots) == 0:
+            return 0.0
+        gaps = self.goal.gaps(poses, self._half[slots])
+        progress = float(np.sum(self._gap[slots] - gaps))
+        self._gap[slots] = gaps
+        self._delivered[slots] |= gaps <= self.config.goal_tolerance
+        return progress
+
+    def _goal_reached(self) -> bool:
+        present = [k for k, b in enumerate(self.boxes) if b is not None]
+        target = self.config.boxes_to_goal or len(present)
+        return bool(present) and int(self._delivered[present].sum()) >= target
+
+    # -- state and rendering ----------------------------------------------------------------
+    def state(self) -> np.ndarray:
+        """Global state: per possible robot (x, y, θ, present, working), per box slot (x, y, angle, heavy, present, delivered)."""
+        if self.world is None:
+            raise RuntimeError("state() called before reset()")
+        robots = np.zeros((len(self.possible_agents), 5))
+        for agent, robot in self.robots.items():
+            if robot.space is not None:
+                robots[self._index[agent]] = (*robot.pose, 1.0, float(robot.enabled))
+        boxes = np.zeros((self.box_capacity, 6))
+        for k, box in enumerate(self.boxes):
+            if box is not None:
+                boxes[k] = (*box.position, box.body.angle, float(self._heavy[k]), 1.0, float(self._delivered[k]))
+        return np.concatenate([robots.ravel(), boxes.ravel()]).astype(np.float32)
+
+    def _overlay(self) -> Overlay:
+        overlay = Overlay(lamp=self.config.lamp)
+        overlay.paths.append((list(self.goal.segment(self.config.table_width, self.config.table_height)), (40, 170, 40)))
+        for k, box in enumerate(self.boxes):
+            if box is not None and self._heavy[k]:
+                corners = [box.body.local_to_world(v) for v in box.local_vertices]
+                overlay.paths.append(([tuple(corners[0]), tuple(corners[2])], (90, 50, 20)))
+                overlay.paths.append(([tuple(corners[1]), tuple(corners[3])], (90, 50, 20)))
+        return overlay
+
+
+def _finite(value: Any, what: str) -> float:
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise ValueError(f"{what} must be a finite number, got {value!r}")
+    if not math.isfinite(float(value)):
+        raise ValueError(f"{what} must be finite, got {value!r}")
+    return float(value)
+
+
+def parallel_env(render_mode: str | None = None, **config: Any) -> BoxPushing:
+    """The PettingZoo parallel env (same as ``teamgym.make("BoxPushing-v0", ...)``)."""
+    return BoxPushing(render_mode=render_mode, **config)
+
+
+def env(render_mode: str | None = None, **config: Any):
+    """The AEC form of the env, through PettingZoo's ``parallel_to_aec``."""
+    from pettingzoo.utils.conversions import parallel_to_aec
+
+    return parallel_to_aec(parallel_env(render_mode=render_mode, **config))

@@ -1,0 +1,211 @@
+"""Configuration of ``BoxPushing-v0``: keys, defaults, situation presets and scheduled events.
+
+Every default is explained in ``docs/box_pushing.md``; the physical ones are chosen so that
+"light" and "heavy" follow from box mass and ground friction against the motors' force
+limit (paper 004, section 2.2): one robot slides a light box, cannot move a heavy one (not
+even turn it by pushing a corner), and two robots pushing together can.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, Literal
+
+from teamgym.envs.config import ConfigError, EnvConfig, require
+from teamgym.sim.objects import GRAVITY
+
+#: The paper's four static situations (section 4.1) as (n_robots, n_light_boxes, n_heavy_boxes).
+SITUATIONS: dict[str, tuple[int, int, int]] = {
+    "S1": (1, 1, 0),
+    "S2": (2, 2, 0),
+    "S3": (4, 0, 1),
+    "S4": (1, 0, 1),
+}
+
+#: Scheduled event kinds and the arguments they take after ``(cycle, kind)``.
+EVENT_KINDS = {
+    "add_robot": "optional x, y[, heading] (m, rad)",
+    "remove_robot": "agent name",
+    "break_down": "agent name",
+    "add_light_box": "optional x, y[, angle] (m, rad)",
+    "add_heavy_box": "optional x, y[, angle] (m, rad)",
+    "remove_box": "box name",
+}
+
+
+@dataclass(frozen=True)
+class Event:
+    """A run-time change applied at the end of control step ``cycle`` (after the physics)."""
+
+    cycle: int
+    kind: str
+    args: tuple
+
+
+@dataclass(frozen=True)
+class BoxPushingConfig(EnvConfig):
+    """Configuration of ``BoxPushing-v0`` (SI units; the few angles in config are radians)."""
+
+    max_cycles: int = 3000
+    situation: Literal["custom", "S1", "S2", "S3", "S4"] = "custom"
+    n_robots: int = 2
+    n_light_boxes: int = 2
+    n_heavy_boxes: int = 0
+    n_spare_robots: int = 0
+    n_spare_boxes: int = 0
+    table_width: float = 1.10
+    table_height: float = 0.90
+    lamp: tuple[float, float] = (1.15, 0.45)
+    light_shadows: bool = False
+    light_noise: float = 0.0
+    sensor_range: float = 0.1
+    sensor_noise: float = 0.0
+    object_threshold: float = 0.02
+    max_wheel_speed: float = 0.4
+    max_motor_force: float = 0.6
+    light_box_size: float = 0.08
+    light_box_mass: float = 0.05
+    heavy_box_size: float = 0.16
+    heavy_box_mass: float = 0.2
+    box_friction: float = 0.5
+    box_margin: float = 0.08
+    boxes_to_goal: int = 0
+    goal_tolerance: float = 0.003
+    action_type: Literal["primitives", "wheels"] = "primitives"
+    cruise_speed: float = 0.1
+    push_speed: float = 0.08
+    follow_speed: float = 0.1
+    turn_rate: float = 5.0
+    turn_step: float = math.radians(30.0)
+    push_turn_rate: float = 0.6
+    direction_change_jitter: float = math.radians(30.0)
+    side_offset: float = 0.07
+    progress_reward: float = 10.0
+    success_bonus: float = 10.0
+    time_penalty: float = 0.001
+    events: tuple[tuple[Any, ...], ...] = ()
+
+    @classmethod
+    def from_kwargs(cls, **kwargs: Any) -> BoxPushingConfig:
+        """As :meth:`EnvConfig.from_kwargs`; ``situation="S1"``..``"S4"`` presets the robot and box counts."""
+        name = kwargs.get("situation", "custom")
+        if isinstance(name, str) and name in SITUATIONS:
+            for key, value in zip(("n_robots", "n_light_boxes", "n_heavy_boxes"), SITUATIONS[name]):
+                given = kwargs.get(key, value)
+                if given != value and str(given) != str(value):
+                    raise ConfigError(
+                        f"{cls.__name__}: {key}={given!r} contradicts situation={name!r} (which sets {key}={value})"
+                    )
+                kwargs[key] = value
+        return super().from_kwargs(**kwargs)  # type: ignore[return-value]
+
+    def check(self) -> None:
+        super().check()
+        require(self, "n_robots", 1 <= self.n_robots <= 16, "must be in [1, 16]")
+        require(self, "n_light_boxes", 0 <= self.n_light_boxes <= 8, "must be in [0, 8]")
+        require(self, "n_heavy_boxes", 0 <= self.n_heavy_boxes <= 8, "must be in [0, 8]")
+        require(self, "n_heavy_boxes", self.n_light_boxes + self.n_heavy_boxes >= 1, "leaves no box (need at least one)")
+        require(self, "n_spare_robots", 0 <= self.n_spare_robots <= 16, "must be in [0, 16]")
+        require(self, "n_spare_boxes", 0 <= self.n_spare_boxes <= 8, "must be in [0, 8]")
+        require(self, "table_width", 0.4 <= self.table_width <= 10, "must be in [0.4, 10] m")
+        require(self, "table_height", 0.4 <= self.table_height <= 10, "must be in [0.4, 10] m")
+        for key in ("sensor_range", "object_threshold", "max_wheel_speed", "max_motor_force", "box_friction"):
+            require(self, key, getattr(self, key) > 0, "must be > 0")
+        for key in ("light_noise", "sensor_noise", "box_margin", "goal_tolerance", "time_penalty", "success_bonus"):
+            require(self, key, getattr(self, key) >= 0, "must be >= 0")
+        require(self, "object_threshold", self.object_threshold <= self.sensor_range, "must not exceed sensor_range")
+        for key in ("cruise_speed", "push_speed", "follow_speed"):
+            require(self, key, 0 < getattr(self, key) <= self.max_wheel_speed, "must be in (0, max_wheel_speed]")
+        half_base = 0.053 / 2
+        require(
+            self,
+            "turn_rate",
+            0 < self.turn_rate * half_base <= self.max_wheel_speed,
+            "must be in (0, 2·max_wheel_speed/wheel_base]",
+        )
+        require(
+            self,
+            "turn_step",
+            0 < self.turn_step / self.dt * half_base <= self.max_wheel_speed,
+            "must be > 0 and turnable in one step",
+        )
+        require(self, "push_turn_rate", self.push_turn_rate >= 0, "must be >= 0")
+        require(self, "direction_change_jitter", 0 <= self.direction_change_jitter <= math.pi / 2, "must be in [0, π/2] rad")
+        require(self, "side_offset", 0 < self.side_offset <= 0.5, "must be in (0, 0.5] m")
+        self._check_boxes()
+        self._check_lamp()
+        self.parsed_events()
+        total = self.n_light_boxes + self.n_heavy_boxes + self.n_spare_boxes
+        require(self, "boxes_to_goal", 0 <= self.boxes_to_goal <= total, f"must be in [0, {total}] (0 = every box)")
+
+    def _check_boxes(self) -> None:
+        force = self.max_motor_force
+        for kind in ("light", "heavy"):
+            require(self, f"{kind}_box_size", 0.03 <= getattr(self, f"{kind}_box_size") <= 0.4, "must be in [0.03, 0.4] m")
+            require(self, f"{kind}_box_mass", getattr(self, f"{kind}_box_mass") > 0, "must be > 0")
+        light = self.box_friction * self.light_box_mass * GRAVITY
+        heavy = self.box_friction * self.heavy_box_mass * GRAVITY
+        require(self, "light_box_mass", light < 0.9 * force, f"gives friction {light:.2f} N; one robot ({force} N) must slide it")
+        require(
+            self,
+            "heavy_box_mass",
+            force < heavy < 2 * force,
+            f"gives friction {heavy:.2f} N; it must be in ({force}, {2 * force}) N",
+        )
+        # A robot pushing a corner exerts torque F·s/2; the ground's torque limit is μmg·⅔·r_eq (objects.Box).
+        r_eq = math.sqrt(self.heavy_box_size**2 / math.pi)
+        require(
+            self,
+            "heavy_box_mass",
+            heavy * 2 / 3 * r_eq > force * self.heavy_box_size / 2,
+            "lets one robot spin the box at a corner",
+        )
+
+    def _check_lamp(self) -> None:
+        x, y = self.lamp
+        w, h = self.table_width, self.table_height
+        inside = 0 <= x <= w and 0 <= y <= h
+        require(self, "lamp", not inside, "must be outside the table (beside it, paper 004 section 2.1)")
+        require(self, "lamp", -1 <= x <= w + 1 and -1 <= y <= h + 1, "must be within 1 m of the table")
+        outside = sorted(gap for gap in (x - w, -x, y - h, -y) if gap > 0)
+        require(self, "lamp", len(outside) == 1, "must face one wall (the goal), not a corner of the table")
+
+    def goal_side(self) -> str:
+        """The wall nearest the lamp: ``"east"``, ``"west"``, ``"north"`` or ``"south"``."""
+        x, y = self.lamp
+        w, h = self.table_width, self.table_height
+        gaps = {"east": x - w, "west": -x, "north": y - h, "south": -y}
+        return max(gaps, key=lambda k: gaps[k])
+
+    def parsed_events(self) -> list[Event]:
+        """The scheduled events as :class:`Event` records, validated (raises :class:`ConfigError`)."""
+        events = []
+        added_robots = added_boxes = 0
+        for raw in self.events:
+            where = f"{type(self).__name__}: events entry {raw!r}"
+            if len(raw) < 2 or not isinstance(raw[0], int) or isinstance(raw[0], bool) or raw[1] not in EVENT_KINDS:
+                raise ConfigError(f"{where} must be (cycle, kind, *args) with kind in {sorted(EVENT_KINDS)}")
+            cycle, kind, args = raw[0], raw[1], tuple(raw[2:])
+            if not 1 <= cycle <= self.max_cycles:
+                raise ConfigError(f"{where}: cycle {cycle} must be in [1, max_cycles={self.max_cycles}]")
+            if kind in ("remove_robot", "break_down", "remove_box"):
+                if len(args) != 1 or not isinstance(args[0], str):
+                    raise ConfigError(f"{where}: {kind} takes one argument, the {EVENT_KINDS[kind]}")
+            else:
+                if len(args) not in (0, 2, 3) or not all(isinstance(a, (int, float)) and math.isfinite(a) for a in args):
+                    raise ConfigError(f"{where}: {kind} takes {EVENT_KINDS[kind]}")
+                if args and not (0 < args[0] < self.table_width and 0 < args[1] < self.table_height):
+                    raise ConfigError(f"{where}: position {args[:2]} is not on the table")
+                if kind == "add_robot":
+                    added_robots += 1
+                else:
+                    added_boxes += 1
+            events.append(Event(cycle, kind, tuple(float(a) if isinstance(a, (int, float)) else a for a in args)))
+        if added_robots > self.n_spare_robots:
+            raise ConfigError(
+                f"{type(self).__name__}: events add {added_robots} robot(s) but n_spare_robots={self.n_spare_robots}"
+            )
+        if added_boxes > self.n_spare_boxes:
+            raise ConfigError(f"{type(self).__name__}: events add {added_boxes} box(es) but n_spare_boxes={self.n_spare_boxes}")
+        return sorted(events, key=lambda e: e.cycle)
