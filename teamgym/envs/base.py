@@ -8,6 +8,9 @@ truncation, rendering); a task fills in five hooks:
 * ``_observe(out)`` writes every live agent's observation into a preallocated array;
 * ``_evaluate()`` returns rewards and terminations after a step;
 * ``_metrics(agent)`` returns the per-agent metrics put into ``infos``.
+
+``_advance(actions)`` (one control step by default) may be overridden by envs whose actions
+last several control steps (macro actions).
 """
 
 from __future__ import annotations
@@ -137,14 +140,7 @@ class TeamEnv(ParallelEnv):
             )
         checked = self._check_actions(actions)
         self._log.append(("step", checked))
-        action_type, no_context = self.action_type, CommandContext()
-        for agent, action in checked.items():
-            context = self._command_context(agent) if action_type.needs_context else no_context
-            self.robots[agent].set_command(*action_type.command(action, context))
-        self._before_physics()
-        self.world.step()
-        self.cycles += 1
-        self._record_trails()
+        self._advance(checked)
         rewards, terminations = self._evaluate()
         truncated = self.cycles >= self.config.max_cycles
         truncations = {a: truncated and not terminations[a] for a in self.agents}
@@ -157,6 +153,21 @@ class TeamEnv(ParallelEnv):
         if self.render_mode == "human":
             self.render()
         return observations, rewards, terminations, truncations, infos
+
+    def _advance(self, actions: dict) -> None:
+        """Apply checked joint actions and advance the world: one control step by default.
+
+        Macro-action envs override this to run several control steps per ``step()`` (their
+        ``_evaluate`` then covers the whole stretch); ``self.cycles`` counts control steps.
+        """
+        action_type, no_context = self.action_type, CommandContext()
+        for agent, action in actions.items():
+            context = self._command_context(agent) if action_type.needs_context else no_context
+            self.robots[agent].set_command(*action_type.command(action, context))
+        self._before_physics()
+        self.world.step()
+        self.cycles += 1
+        self._record_trails()
 
     def _record_trails(self) -> None:
         states = self.world.robot_states
