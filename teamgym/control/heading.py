@@ -37,6 +37,10 @@ class HeadingHeuristic:
         return 0.5 * self.v_opt * w_t * (1.0 + w_r)
 
 
+#: Objects and rays count as "ahead" within this cosine of the heading (cos 60°).
+AHEAD_COS = 0.5
+
+
 def nearest_gap(
     offsets: np.ndarray,
     gaps: np.ndarray,
@@ -51,14 +55,16 @@ def nearest_gap(
     ``offsets`` (k, 2) point from the robot to each object's centre and ``gaps`` (k,) are
     the rim-to-object gaps; ``proximity`` are the ring's readings (a reading at
     ``sensor_range`` means nothing seen and does not count). With ``rule="ahead"`` only
-    objects in the half-plane in front of the robot and rays pointing forward or sideways
-    count: the paper slows the robot so that it does not run into things, and slowing down
-    for an object behind would let a faster obstacle catch it. ``rule="any"`` counts all.
+    objects whose centre lies within ±60° of the heading and the rays pointing that way
+    (Khepera rays 1–4) count: the paper slows the robot so that it does not run into things;
+    slowing down for an object beside or behind lets a 20 cm/s obstacle catch a robot that
+    is running away at v_opt/2. ``rule="any"`` counts every object and ray.
     """
     seen = proximity < sensor_range
     if rule == "ahead":
         direction = np.array([np.cos(heading), np.sin(heading)])
-        gaps = gaps[offsets @ direction > 0] if len(gaps) else gaps
-        seen &= np.cos(ray_angles) > -1e-9
+        ahead = offsets @ direction > AHEAD_COS * np.linalg.norm(offsets, axis=1) if len(gaps) else None
+        gaps = gaps[ahead] if len(gaps) else gaps
+        seen &= np.cos(ray_angles) > AHEAD_COS - 1e-9
     nearest = float(proximity[seen].min()) if seen.any() else np.inf
     return min(nearest, float(gaps.min())) if len(gaps) else nearest
