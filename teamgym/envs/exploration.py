@@ -1,0 +1,583 @@
+"""Exploration-v0: a robot team explores an office of sectors and doors (paper 000).
+
+``n_robots`` Khepera-like robots (default 3) start in sectors of a map (default the paper's
+12-sector office ``office12``; any map file, see ``teamgym.maps``). Doors are open or closed
+for the episode, sampled from their opening probabilities o_j (``door_states``), optionally
+re-sampled every ``door_resample_period`` seconds or toggled with :meth:`Exploration.set_door`;
+furniture stands in the rooms. A sector is explored when a robot enters it, i.e. when the
+robot's place x_i becomes that sector (its centre is inside the sector and outside every
+usable door circle, so a robot half-way through a door has not entered yet); the team
+succeeds when every goal sector (``goal_sectors``, default all: M_G = V_S) is explored.
+
+Action types (``action_type``):
+
+* ``"velocity"``: continuous (v, ω) per control step, for RL;
+* ``"operator"``: the paper's operators Wait(), FindDoor(D), TraverseDoor(D, S), GoTo(S1, S2)
+  (:mod:`teamgym.envs.exploration_operators`) as macro actions. One ``step()`` is one planning
+  stage (Fig. 5): every robot's operator runs on the behaviour-based controller
+  (:mod:`teamgym.control.behaviour`) under the task-execution watcher
+  (:mod:`teamgym.control.watcher`) until some robot completes or fails its task
+  (``stage_end="any"``), or until every robot has (``"all"``). Giving a robot the operator it
+  is still executing continues it. Preconditions are action masks in
+  ``infos[agent]["action_mask"]`` (and ``env.action_mask(agent)``); a masked operator raises.
+
+Observations (flat float32; ``env.decode(obs)``), with S sectors, D doors, V = S + D places
+and N robots:
+
+================  ============  ===============================================================
+field             shape         meaning
+================  ============  ===============================================================
+``pose``          (3,)          own x, y (m), heading θ (rad)
+``velocity``      (2,)          own v (m/s), ω (rad/s)
+``sector``        (S,)          one-hot: the sector the robot is in
+``place``         (V,)          one-hot: x_i, the robot's place (a door while inside its circle)
+``proximity``     (8,)          Khepera ring distances (m), ``sensor_range`` if free
+``mates_place``   (N−1, V)      one-hot places of the team mates (the coordinator's state X)
+``visited``       (S,)          M_V: explored sectors (shared by the coordinator)
+``goal``          (S,)          M_G
+``door_belief``   (D,)          o_j as the team knows it: the map's prior, 1/0 once a robot has
+                                been inside the door's circle and seen it open/closed
+``clutter``       (S,)          c_i as re-estimated from executed FindDoor tasks (eq. 2)
+``task_status``   (4,)          one-hot watcher state: waiting, executing, completed, failed
+``task``          (1,)          index of the robot's current operator (−1: none)
+================  ============  ===============================================================
+
+Reward per step, shared by the team: ``explore_reward`` per newly explored goal sector, minus
+``time_penalty`` per control step; each robot also loses ``collision_penalty`` per contact.
+Metrics in ``infos``: ``explored``, ``explored_fraction``, ``explored_all``, ``explore_time``
+(s, once all are explored), ``path_length`` (own), ``team_path_length``, ``collisions``,
+``sector``, ``place``; with operators also ``stages`` (planning stages until full exploration),
+``tasks_completed``, ``tasks_failed``, ``task``, ``task_status``, ``task_reason`` and
+``action_mask``.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass
+from typing import Any, Literal
+
+import numpy as np
+from gymnasium import spaces
+
+from teamgym.control.watcher import TaskWatcher, WatcherState
+from teamgym.envs.actions import ActionType, VelocityAction
+from teamgym.envs.base import EpisodeOverError, TeamEnv
+from teamgym.envs.config import ConfigError, EnvConfig, require
+from teamgym.envs.exploration_operators import OperatorAction, OperatorSet, TaskFactory
+from teamgym.envs.spaces import ObservationLayout
+from teamgym.maps.build import build_world
+from teamgym.maps.model import MapError, OfficeMap, load_map
+from teamgym.maps.topology import ClutterEstimate, TopologicalModel
+from teamgym.maps.validate import distance_to_polygon
+from teamgym.sim.render import Overlay
+from teamgym.sim.robot import DiffDriveRobot, RobotSpec
+from teamgym.sim.sensors import KHEPERA_RING, ProximityRing
+from teamgym.sim.world import World
+
+__all__ = ["Exploration", "ExplorationConfig", "env", "parallel_env"]
+
+WATCHER_STATES = [s.name.lower() for s in WatcherState]
+
+
+@functools.lru_cache(maxsize=32)
+def cached_map(name: str) -> OfficeMap:
+    """A shipped map by name or a map file by path, loaded once per process."""
+    return load_map(name)
+
+
+@dataclass(frozen=True)
+class ExplorationConfig(EnvConfig):
+    """Configuration of ``Exploration-v0`` (SI units; ids are the map's sector and door ids)."""
+
+    max_cycles: int = 3000
+    map: str = "office12"
+    n_robots: int = 3
+    action_type: Literal["velocity", "operator"] = "velocity"
+    goal_sectors: tuple[str, ...] = ()
+    start_sectors: tuple[str, ...] = ()
+    start_positions: Literal["random", "centre"] = "random"
+    door_states: Literal["sample", "open"] = "sample"
+    open_doors: tuple[str, ...] = ()
+    closed_doors: tuple[str, ...] = ()
+    door_resample_period: float = 0.0
+    furniture: bool = True
+    stage_end: Literal["any", "all"] = "any"
+    wait_steps: int = 10
+    max_speed: float = 0.12
+    task_timeout: float = 60.0
+    stall_time: float = 5.0
+    fail_on_collision: bool = False
+    clutter_prior_weight: float = 5.0
+    sensor_range: float = 0.1
+    sensor_noise: float = 0.0
+    explore_reward: float = 1.0
+    collision_penalty: float = 0.1
+    time_penalty: float = 0.001
+
+    def check(self) -> None:
+        super().check()
+        require(self, "n_robots", 1 <= self.n_robots <= 16, "must be in [1, 16]")
+        try:
+            office = cached_map(self.map)
+        except MapError as error:
+            raise ConfigError(f"ExplorationConfig: map={self.map!r} is invalid: {error}") from None
+        sectors, doors = set(office.sector_ids), set(office.door_ids)
+        for key in ("goal_sectors", "start_sectors"):
+            unknown = [s for s in getattr(self, key) if s not in sectors]
+            require(self, key, not unknown, f"names unknown sector(s) {unknown}; map {office.name!r} has {office.sector_ids}")
+        require(
+            self,
+            "start_sectors",
+            len(self.start_sectors) in (0, self.n_robots),
+            f"must be empty (random) or give one sector per robot ({self.n_robots})",
+        )
+        for key in ("open_doors", "closed_doors"):
+            unknown = [d for d in getattr(self, key) if d not in doors]
+            require(self, key, not unknown, f"names unknown door(s) {unknown}; map {office.name!r} has {office.door_ids}")
+        both = sorted(set(self.open_doors) & set(self.closed_doors))
+        require(self, "closed_doors", not both, f"names door(s) {both} that open_doors also names")
+        require(self, "door_resample_period", self.door_resample_period >= 0, "must be >= 0 (0: never)")
+        require(self, "wait_steps", self.wait_steps >= 1, "must be >= 1")
+        require(self, "max_speed", 0 < self.max_speed <= RobotSpec.max_wheel_speed, "must be in (0, 0.4] m/s")
+        require(self, "task_timeout", self.task_timeout > 0, "must be > 0")
+        require(self, "stall_time", self.stall_time > 0, "must be > 0")
+        require(self, "clutter_prior_weight", self.clutter_prior_weight > 0, "must be > 0")
+        require(self, "sensor_range", self.sensor_range > 0, "must be > 0")
+        require(self, "sensor_noise", self.sensor_noise >= 0, "must be >= 0")
+
+
+class Exploration(TeamEnv):
+    """Multi-robot exploration of an office (paper 000). See the module docstring."""
+
+    metadata = {**TeamEnv.metadata, "name": "exploration_v0"}
+    config_class = ExplorationConfig
+    config: ExplorationConfig
+    pixels_per_metre = 400.0
+
+    def __init__(self, render_mode: str | None = None, **config: Any) -> None:
+        super().__init__(render_mode, **config)
+        c = self.config
+        self.spec_robot = RobotSpec()
+        self.ring = ProximityRing(KHEPERA_RING, c.sensor_range, c.sensor_noise)
+        office = self.map
+        self.n_sectors, self.n_doors = len(office.sectors), len(office.doors)
+        self._rects = np.array([[s.x_min, s.y_min, s.x_max, s.y_max] for s in office.sectors])
+        self._door_centres = np.array([d.centre for d in office.doors]).reshape(-1, 2)
+        self._door_radii = np.array([d.radius for d in office.doors])
+        goals = c.goal_sectors or tuple(office.sector_ids)
+        self.goal = np.array([s in goals for s in office.sector_ids])
+        n, v = c.n_robots, self.n_sectors + self.n_doors
+        size = 4 * n + 2 * self.n_sectors + 2 * self.n_doors
+        self.state_space = spaces.Box(-np.inf, np.inf, shape=(size,), dtype=np.float32)
+        self._index = {a: i for i, a in enumerate(self.possible_agents)}
+        self._others = np.array([[j for j in range(n) if j != i] for i in range(n)], dtype=int).reshape(n, n - 1)
+        self._n_places = v
+        try:
+            self._sample_starts(np.random.default_rng(0))
+        except RuntimeError as error:
+            raise ConfigError(f"ExplorationConfig: {error}") from None
+
+    # -- construction ----------------------------------------------------------------
+    @property
+    def map(self) -> OfficeMap:
+        """The workspace (the a-priori world model of section 2.1)."""
+        return cached_map(self.config.map)
+
+    def _agent_names(self) -> list[str]:
+        return [f"robot_{i}" for i in range(self.config.n_robots)]
+
+    def _make_action_type(self) -> ActionType:
+        self.operator_set = OperatorSet(self.map)
+        self.operators = self.operator_set.operators
+        if self.config.action_type == "velocity":
+            return VelocityAction(RobotSpec())
+        return OperatorAction(self.operator_set)
+
+    def _make_layout(self) -> ObservationLayout:
+        n, s, d = self.config.n_robots, len(self.map.sectors), len(self.map.doors)
+        return ObservationLayout(
+            [
+                ("pose", (3,)),
+                ("velocity", (2,)),
+                ("sector", (s,)),
+                ("place", (s + d,)),
+                ("proximity", (len(KHEPERA_RING),)),
+                ("mates_place", (n - 1, s + d)),
+                ("visited", (s,)),
+                ("goal", (s,)),
+                ("door_belief", (d,)),
+                ("clutter", (s,)),
+                ("task_status", (len(WatcherState),)),
+                ("task", (1,)),
+            ]
+        )
+
+    def _build(self, rng: np.random.Generator) -> None:
+        c, office = self.config, self.map
+        self.world = World(office.size, dt=c.dt, substeps=c.substeps)
+        self.doors = build_world(office, self.world, self._sample_doors(rng), furniture=c.furniture)
+        starts, headings = self._sample_starts(rng)
+        self.robots = {}
+        for agent, start, heading in zip(self.possible_agents, starts, headings):
+            self.robots[agent] = self.world.add(DiffDriveRobot(agent, start, heading, self.spec_robot))
+        self.robot_list = list(self.robots.values())
+        n = c.n_robots
+        self.model = TopologicalModel(office)
+        self.clutter_estimate = ClutterEstimate(self.model.clutter, c.clutter_prior_weight)
+        self.visited = np.zeros(self.n_sectors, dtype=bool)
+        self._sector = np.zeros(n, dtype=int)
+        self._place = np.zeros(n, dtype=int)
+        self._collisions = np.zeros(n, dtype=int)
+        self._collided = np.zeros(n, dtype=bool)
+        self._reward = np.zeros(n)
+        self._explore_time = math.nan
+        self._stages = 0
+        self._completed = np.zeros(n, dtype=int)
+        self._failed = np.zeros(n, dtype=int)
+        self._proximity = np.full((n, self.ring.n_rays), c.sensor_range, dtype=np.float32)
+        self._watchers = [TaskWatcher(c.stall_time, c.task_timeout, c.fail_on_collision) for _ in range(n)]
+        self._task_sector = np.zeros(n, dtype=int)
+        door_index = {d: j for j, d in enumerate(office.door_ids)}
+        self._tasks = TaskFactory(
+            office,
+            lambda d: self.doors[d].is_open,
+            lambda d: self.model.door_open[door_index[d]] <= 0.0,
+            self.spec_robot.radius,
+            c.max_speed,
+        )
+        self._masks = np.zeros((n, len(self.operators)), dtype=np.int8)
+        self.world.read_states()
+        self._sense()
+        self._reward[:] = 0.0
+        self._update_masks()
+
+    def _sample_doors(self, rng: np.random.Generator) -> dict[str, bool]:
+        """Door states for an episode: o_j draws unless ``door_states="open"`` or forced by the config."""
+        c = self.config
+        draws = rng.random(self.n_doors)
+        states = {}
+        for door, u in zip(self.map.doors, draws.tolist()):
+            if door.id in c.closed_doors:
+                states[door.id] = False
+            elif door.id in c.open_doors or c.door_states == "open":
+                states[door.id] = True
+            else:
+                states[door.id] = u < door.open_probability
+        return states
+
+    def _sample_starts(self, rng: np.random.Generator) -> tuple[list[tuple[float, float]], np.ndarray]:
+        """Start positions (in ``start_sectors`` or distinct random sectors) and headings."""
+        c, office = self.config, self.map
+        n, r = c.n_robots, self.spec_robot.radius if hasattr(self, "spec_robot") else RobotSpec.radius
+        ids = office.sector_ids
+        names = list(c.start_sectors) or [ids[k] for k in rng.choice(len(ids), size=n, replace=n > len(ids))]
+        margin = r + office.wall_thickness / 2 + 0.01
+        starts: list[tuple[float, float]] = []
+        for name in names:
+            s = office.sector(name)
+            if c.start_positions == "centre" and self._free(s.centre, starts, r):
+                starts.append(s.centre)
+                continue
+            for _ in range(2000):
+                p = (
+                    float(rng.uniform(s.x_min + margin, s.x_max - margin)),
+                    float(rng.uniform(s.y_min + margin, s.y_max - margin)),
+                )
+                if self._free(p, starts, r):
+                    starts.append(p)
+                    break
+            else:
+                raise RuntimeError(f"could not place a robot in sector {name!r} clear of furniture, doors and other robots")
+        return starts, rng.uniform(-np.pi, np.pi, size=n)
+
+    def _free(self, p: tuple[float, float], others: list[tuple[float, float]], r: float) -> bool:
+        office = self.map
+        if any(math.dist(p, q) < 2 * r + 0.02 for q in others):
+            return False
+        if any(math.dist(p, d.centre) < d.radius + r for d in office.doors):
+            return False
+        return all(distance_to_polygon(f.vertices, p) > r + 0.01 for f in office.furniture)
+
+    # -- run-time events ---------------------------------------------------------------
+    def set_door(self, door_id: str, is_open: bool) -> bool:
+        """Open or close door ``door_id`` now (recorded for copies); False if a body blocks closing."""
+        if self.world is None:
+            raise EpisodeOverError("set_door() called before reset()")
+        if door_id not in self.doors:
+            raise KeyError(f"unknown door {door_id!r}; map {self.map.name!r} has {self.map.door_ids}")
+        if not isinstance(is_open, (bool, np.bool_)):
+            raise TypeError(f"is_open must be True or False, got {is_open!r}")
+        done = self._apply_door(door_id, bool(is_open))
+        self._record("set_door", door_id, bool(is_open))
+        return done
+
+    def _apply_door(self, door_id: str, is_open: bool) -> bool:
+        door = self.doors[door_id]
+        if is_open:
+            door.open()
+            return True
+        return door.close()
+
+    def _before_physics(self) -> None:
+        c = self.config
+        period = int(round(c.door_resample_period / c.dt))
+        if period > 0 and self.cycles > 0 and self.cycles % period == 0:
+            for door_id, is_open in self._sample_doors(self.np_random).items():
+                self._apply_door(door_id, is_open)
+
+    # -- stepping ----------------------------------------------------------------------
+    def _check_actions(self, actions: dict) -> dict:
+        checked = super()._check_actions(actions)
+        if self.config.action_type == "operator":
+            for agent, op in checked.items():
+                i = self._index[agent]
+                if not self._masks[i, op]:
+                    admissible = [self.operators[k].name for k in np.flatnonzero(self._masks[i])]
+                    raise ValueError(
+                        f"action {op} = {self.operators[op].name} for {agent!r} is masked: its preconditions "
+                        f"(paper 000, section 3.1) do not hold at place {self.map.vertex_ids[self._place[i]]}; "
+                        f"admissible now: {admissible}"
+                    )
+        return checked
+
+    def _advance(self, actions: dict) -> None:
+        self._reward[:] = 0.0
+        if self.config.action_type == "velocity":
+            super()._advance(actions)
+            self._sense()
+        else:
+            self._run_stage(actions)
+        self._update_masks()
+
+    def _assign(self, actions: dict) -> None:
+        """Start the operators of this stage; an operator a robot is still executing continues."""
+        time, states = self.world.time, self.world.robot_states
+        for agent, op in actions.items():
+            i = self._index[agent]
+            watcher = self._watchers[i]
+            if watcher.executing and watcher.task is not None and watcher.task.key == op:
+                continue
+            watcher.acknowledge()
+            sector = self.map.sector_ids[self._sector[i]]
+            watcher.assign(self._tasks.make(self.operators[op], sector), time, states[i, :2], self.robot_list[i].odometer)
+            self._task_sector[i] = self._sector[i]
+
+    def _run_stage(self, actions: dict) -> None:
+        """One planning stage (Fig. 5): control steps until a task ends (see ``stage_end``)."""
+        c = self.config
+        if not self._all_explored():
+            self._stages += 1
+        self._assign(actions)
+        live = [self._index[a] for a in self.agents]
+        start, ended = self.cycles, False
+        while True:
+            states = self.world.robot_states
+            for i in live:
+                pose = tuple(states[i, :3].tolist())
+                self.robot_list[i].set_command(*self._watchers[i].control(pose, self._proximity[i], bool(self._collided[i])))
+            self._before_physics()
+            self.world.step()
+            self.cycles += 1
+            self._record_trails()
+            self._sense()
+            for i in live:
+                if self._watch(i):
+                    ended = True
+            if self._all_explored() or self.cycles >= c.max_cycles:
+                break
+            busy = any(self._watchers[i].executing and not self._watchers[i].task.is_wait for i in live)
+            waited = self.cycles - start >= c.wait_steps
+            if c.stage_end == "any" and (ended or (not busy and waited)):
+                break
+            if c.stage_end == "all" and not busy and (ended or waited):
+                break
+
+    def _watch(self, i: int) -> bool:
+        """Update robot i's watcher after a control step; True if its task just ended."""
+        watcher = self._watchers[i]
+        if not watcher.executing:
+            return False
+        state = watcher.after_step(
+            self.world.time, self.world.robot_states[i, :2], self.robot_list[i].odometer, bool(self._collided[i])
+        )
+        if state == WatcherState.COMPLETED:
+            self._completed[i] += 1
+            report = watcher.report
+            if self.operators[watcher.task.key].kind == "find_door":
+                self.clutter_estimate.observe(int(self._task_sector[i]), report.straight, report.travelled)
+                self.model.clutter[:] = self.clutter_estimate.values
+            return True
+        if state == WatcherState.FAILED:
+            self._failed[i] += 1
+            self.robot_list[i].set_command(0.0, 0.0)
+            return True
+        return False
+
+    def _sense(self) -> None:
+        """After a control step: sectors, places, door sightings, explored set, contacts, proximity."""
+        c = self.config
+        states = self.world.robot_states
+        pos = states[:, :2]
+        eps = 1e-3
+        r = self._rects
+        inside = (
+            (pos[:, None, 0] > r[None, :, 0] + eps)
+            & (pos[:, None, 0] < r[None, :, 2] - eps)
+            & (pos[:, None, 1] > r[None, :, 1] + eps)
+            & (pos[:, None, 1] < r[None, :, 3] - eps)
+        )
+        found = inside.any(axis=1)
+        self._sector[found] = inside[found].argmax(axis=1)
+        beliefs = self.model.door_open
+        if self.n_doors:
+            distance = np.linalg.norm(pos[:, None, :] - self._door_centres[None, :, :], axis=2)
+            near = distance < self._door_radii[None, :]
+            for j in np.flatnonzero(near.any(axis=0)).tolist():
+                beliefs[j] = 1.0 if self.doors[self.map.doors[j].id].is_open else 0.0
+            usable = near & (beliefs[None, :] > 0)
+            masked = np.where(usable, distance, np.inf)
+            at_door = usable.any(axis=1)
+            self._place = np.where(at_door, self.n_sectors + masked.argmin(axis=1), self._sector)
+        else:
+            self._place = self._sector.copy()
+        newly = np.zeros(self.n_sectors, dtype=bool)
+        newly[self._place[self._place < self.n_sectors]] = True
+        newly &= ~self.visited
+        self.visited |= newly
+        explored = int(np.count_nonzero(newly & self.goal))
+        self._reward += c.explore_reward * explored - c.time_penalty
+        if explored and self._all_explored() and math.isnan(self._explore_time):
+            self._explore_time = self.cycles * c.dt
+        self._collided[:] = False
+        for contact in self.world.contacts:
+            for name in (contact.a, contact.b):
+                i = self._index.get(name)
+                if i is not None:
+                    self._collisions[i] += 1
+                    self._collided[i] = True
+                    self._reward[i] -= c.collision_penalty
+        space, rng, read = self.world.space, self.np_random, self.ring.read
+        for i, robot in enumerate(self.robot_list):
+            x, y, theta = states[i, :3].tolist()
+            read(robot, space, rng, out=self._proximity[i], pose=(x, y, theta))
+
+    def _all_explored(self) -> bool:
+        return bool(np.all(self.visited[self.goal]))
+
+    def _update_masks(self) -> None:
+        if self.config.action_type != "operator":
+            return
+        for i, agent in enumerate(self.possible_agents):
+            mask = self.operator_set.admissible(int(self._place[i]), self.model.cost)
+            watcher = self._watchers[i]
+            if watcher.executing and watcher.task is not None:
+                mask[watcher.task.key] = 1
+            self._masks[i] = mask
+            self._action_spaces[agent].live_mask[:] = mask
+
+    def _evaluate(self) -> tuple[dict[str, float], dict[str, bool]]:
+        done = self._all_explored()
+        rewards = {a: float(self._reward[self._index[a]]) for a in self.agents}
+        return rewards, {a: done for a in self.agents}
+
+    # -- observations, metrics -------------------------------------------------------
+    def _observe(self, out: np.ndarray) -> None:
+        layout = self.layout
+        states = self.world.robot_states
+        for row, agent in enumerate(self.agents):
+            i = self._index[agent]
+            buffer = out[row]
+            buffer[0:3] = states[i, :3]
+            buffer[2] = math.remainder(float(states[i, 2]), 2 * math.pi)
+            theta = float(states[i, 2])
+            layout.view(buffer, "velocity")[:] = (states[i, 3] * math.cos(theta) + states[i, 4] * math.sin(theta), states[i, 5])
+            layout.view(buffer, "sector")[self._sector[i]] = 1.0
+            layout.view(buffer, "place")[self._place[i]] = 1.0
+            layout.view(buffer, "proximity")[:] = self._proximity[i]
+            mates = layout.view(buffer, "mates_place")
+            for row_m, j in enumerate(self._others[i].tolist()):
+                mates[row_m, self._place[j]] = 1.0
+            layout.view(buffer, "visited")[:] = self.visited
+            layout.view(buffer, "goal")[:] = self.goal
+            layout.view(buffer, "door_belief")[:] = self.model.door_open
+            layout.view(buffer, "clutter")[:] = self.model.clutter
+            watcher = self._watchers[i]
+            layout.view(buffer, "task_status")[int(watcher.state)] = 1.0
+            layout.view(buffer, "task")[0] = watcher.task.key if watcher.task is not None else -1
+
+    def _metrics(self, agent: str) -> dict[str, Any]:
+        i = self._index[agent]
+        office = self.map
+        explored = int(np.count_nonzero(self.visited & self.goal))
+        metrics: dict[str, Any] = {
+            "explored": explored,
+            "explored_fraction": explored / int(np.count_nonzero(self.goal)),
+            "explored_all": self._all_explored(),
+            "path_length": float(self.robot_list[i].odometer),
+            "team_path_length": float(sum(r.odometer for r in self.robot_list)),
+            "collisions": int(self._collisions[i]),
+            "sector": office.sector_ids[self._sector[i]],
+            "place": office.vertex_ids[self._place[i]],
+        }
+        if not math.isnan(self._explore_time):
+            metrics["explore_time"] = float(self._explore_time)
+        if self.config.action_type == "operator":
+            watcher = self._watchers[i]
+            metrics.update(
+                stages=int(self._stages),
+                tasks_completed=int(self._completed[i]),
+                tasks_failed=int(self._failed[i]),
+                task=watcher.task.name if watcher.task is not None else "",
+                task_status=WATCHER_STATES[int(watcher.state)],
+                task_reason=watcher.report.reason if watcher.report is not None else "",
+                action_mask=self._masks[i].copy(),
+            )
+        return metrics
+
+    def action_mask(self, agent: str) -> np.ndarray:
+        """The agent's current operator mask (int8, 1 = admissible); all ones for ``velocity``."""
+        if agent not in self._index:
+            raise KeyError(f"unknown agent {agent!r}; possible agents are {self.possible_agents}")
+        if self.world is None:
+            raise EpisodeOverError("action_mask() called before reset()")
+        if self.config.action_type != "operator":
+            raise ValueError("action masks exist for action_type='operator' only")
+        return self._masks[self._index[agent]].copy()
+
+    def action_masks(self) -> dict[str, np.ndarray]:
+        """Masks of the live agents (empty for the ``velocity`` action type)."""
+        if self.world is None or self.config.action_type != "operator":
+            return {}
+        return {a: self.action_mask(a) for a in self.agents}
+
+    def episode_success(self, final_infos: dict[str, dict[str, Any]]) -> bool:
+        """Every goal sector explored (used by ``baselines.evaluate``)."""
+        return bool(final_infos) and all(bool(info.get("explored_all", False)) for info in final_infos.values())
+
+    def state(self) -> np.ndarray:
+        if self.world is None:
+            raise RuntimeError("state() called before reset()")
+        states = self.world.robot_states
+        robots = np.column_stack([states[:, :3], self._place]).ravel()
+        doors = np.array([self.doors[d].is_open for d in self.map.door_ids], dtype=float)
+        parts = [robots, self.visited.astype(float), self.model.clutter, doors, self.model.door_open]
+        return np.concatenate(parts).astype(np.float32)
+
+    def _overlay(self) -> Overlay:
+        return Overlay(
+            points=[(s.centre, (190, 60, 60)) for s, seen, g in zip(self.map.sectors, self.visited, self.goal) if g and not seen]
+        )
+
+
+def parallel_env(render_mode: str | None = None, **config: Any) -> Exploration:
+    """The PettingZoo parallel env (same as ``teamgym.make("Exploration-v0", ...)``)."""
+    return Exploration(render_mode=render_mode, **config)
+
+
+def env(render_mode: str | None = None, **config: Any):
+    """The AEC form of the env, through PettingZoo's ``parallel_to_aec``."""
+    from pettingzoo.utils.conversions import parallel_to_aec
+
+    return parallel_to_aec(parallel_env(render_mode=render_mode, **config))

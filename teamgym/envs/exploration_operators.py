@@ -1,0 +1,256 @@
+"""The operators of paper 000 (sections 2.2 and 3.1) as the macro action type of ``Exploration-v0``.
+
+Every map gets a fixed list of operators: index 0 is Wait(), then FindDoor(D) for every
+door, TraverseDoor(D, S) for every door and each of its two sectors, and GoTo(S1, S2) for
+every ordered pair of sectors joined by an open passage. Preconditions (section 3.1), with
+x_i the robot's place (a sector, or a door object while the robot is inside its circle):
+
+* FindDoor(D):        x_i ∈ V_S, w(x_i, D) ≠ ∞
+* TraverseDoor(D, S): x_i = D,   w(D, S) ≠ ∞
+* GoTo(S1, S2):       x_i = S1,  w(S1, S2) ≠ ∞
+* Wait():             none
+
+Effects (eq. 6): x_i^{n+1} = D, S, S2 and x_i respectively. Each operator becomes a
+:class:`~teamgym.control.watcher.Task` for the behaviour-based controller: waypoints, a
+completion test, the behaviour priorities and the velocity limit (section 2.2).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+
+import numpy as np
+from gymnasium import spaces
+
+from teamgym.control.behaviour import DEFAULT_PRIORITIES, NARROW_PASSAGE, BehaviourParameters
+from teamgym.control.watcher import Task
+from teamgym.envs.actions import ActionType, CommandContext
+from teamgym.maps.model import OfficeMap, Point
+from teamgym.maps.validate import door_opening, shared_edge
+
+OPERATOR_KINDS = ("wait", "find_door", "traverse_door", "goto")
+
+
+@dataclass(frozen=True)
+class Operator:
+    """One operator with its arguments (ids of the map's doors and sectors)."""
+
+    index: int
+    kind: str
+    door: str | None = None
+    sector: str | None = None
+    origin: str | None = None
+
+    @property
+    def name(self) -> str:
+        if self.kind == "wait":
+            return "Wait()"
+        if self.kind == "find_door":
+            return f"FindDoor({self.door})"
+        if self.kind == "traverse_door":
+            return f"TraverseDoor({self.door},{self.sector})"
+        return f"GoTo({self.origin},{self.sector})"
+
+    @property
+    def short(self) -> str:
+        """The notation of the paper's Table 1: W(), FD(D), TD(D,S), GT(S)."""
+        if self.kind == "wait":
+            return "W()"
+        if self.kind == "find_door":
+            return f"FD({self.door})"
+        if self.kind == "traverse_door":
+            return f"TD({self.door},{self.sector})"
+        return f"GT({self.sector})"
+
+
+def enumerate_operators(office: OfficeMap) -> tuple[Operator, ...]:
+    """All operators of a map in action-index order (see the module docstring)."""
+    ops = [Operator(0, "wait")]
+    for d in office.doors:
+        ops.append(Operator(len(ops), "find_door", door=d.id))
+    for d in office.doors:
+        for s in d.sectors:
+            ops.append(Operator(len(ops), "traverse_door", door=d.id, sector=s))
+    for a, b in office.passages:
+        ops.append(Operator(len(ops), "goto", sector=b, origin=a))
+        ops.append(Operator(len(ops), "goto", sector=a, origin=b))
+    return tuple(ops)
+
+
+class OperatorSet:
+    """Preconditions and effects of a map's operators over vertex indices (sectors, then doors)."""
+
+    def __init__(self, office: OfficeMap) -> None:
+        self.map = office
+        self.operators = enumerate_operators(office)
+        self.index = {v: k for k, v in enumerate(office.vertex_ids)}
+        self.by_name = {op.name: op.index for op in self.operators}
+        self._targets = np.full(len(self.operators), -1, dtype=int)
+        self._by_place: dict[int, list[int]] = {}
+        for op in self.operators[1:]:
+            if op.kind == "find_door":
+                places = [self.index[s] for s in office.door(op.door).sectors]
+                target = self.index[op.door]
+            elif op.kind == "traverse_door":
+                places, target = [self.index[op.door]], self.index[op.sector]
+            else:
+                places, target = [self.index[op.origin]], self.index[op.sector]
+            self._targets[op.index] = target
+            for place in places:
+                self._by_place.setdefault(place, []).append(op.index)
+
+    def __len__(self) -> int:
+        return len(self.operators)
+
+    def next_place(self, op: int, place: int) -> int:
+        """x_i^{n+1} of eq. (6): where operator ``op`` takes a robot at vertex ``place``."""
+        return place if op == 0 else int(self._targets[op])
+
+    def candidates(self, place: int) -> list[int]:
+        """Operators whose place precondition holds at ``place`` (Wait first)."""
+        return [0, *self._by_place.get(place, [])]
+
+    def admissible(self, place: int, cost: Callable[[int, int], float]) -> np.ndarray:
+        """Action mask (int8, 1 = admissible) for a robot at vertex ``place``; ``cost`` is w of eq. (3)."""
+        mask = np.zeros(len(self.operators), dtype=np.int8)
+        for op in self.candidates(place):
+            if op == 0 or math.isfinite(cost(place, int(self._targets[op]))):
+                mask[op] = 1
+        return mask
+
+
+class OperatorSpace(spaces.Discrete):
+    """``Discrete(n)`` over operator indices whose ``sample()`` without a mask draws an admissible one.
+
+    The env keeps ``live_mask`` equal to the agent's current action mask (also in
+    ``infos[agent]["action_mask"]``); ``sample(mask=...)`` behaves as in gymnasium.
+    """
+
+    def __init__(self, n: int, seed: int | None = None) -> None:
+        super().__init__(n, seed=seed)
+        self.live_mask = np.ones(n, dtype=np.int8)
+
+    def sample(self, mask: np.ndarray | None = None, probability: np.ndarray | None = None):
+        if mask is None and probability is None:
+            mask = self.live_mask
+        return super().sample(mask=mask, probability=probability)
+
+
+class OperatorAction(ActionType):
+    """The paper's operators as macro actions; the env's controller executes them."""
+
+    name = "operator"
+
+    def __init__(self, operators: OperatorSet) -> None:
+        self.operators = operators
+
+    def space(self) -> OperatorSpace:
+        return OperatorSpace(len(self.operators))
+
+    def command(self, action, context: CommandContext) -> tuple[float, float]:
+        raise RuntimeError("operators are macro actions: Exploration-v0 runs them through its behaviour-based controller")
+
+
+class TaskFactory:
+    """Turns operators into controller tasks on a map (waypoints, completion tests, parameters).
+
+    ``door_open(door_id)`` reports a door's true state (a robot inside the door's circle sees
+    it), ``door_known_closed(door_id)`` whether the team knows it is closed (then a task using
+    the door fails with "door closed"); ``approach`` is how far in front of a door (m)
+    FindDoor aims, ``exit_margin`` how far past the door circle TraverseDoor ends.
+    """
+
+    def __init__(
+        self,
+        office: OfficeMap,
+        door_open: Callable[[str], bool],
+        door_known_closed: Callable[[str], bool],
+        robot_radius: float,
+        max_speed: float,
+        approach: float = 0.05,
+        exit_margin: float = 0.04,
+    ) -> None:
+        self.map = office
+        self.door_open = door_open
+        self.door_known_closed = door_known_closed
+        self.robot_radius = robot_radius
+        self.approach = approach
+        self.exit_margin = exit_margin
+        base = BehaviourParameters(v_max=max_speed)
+        passage = list(DEFAULT_PRIORITIES)
+        passage[NARROW_PASSAGE] = 0.95
+        self.params = {
+            "wait": base,
+            "find_door": base,
+            "traverse_door": replace(base, v_max=0.7 * max_speed, priorities=tuple(passage)),
+            "goto": base,
+        }
+
+    def normal(self, door_id: str, sector_id: str) -> Point:
+        """Unit normal of the door's wall pointing into ``sector_id``."""
+        axis, c, _, _ = door_opening(self.map, self.map.door(door_id))
+        s = self.map.sector(sector_id)
+        if axis == "x":
+            return (1.0, 0.0) if s.x_min >= c - 1e-9 else (-1.0, 0.0)
+        return (0.0, 1.0) if s.y_min >= c - 1e-9 else (0.0, -1.0)
+
+    def _point(self, door_id: str, sector_id: str, offset: float) -> Point:
+        cx, cy = self.map.door(door_id).centre
+        nx, ny = self.normal(door_id, sector_id)
+        return (cx + offset * nx, cy + offset * ny)
+
+    def make(self, op: Operator, sector: str) -> Task:
+        """The task for ``op`` given to a robot currently in sector ``sector``."""
+        params = self.params[op.kind]
+        if op.kind == "wait":
+            return Task(op.name, (), None, params, key=op.index)
+        office = self.map
+        if op.kind == "find_door":
+            door = office.door(op.door)
+            side = sector if sector in door.sectors else door.sectors[0]
+            inside = self._inside(door.centre, door.radius)
+            closed = self._closed_check(op.door, lambda x, y: inside(x, y) or self.door_known_closed(op.door))
+            return Task(
+                op.name,
+                (self._point(op.door, side, self.approach),),
+                lambda x, y: inside(x, y) and self.door_open(op.door),
+                params,
+                closed,
+                key=op.index,
+            )
+        if op.kind == "traverse_door":
+            door = office.door(op.door)
+            target = office.sector(op.sector)
+            exit_point = self._point(op.door, op.sector, door.radius + self.exit_margin)
+            waypoints = (exit_point,)
+            if sector != op.sector and sector in door.sectors:
+                waypoints = (self._point(op.door, sector, 0.6 * self.approach), exit_point)
+            inside = self._inside(door.centre, door.radius)
+            margin = 0.002
+            crossing = self._closed_check(op.door, lambda x, y: not target.contains(x, y, margin))
+            return Task(
+                op.name,
+                waypoints,
+                lambda x, y: target.contains(x, y, margin) and not inside(x, y),
+                params,
+                crossing,
+                key=op.index,
+            )
+        origin, target = office.sector(op.origin), office.sector(op.sector)
+        axis, c, lo, hi = shared_edge(origin, target)
+        middle = (c, 0.5 * (lo + hi)) if axis == "x" else (0.5 * (lo + hi), c)
+        r = self.robot_radius
+        return Task(op.name, (middle, target.centre), lambda x, y: target.contains(x, y, r), params, key=op.index)
+
+    @staticmethod
+    def _inside(centre: Point, radius: float) -> Callable[[float, float], bool]:
+        return lambda x, y: math.hypot(x - centre[0], y - centre[1]) < radius
+
+    def _closed_check(self, door_id: str, near: Callable[[float, float], bool]) -> Callable[[float, float], str | None]:
+        def check(x: float, y: float) -> str | None:
+            closed = self.door_known_closed(door_id) or not self.door_open(door_id)
+            return "door closed" if near(x, y) and closed else None
+
+        return check
