@@ -18,9 +18,16 @@ the global minimum, eq. (13).
 
 Choices where the paper is silent (docs/exploration.md; tests/test_nash_explore.py):
 
-* **M_U in eq. (11)** is evaluated in the state the joint action leads to: sectors some robot
-  enters in this stage no longer count as unexplored for anyone (``unexplored="after"``;
-  ``"before"`` uses M_G \\ M_V of stage n).
+* **The "nearest" unexplored object of eq. (11)** (the paper puts "nearest" in quotes). M_U
+  is evaluated in the state the joint action leads to (sectors some robot enters in this
+  stage are explored for everyone), and the robots' nearest objects are distinct: I_D is
+  the smallest Σ_i cost(x_i^{n+1}, u_i) over assignments of distinct unexplored objects u_i
+  to as many robots as there are objects; robots left without one add 0
+  (``unexplored="assigned"``, default). With plain per-robot nearest objects two robots
+  heading for the same room both count it (``"after"``: M_U after the action; ``"before"``:
+  M_G \\ M_V of stage n, the most literal reading). All three are compared in
+  ``experiments/paper000_exploration.py ablation``; "assigned" needs the fewest stages and
+  is the only one that lets a robot with nothing left to do wait, as the paper's robots do.
 * **Wait.** Eq. (9) has no w(x, x); we charge ``wait_cost`` (1 cm of travel) for idling, so
   that a move along a cheapest path to the nearest unexplored sector (which lowers I_D by
   exactly what it adds to I_E) is preferred to waiting, and waiting wins whenever moving
@@ -29,10 +36,10 @@ Choices where the paper is silent (docs/exploration.md; tests/test_nash_explore.
   the cheapest path cost when the two are no longer adjacent (e.g. a GoTo passing a door
   circle).
 * **R** is not given. With M_U taken after the action, entering a sector removes it from
-  every robot's nearest-unexplored search, so I_D can grow by up to N times the map's cost
-  diameter; with R smaller than that the team can prefer waiting forever (we saw it with
-  R = 1 and R = 5 on office12). Default R = (N + 1) × diameter (12.8 m-equivalents for three
-  robots on office12), which rules that out.
+  the robots' searches, so I_D can grow by up to N times the map's cost diameter; with R
+  smaller than that the team can prefer waiting forever (we saw it with R = 1 and R = 5 on
+  office12). Default R = (N + 1) × diameter (12.8 m-equivalents for three robots on
+  office12), which rules that out.
 
 Centralisation: the planner is the paper's coordinator, which knows every robot's place and
 the shared world model; it acts on the robots' observations and action masks only.
@@ -40,6 +47,7 @@ the shared world model; it acts on the robots' observations and action masks onl
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 from typing import Any
@@ -67,7 +75,7 @@ class NashExplore(Policy):
     wait_cost:
         w(x, x) charged for Wait() in eq. (9).
     unexplored:
-        ``"after"`` or ``"before"``: the M_U used by eq. (11) (see the module docstring).
+        ``"assigned"``, ``"after"`` or ``"before"``: the reading of eq. (11) (module docstring).
     selection:
         ``"arbiter"`` (eqs. 30–31 of the shared solver: the global minimum) or ``"first"``
         (the lexicographically first pure equilibrium, which may be only person-by-person
@@ -82,13 +90,13 @@ class NashExplore(Policy):
         env: Any,
         reward: float | None = None,
         wait_cost: float = 0.01,
-        unexplored: str = "after",
+        unexplored: str = "assigned",
         selection: str = "arbiter",
     ) -> None:
         super().__init__(env)
         check_operator_env(env, "nash-explore")
-        if unexplored not in ("after", "before"):
-            raise ValueError(f"unexplored must be 'after' or 'before', got {unexplored!r}")
+        if unexplored not in ("assigned", "after", "before"):
+            raise ValueError(f"unexplored must be 'assigned', 'after' or 'before', got {unexplored!r}")
         if selection not in ("arbiter", "first"):
             raise ValueError(f"selection must be 'arbiter' or 'first', got {selection!r}")
         if not ((reward is None or reward > 0) and wait_cost >= 0):
@@ -141,7 +149,7 @@ class NashExplore(Policy):
         k = same.sum(axis=2)
         i_r = np.where(explores, self.reward / k, 0.0).sum(axis=1)  # eq. (8)
         i_e = joint_energy.sum(axis=1)  # eq. (9)
-        i_d = self._nearest_unexplored(view, joint_next, explores).sum(axis=1)  # eqs. (10)-(11)
+        i_d = self._distance_term(view, joint_next)  # eqs. (10)-(11)
         return (-i_r + i_e + i_d).reshape(shape)
 
     def _energy(self, view: TeamView, i: int, candidates: np.ndarray, nxt: np.ndarray) -> np.ndarray:
@@ -156,14 +164,55 @@ class NashExplore(Policy):
                 out[c] = w if math.isfinite(w) else view.costs[place, target]
         return np.where(np.isfinite(out), out, UNREACHABLE)
 
-    def _nearest_unexplored(self, view: TeamView, joint_next: np.ndarray, explores: np.ndarray) -> np.ndarray:
-        """D_min,i of eq. (11) for every joint action and robot, shape (M, N)."""
-        unexplored = view.unexplored  # sector indices of M_G \ M_V
+    def _distance_term(self, view: TeamView, joint_next: np.ndarray) -> np.ndarray:
+        """I_D of eq. (11) for every joint action, shape (M,)."""
+        unexplored = view.unexplored  # sector indices of M_G \\ M_V
         if unexplored.size == 0:
-            return np.zeros(joint_next.shape)
+            return np.zeros(len(joint_next))
         to_u = view.costs[joint_next][:, :, unexplored]  # (M, N, U)
-        if self.unexplored == "after":
+        if self.unexplored != "before":
             entered = (joint_next[:, :, None] == unexplored[None, None, :]).any(axis=1)  # (M, U)
             to_u = np.where(entered[:, None, :], np.inf, to_u)
+        if self.unexplored == "assigned":
+            return assignment_cost(to_u)
         nearest = to_u.min(axis=2)
-        return np.where(np.isfinite(nearest), nearest, 0.0)
+        return np.where(np.isfinite(nearest), nearest, 0.0).sum(axis=1)
+
+
+@functools.lru_cache(maxsize=64)
+def _injections(n: int, m: int) -> np.ndarray:
+    """All injective maps from n robots to m columns, shape (K, n)."""
+    return np.array(list(itertools.permutations(range(m), n)), dtype=np.intp).reshape(-1, n)
+
+
+def assignment_cost(costs: np.ndarray) -> np.ndarray:
+    """Σ_i D_min,i with robots taking distinct objects: min over injective assignments, per joint action.
+
+    ``costs`` (M, N, U) holds the path cost from each robot's next place to each unexplored
+    object (inf: not available). As many robots as possible get an object (min(N, available));
+    the others contribute 0. Exact enumeration for small problems, else a greedy matching.
+    """
+    m, n, u = costs.shape
+    big = 1e3 * (1.0 + float(np.nanmax(np.where(np.isfinite(costs), costs, 0.0))))
+    padded = np.concatenate([np.where(np.isfinite(costs), costs - big, np.inf), np.zeros((m, n, n))], axis=2)
+    tuples = _injections(n, u + n)
+    if len(tuples) * m <= 4_000_000:
+        rows = np.arange(n)[None, :]
+        totals = padded[:, rows, tuples].sum(axis=2)  # (M, K)
+        best = totals.min(axis=1)
+    else:
+        best = np.array([_greedy_assignment(padded[k]) for k in range(m)])
+    used = np.round(-best / big)  # objects assigned (each contributed −big)
+    return best + used * big
+
+
+def _greedy_assignment(cost: np.ndarray) -> float:
+    cost = cost.copy()
+    total = 0.0
+    for _ in range(cost.shape[0]):
+        i, j = np.unravel_index(np.argmin(cost), cost.shape)
+        total += cost[i, j]
+        cost[i, :] = np.inf
+        if j < cost.shape[1] - cost.shape[0]:
+            cost[:, j] = np.inf
+    return total
