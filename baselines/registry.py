@@ -14,6 +14,8 @@ _POLICIES: dict[str, tuple[str, dict[str, Any]]] = {
     "random": ("baselines.policy:RandomPolicy", {}),
     "nash": ("baselines.nash_navigation:NashNavigation", {}),
     "nash-first": ("baselines.nash_navigation:NashNavigation", {"selection": "first"}),
+    "sbs": ("baselines.sbs:SituatedBehaviourSets", {}),
+    "sbs1": ("baselines.sbs:SituatedBehaviourSets", {"fixed_sbs": 1}),
     "nash-explore": ("baselines.nash_explore:NashExplore", {}),
     "greedy": ("baselines.exploration_policies:GreedyExplore", {}),
     "random-admissible": ("baselines.exploration_policies:RandomAdmissible", {}),

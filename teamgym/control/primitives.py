@@ -71,6 +71,8 @@ class PrimitiveParams:
     turn_rate: float = 5.0
     turn_step: float = math.radians(30.0)
     push_turn_rate: float = 0.6
+    centring_gain: float = 20.0
+    push_offset: float = 0.01
     direction_change_jitter: float = math.radians(30.0)
     side_offset: float = 0.07
     approach_distance: float = 0.12
@@ -172,11 +174,11 @@ class PrimitiveExecutor:
     def _one_cycle(self, primitive: Primitive) -> tuple[float, float]:
         p = self.params
         if primitive is Primitive.PUSH_STRAIGHT:
-            return p.push_speed, 0.0
+            return p.push_speed, self._centring()
         if primitive is Primitive.PUSH_CLOCKWISE:
-            return p.push_speed, p.push_turn_rate
+            return p.push_speed, self._centring(p.push_offset)
         if primitive is Primitive.PUSH_COUNTERCLOCKWISE:
-            return p.push_speed, -p.push_turn_rate
+            return p.push_speed, self._centring(-p.push_offset)
         if primitive is Primitive.TURN_LEFT:
             return 0.0, p.turn_step / p.dt
         if primitive is Primitive.TURN_RIGHT:
@@ -202,6 +204,13 @@ class PrimitiveExecutor:
 
     def _group_min(self, rays: tuple[int, ...]) -> float:
         return float(min(self._proximity[i] for i in rays))
+
+    def _centring(self, offset: float = 0.0) -> float:
+        """Turn rate that keeps the pushed object centred ahead: towards the side whose front rays read nearer."""
+        prox, reach = self._proximity, self.params.sensor_range
+        left = min(prox[1], prox[2], reach)
+        right = min(prox[3], prox[4], reach)
+        return float(np.clip(self.params.centring_gain * (right - left - offset), -self.params.turn_rate, self.params.turn_rate))
 
     def _front_gap(self) -> float:
         return self._group_min((2, 3))

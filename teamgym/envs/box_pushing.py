@@ -63,7 +63,7 @@ from teamgym.envs.spaces import ObservationLayout
 from teamgym.sim.categories import OPAQUE, Category
 from teamgym.sim.objects import Box
 from teamgym.sim.render import Overlay
-from teamgym.sim.robot import DiffDriveRobot, RobotSpec
+from teamgym.sim.robot import DiffDriveRobot, RobotSpec, body_command, wheel_speeds
 from teamgym.sim.sensors import KHEPERA_RING, LightSensor, ProximityRing
 from teamgym.sim.world import World
 
@@ -168,6 +168,18 @@ class BoxPushing(TeamEnv):
 
     def _command_context(self, agent: str) -> CommandContext:
         return PrimitiveContext(executor=self.executors[agent], rng=self.np_random)
+
+    def _before_physics(self) -> None:
+        """Motor noise: each wheel's commanded speed is scaled by 1 + N(0, ``motor_noise``²)."""
+        noise = self.config.motor_noise
+        if noise <= 0:
+            return
+        base = self.spec_robot.wheel_base
+        draws = self.np_random.normal(1.0, noise, size=(len(self.agents), 2))
+        for agent, (a, b) in zip(self.agents, draws.tolist()):
+            robot = self.robots[agent]
+            left, right = wheel_speeds(*robot.command, base)
+            robot.set_command(*body_command(left * a, right * b, base))
 
     def _evaluate(self) -> tuple[dict[str, float], dict[str, bool]]:
         c = self.config

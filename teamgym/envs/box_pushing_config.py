@@ -47,7 +47,7 @@ class Event:
 class BoxPushingConfig(EnvConfig):
     """Configuration of ``BoxPushing-v0`` (SI units; the few angles in config are radians)."""
 
-    max_cycles: int = 3000
+    max_cycles: int = 6000
     situation: Literal["custom", "S1", "S2", "S3", "S4"] = "custom"
     n_robots: int = 2
     n_light_boxes: int = 2
@@ -61,6 +61,7 @@ class BoxPushingConfig(EnvConfig):
     light_noise: float = 0.0
     sensor_range: float = 0.1
     sensor_noise: float = 0.0
+    motor_noise: float = 0.0
     object_threshold: float = 0.02
     max_wheel_speed: float = 0.4
     max_motor_force: float = 0.6
@@ -73,7 +74,7 @@ class BoxPushingConfig(EnvConfig):
     boxes_to_goal: int = 0
     goal_tolerance: float = 0.003
     action_type: Literal["primitives", "wheels"] = "primitives"
-    cruise_speed: float = 0.1
+    cruise_speed: float = 0.2
     push_speed: float = 0.08
     follow_speed: float = 0.1
     turn_rate: float = 5.0
@@ -112,7 +113,9 @@ class BoxPushingConfig(EnvConfig):
         require(self, "table_height", 0.4 <= self.table_height <= 10, "must be in [0.4, 10] m")
         for key in ("sensor_range", "object_threshold", "max_wheel_speed", "max_motor_force", "box_friction"):
             require(self, key, getattr(self, key) > 0, "must be > 0")
-        for key in ("light_noise", "sensor_noise", "box_margin", "goal_tolerance", "time_penalty", "success_bonus"):
+        non_negative = ("light_noise", "sensor_noise", "motor_noise", "box_margin", "goal_tolerance")
+        non_negative += ("time_penalty", "success_bonus")
+        for key in non_negative:
             require(self, key, getattr(self, key) >= 0, "must be >= 0")
         require(self, "object_threshold", self.object_threshold <= self.sensor_range, "must not exceed sensor_range")
         for key in ("cruise_speed", "push_speed", "follow_speed"):

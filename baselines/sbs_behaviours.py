@@ -1,0 +1,116 @@
+"""Behaviours B-1..B-19 and the situated behaviour sets SBS-1..SBS-4 of paper 004 (section 3).
+
+A behaviour is "if a state then an action": a conjunction of sensed states (negated with
+``¬``; B-10's disjunction is written as its own ``any`` clause) and a primitive action. The
+table below is the paper's text verbatim. When several behaviours of the active set apply,
+footnote 1 decides: (1) the more specific behaviour, the one with more conditions, then
+(2) the one with the younger (smaller) number.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from teamgym.control.primitives import Primitive
+
+
+@dataclass(frozen=True)
+class Behaviour:
+    """Behaviour ``number``: if every literal of ``all_of`` holds (and one of ``any_of``, if given) then ``action``."""
+
+    number: int
+    all_of: tuple[str, ...]
+    action: str
+    any_of: tuple[str, ...] = ()
+
+    @property
+    def specificity(self) -> int:
+        """Number of conditions (a disjunction counts as one)."""
+        return len(self.all_of) + (1 if self.any_of else 0)
+
+    def applies(self, facts: frozenset[str]) -> bool:
+        for literal in self.all_of:
+            if literal.startswith("¬"):
+                if literal[1:] in facts:
+                    return False
+            elif literal not in facts:
+                return False
+        return not self.any_of or any(literal in facts for literal in self.any_of)
+
+
+B = Behaviour
+#: B-1..B-19 as written in sections 3.2–3.4.
+BEHAVIOURS: dict[int, Behaviour] = {
+    b.number: b
+    for b in (
+        B(1, ("¬forward-object", "¬left-object", "¬right-object"), "go-ahead"),
+        B(2, ("forward-object", "no-rotation"), "direction-change"),
+        B(3, ("forward-object", "left-light"), "push-clockwise"),
+        B(4, ("forward-object", "forward-light"), "push-straight"),
+        B(5, ("forward-object", "right-light"), "push-counterclockwise"),
+        B(6, ("forward-object", "back-light"), "direction-change"),
+        B(7, ("forward-object", "back-object"), "stop"),
+        B(8, ("forward-light", "forward-object", "left-object"), "turn-right"),
+        B(9, ("forward-light", "forward-object", "right-object"), "turn-left"),
+        B(10, (), "following", ("left-robot", "right-robot")),
+        B(11, ("¬forward-robot", "back-robot"), "go-ahead"),
+        B(12, ("¬forward-robot", "back-robot-leaving"), "stop"),
+        B(13, ("forward-robot-leaving",), "following"),
+        B(14, ("forward-robot",), "stop"),
+        B(15, ("forward-object", "back-robot", "forward-light"), "push-straight"),
+        B(16, ("forward-object", "back-robot-leaving"), "following"),
+        B(17, ("forward-robot", "back-robot-leaving"), "following"),
+        B(18, ("forward-robot", "¬forward-light"), "direction-change"),
+        B(19, ("forward-robot", "forward-light"), "side&push"),
+    )
+}
+
+#: The behaviour numbers of each situated behaviour set (sections 3.2–3.5).
+SBS: dict[int, tuple[int, ...]] = {
+    1: (1, 2, 3, 4, 5),
+    2: tuple(range(1, 10)),
+    3: (1, 2, 3, 4, 5, *range(10, 20)),
+    4: (1, 2, 3, 4, 5),
+}
+
+ACTIONS: dict[str, Primitive] = {
+    "direction-change": Primitive.DIRECTION_CHANGE,
+    "push-clockwise": Primitive.PUSH_CLOCKWISE,
+    "push-counterclockwise": Primitive.PUSH_COUNTERCLOCKWISE,
+    "push-straight": Primitive.PUSH_STRAIGHT,
+    "turn-left": Primitive.TURN_LEFT,
+    "turn-right": Primitive.TURN_RIGHT,
+    "go-ahead": Primitive.GO_AHEAD,
+    "stop": Primitive.STOP,
+    "side&push": Primitive.SIDE_AND_PUSH,
+}
+_FOLLOW = {
+    "forward": Primitive.FOLLOW_FORWARD,
+    "left": Primitive.FOLLOW_LEFT,
+    "right": Primitive.FOLLOW_RIGHT,
+    "back": Primitive.FOLLOW_BACK,
+}
+
+
+def select(sbs: int, facts: frozenset[str]) -> Behaviour | None:
+    """The behaviour of SBS-``sbs`` that fires on ``facts`` (footnote 1), or None if none applies."""
+    best: Behaviour | None = None
+    for number in SBS[sbs]:
+        behaviour = BEHAVIOURS[number]
+        if behaviour.applies(facts) and (best is None or behaviour.specificity > best.specificity):
+            best = behaviour
+    return best
+
+
+def primitive_for(behaviour: Behaviour, facts: frozenset[str]) -> Primitive:
+    """The primitive that executes ``behaviour``'s action.
+
+    ``following`` moves towards the robot its condition names: B-10 the left (else right)
+    robot, B-13 forward, B-16 and B-17 back (section 3.4: "the direction in which another
+    robot was sensed or left").
+    """
+    if behaviour.action != "following":
+        return ACTIONS[behaviour.action]
+    literals = [x for x in (*behaviour.all_of, *behaviour.any_of) if x.endswith("-robot-leaving")]
+    literals += [x for x in behaviour.any_of if x in facts]
+    return _FOLLOW[literals[0].split("-", 1)[0]] if literals else Primitive.FOLLOW_FORWARD

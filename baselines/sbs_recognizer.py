@@ -1,0 +1,199 @@
+"""Per-robot situation recognizer of paper 004 (section 2.4) and the sensed states of section 3.
+
+Each robot recognizes its own situation from its own sensors; nothing is communicated.
+
+* **M** (another robot exists) becomes true when the proximity readings change while the
+  robot stands still (its wheels did not turn during the step): only robots move (AS-1).
+  **¬M** when no such change was seen for ``tm`` seconds.
+* **T** (no heavy box observed) becomes true when the robot pushes an object with its wheels
+  turning (AS-2: a robot pushing something immovable does not skid, so its wheels stop) for
+  ``push_cycles`` steps. **¬T** when it collides with immovable objects (stalls with an object
+  ahead) more than ``tt`` times in a row without such a push in between.
+* Situations: S1 = ¬M ∧ T, S2 = M ∧ T, S3 = M ∧ ¬T, S4 = ¬M ∧ ¬T. Initially ¬M ∧ T (nothing
+  observed yet: S1).
+
+Sensed states (section 3.1, 3.4), recomputed every step, with the sensor groups of Fig. 3
+(forward 1–4, left 0, right 5, back 6–7): ``X-object`` (a reading under the 20 mm object
+threshold in group X), ``X-light`` (the group holds the brightest light sensor), ``no-light``
+(all light readings within 10 % of each other), ``no-rotation`` (the motors were commanded
+to drive but the encoders showed at least 80 % slip for ``stall_cycles`` steps in a row),
+``X-robot`` (a robot recognized by the M check is sensed in group X) and
+``X-robot-leaving`` (a robot sensed in X stopped being sensed less than ``leaving_time`` s
+ago and none is sensed there now). A recognized robot is tracked as a bearing in the
+robot's frame, turned with the robot's own rotation (odometry) and moved to the nearest ray
+that still sees something within ``mark_width`` of it; when no such ray reads anything
+within sensor range, the robot has left.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from teamgym.control.primitives import BACK_RAYS, FORWARD_RAYS, LEFT_RAYS, RIGHT_RAYS
+from teamgym.sim.robot import wrap_angle
+
+GROUPS: dict[str, tuple[int, ...]] = {"forward": FORWARD_RAYS, "left": LEFT_RAYS, "right": RIGHT_RAYS, "back": BACK_RAYS}
+SITUATIONS = {(False, True): "S1", (True, True): "S2", (True, False): "S3", (False, False): "S4"}
+
+
+def group_of_bearing(bearing: float) -> str:
+    """Sensor group of a bearing (rad, CCW from the heading): forward within ±67.5°, back beyond ±135°."""
+    b = abs(float(wrap_angle(bearing)))
+    if b <= math.radians(67.5):
+        return "forward"
+    if b >= math.radians(135.0):
+        return "back"
+    return "left" if wrap_angle(bearing) > 0 else "right"
+
+
+@dataclass(frozen=True)
+class RecognizerParams:
+    """Thresholds and time constants of the recognizer (SI units; ``tt`` is a count)."""
+
+    dt: float = 0.1
+    object_threshold: float = 0.02
+    sensor_range: float = 0.1
+    tm: float = 60.0
+    tt: int = 5
+    change_threshold: float = 0.004
+    stall_slip: float = 0.8
+    stall_cycles: int = 3
+    push_cycles: int = 5
+    leaving_time: float = 3.0
+    mark_width: float = math.radians(60.0)
+    wheel_radius: float = 0.008
+    wheel_base: float = 0.053
+    ray_angles: tuple[float, ...] = ()
+
+
+@dataclass
+class Transition:
+    """A change of the recognized situation at ``time`` (s)."""
+
+    time: float
+    before: str
+    after: str
+
+
+@dataclass
+class SituationRecognizer:
+    """Recognizes M/T and the sensed states of one robot from its observations."""
+
+    params: RecognizerParams
+    m: bool = False
+    t: bool = True
+    time: float = 0.0
+    last_m_time: float = -math.inf
+    immovable_collisions: int = 0
+    transitions: list[Transition] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        self.marks: list[float] = []
+        self._leaving: dict[str, float] = {}
+        self._previous: np.ndarray | None = None
+        self._stall = 0
+        self._push = 0
+        self._angles = np.asarray(self.params.ray_angles, dtype=float)
+        self.facts: frozenset[str] = frozenset()
+
+    @property
+    def situation(self) -> str:
+        return SITUATIONS[(self.m, self.t)]
+
+    def update(self, proximity: np.ndarray, light: np.ndarray, encoders: np.ndarray) -> frozenset[str]:
+        """Process one step's readings; returns the set of sensed states that hold now."""
+        p = self.params
+        before = self.situation
+        self.time += p.dt
+        proximity = np.asarray(proximity, dtype=float)
+        commanded = float(encoders[0] + encoders[1])
+        actual_left, actual_right = float(encoders[2]), float(encoders[3])
+        turned = (actual_right - actual_left) * p.wheel_radius / p.wheel_base
+        still = abs(actual_left) + abs(actual_right) < 0.02
+        lost = abs(encoders[0] - actual_left) + abs(encoders[1] - actual_right)
+        slip = lost / (abs(encoders[0]) + abs(encoders[1])) if commanded > 1e-9 else 0.0
+        self._stall = self._stall + 1 if commanded > 1e-9 and slip > p.stall_slip else 0
+        objects = {g: bool(min(proximity[i] for i in rays) < p.object_threshold) for g, rays in GROUPS.items()}
+
+        self._track_marks(proximity, turned)
+        if still and self._previous is not None:
+            self._check_m(proximity)
+        if self.m and self.time - self.last_m_time > p.tm:
+            self.m = False
+        self._check_t(proximity, commanded, slip, objects["forward"])
+        self._previous = proximity.copy()
+
+        facts = {f"{g}-object" for g, hit in objects.items() if hit}
+        facts |= self._light_facts(np.asarray(light, dtype=float))
+        if self._stall >= p.stall_cycles:
+            facts.add("no-rotation")
+        robot_groups = {group_of_bearing(b) for b in self.marks}
+        facts |= {f"{g}-robot" for g in robot_groups}
+        facts |= {
+            f"{g}-robot-leaving"
+            for g, when in self._leaving.items()
+            if g not in robot_groups and self.time - when <= p.leaving_time
+        }
+        self.facts = frozenset(facts)
+        if self.situation != before:
+            self.transitions.append(Transition(self.time, before, self.situation))
+        return self.facts
+
+    # -- M ---------------------------------------------------------------------------------
+    def _check_m(self, proximity: np.ndarray) -> None:
+        """Standing still, a reading that changed means a moving object: another robot (AS-1)."""
+        p = self.params
+        previous = self._previous
+        changed = (np.abs(proximity - previous) > p.change_threshold) & (np.minimum(proximity, previous) < p.sensor_range)
+        for ray in np.flatnonzero(changed).tolist():
+            self.m = True
+            self.last_m_time = self.time
+            angle = float(self._angles[ray])
+            if proximity[ray] < p.sensor_range and all(abs(wrap_angle(angle - b)) > p.mark_width / 2 for b in self.marks):
+                self.marks.append(angle)
+
+    def _track_marks(self, proximity: np.ndarray, turned: float) -> None:
+        """Turn marks with the robot, move each to the nearest ray still seeing something, drop the rest."""
+        p = self.params
+        kept: list[float] = []
+        for bearing in self.marks:
+            bearing = float(wrap_angle(bearing - turned))
+            near = [
+                i
+                for i in range(len(self._angles))
+                if proximity[i] < p.sensor_range and abs(wrap_angle(self._angles[i] - bearing)) <= p.mark_width
+            ]
+            if not near:
+                self._leaving[group_of_bearing(bearing)] = self.time
+                continue
+            nearest = min(near, key=lambda i: abs(wrap_angle(self._angles[i] - bearing)))
+            bearing = float(self._angles[nearest])
+            if all(abs(wrap_angle(bearing - other)) > p.mark_width / 2 for other in kept):
+                kept.append(bearing)
+        self.marks = kept
+
+    # -- T ---------------------------------------------------------------------------------
+    def _check_t(self, proximity: np.ndarray, commanded: float, slip: float, forward_object: bool) -> None:
+        p = self.params
+        centre = min(proximity[2], proximity[3]) < p.object_threshold
+        pushing = commanded > 1e-9 and slip < 0.2 and centre
+        self._push = self._push + 1 if pushing else 0
+        if self._push >= p.push_cycles:
+            self.t = True
+            self.immovable_collisions = 0
+        if self._stall == p.stall_cycles and forward_object:
+            self.immovable_collisions += 1
+            if self.immovable_collisions > p.tt:
+                self.t = False
+
+    # -- light -----------------------------------------------------------------------------
+    @staticmethod
+    def _light_facts(light: np.ndarray) -> set[str]:
+        top = float(light.max())
+        if top <= 1e-12 or float(light.max() - light.min()) < 0.1 * top:
+            return {"no-light"}
+        brightest = int(np.argmax(light))
+        return {f"{g}-light" for g, rays in GROUPS.items() if brightest in rays}
