@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from baselines.exploration_planning import check_operator_env, team_view
+from baselines.exploration_planning import TeamView, check_operator_env, team_view
 from baselines.policy import Policy
 from teamgym.maps.topology import TopologicalModel
 
@@ -31,7 +31,10 @@ class GreedyExplore(Policy):
         self.model = TopologicalModel(env.map)
 
     def act(self, observations: dict[str, np.ndarray], infos: dict[str, dict] | None = None) -> dict[str, int]:
-        view = team_view(self.env, self.model, observations, infos)
+        return self.decide(team_view(self.env, self.model, observations, infos))
+
+    def decide(self, view: TeamView) -> dict[str, int]:
+        """Each robot's first operator on a cheapest path to its nearest unexplored goal sector."""
         unexplored = view.unexplored
         actions = {}
         for i, agent in enumerate(view.agents):

@@ -119,7 +119,10 @@ class NashExplore(Policy):
         return (n_robots + 1) * float(costs[np.isfinite(costs)].max(initial=1.0))
 
     def act(self, observations: dict[str, np.ndarray], infos: dict[str, dict] | None = None) -> dict[str, int]:
-        view = team_view(self.env, self.model, observations, infos)
+        return self.decide(team_view(self.env, self.model, observations, infos))
+
+    def decide(self, view: TeamView) -> dict[str, int]:
+        """The team's operators for one planning stage (eqs. 7–13)."""
         candidates = [np.flatnonzero(mask) for mask in view.masks]
         cost = self.team_cost(view, candidates)
         losses = np.broadcast_to(cost, (len(view.agents), *cost.shape))
