@@ -1,0 +1,389 @@
+"""Reproduce the experiments of paper 000 (sections 5.2-5.4) and compare exploration planners.
+
+    python experiments/paper000_exploration.py all --out results/paper000 [--seeds 100] [--workers 2]
+        [--figures docs/figures]
+
+Subcommands (each writes JSON and Markdown into ``--out``, figures into ``--out`` and, with
+``--figures``, also there):
+
+* ``maps``: drawings of the reconstructed office (Fig. 10) and laboratory (Fig. 12) maps.
+* ``p2p`` (section 5.2, Figs. 7-9): the behaviour-based controller drives one robot from
+  S(50, 650) mm to T(600, 350) mm in room S6 of the lab office; trajectory, behaviour
+  activations and controls over time.
+* ``table1`` (section 5.3, Table 1): three robots from sectors 4, 9, 2 of the 12-sector
+  office, door D3,6 closed (open with probability 0.2 in the model); ``nash-explore``'s
+  operator sequence per planning stage, with synchronous stages (``stage_end="all"``: the
+  paper's table has one operator per robot per stage) and with the asynchronous stages of
+  Fig. 5 (``"any"``); stage counts against the paper's 7.
+* ``table2`` (section 5.4, Table 2): two robots from sectors 5 and 6 of the lab office;
+  stage count against the paper's 11.
+* ``compare``: ``--seeds`` episodes with random start sectors and door samplings (seed i for
+  episode i) for nash-explore, greedy and random-admissible: success (all 12 sectors within
+  3000 control steps = 300 s), planning stages, time to full exploration, team path length.
+* ``ablation``: nash-explore's readings of eq. (11) and the two stage semantics on the same
+  seeds.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import shutil
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+import teamgym
+from baselines.evaluate import evaluate
+from baselines.registry import make_policy
+from teamgym.control.behaviour import BEHAVIOURS, STOP, BehaviourController
+from teamgym.maps import load_map
+from teamgym.maps.build import build_world
+from teamgym.maps.plot import draw_map, save_map_figure
+from teamgym.sim import KHEPERA_RING, DiffDriveRobot, ProximityRing, World
+
+PAPER_TABLE1 = [
+    ("FD(D3,4)", "FD(D9,10)", "FD(D1,2_1)"),
+    ("TD(D3,4,S3)", "TD(D9,10,S10)", "TD(D1,2_1,S1)"),
+    ("FD(D2,3)", "FD(D10,11)", "FD(D1,8)"),
+    ("TD(D2,3,S2)", "TD(D10,11,S11)", "TD(D1,8,S8)"),
+    ("W()", "FD(D11,12)", "GT(S7)"),
+    ("W()", "TD(D10,11,S12)", "GT(S6)"),
+    ("W()", "W()", "GT(S5)"),
+]
+PAPER_TABLE2 = [
+    ("GoTo(S4)", "FindDoor(D4)"),
+    ("GoTo(S4)", "TraverseDoor(D4,S8)"),
+    ("FindDoor(D3)", "TraverseDoor(D4,S8)"),
+    ("FindDoor(D3)", "FindDoor(D6)"),
+    ("TraverseDoor(D3,S1)", "FindDoor(D6)"),
+    ("FindDoor(D1)", "FindDoor(D6)"),
+    ("FindDoor(D1)", "TraverseDoor(D6,S7)"),
+    ("FindDoor(D1)", "Wait()"),
+    ("TraverseDoor(D1,S2)", "Wait()"),
+    ("FindDoor(D2)", "Wait()"),
+    ("TraverseDoor(D2,S3)", "Wait()"),
+]
+TABLE1_SETTING = {"start_sectors": ("S4", "S9", "S2"), "start_positions": "centre", "closed_doors": ("D3,6",)}
+TABLE2_SETTING = {"map": "lab7", "n_robots": 2, "start_sectors": ("S5", "S6"), "start_positions": "centre"}
+POLICIES = ("nash-explore", "greedy", "random-admissible")
+
+
+def _figure(width: float, height: float):
+    from matplotlib.figure import Figure
+
+    return Figure(figsize=(width, height))
+
+
+def _save(fig, name: str, out: Path, figures: Path | None) -> None:
+    fig.tight_layout()
+    fig.savefig(out / name, dpi=110)
+    if figures is not None:
+        figures.mkdir(parents=True, exist_ok=True)
+        shutil.copy(out / name, figures / name)
+
+
+# -- maps ----------------------------------------------------------------------------------------
+def experiment_maps(out: Path, figures: Path | None, seeds: int, workers: int) -> dict:
+    rows = []
+    for name, title in (
+        ("office12", "office12: paper 000, Fig. 10 (reconstructed)"),
+        ("lab7", "lab7: paper 000, Fig. 12 (reconstructed)"),
+    ):
+        office = load_map(name)
+        save_map_figure(office, out / f"map_{name}.png", title)
+        if figures is not None:
+            figures.mkdir(parents=True, exist_ok=True)
+            shutil.copy(out / f"map_{name}.png", figures / f"map_{name}.png")
+        rows.append(
+            {
+                "map": name,
+                "size_mm": f"{office.size[0] * 1000:.0f} x {office.size[1] * 1000:.0f}",
+                "sectors": len(office.sectors),
+                "doors": len(office.doors),
+                "furniture": len(office.furniture),
+            }
+        )
+    return {"rows": rows}
+
+
+# -- section 5.2 ---------------------------------------------------------------------------------
+def experiment_p2p(out: Path, figures: Path | None, seeds: int, workers: int) -> dict:
+    office = load_map("lab7")
+    world = World(office.size)
+    build_world(office, world)
+    start, target = (0.05, 0.65), (0.6, 0.35)
+    robot = world.add(DiffDriveRobot("robot", start, 0.0))
+    ring = ProximityRing(KHEPERA_RING, 0.1)
+    controller = BehaviourController()
+    path, activations, winners, controls, contacts = [start], [], [], [], 0
+    for _ in range(600):
+        step = controller.step(robot.pose, ring.read(robot, world.space), target)
+        activations.append(step.activations)
+        winners.append(step.winner)
+        controls.append(step.command)
+        robot.set_command(*step.command)
+        world.step()
+        contacts += len(world.contacts_of("robot"))
+        path.append(robot.position)
+        if step.winner == STOP:
+            break
+    activations, controls, path = np.array(activations), np.array(controls), np.array(path)
+    t = 0.1 * np.arange(len(activations))
+    fig = _figure(5.5, 6)
+    ax = fig.add_subplot(1, 1, 1)
+    draw_map(office, ax, labels=True)
+    ax.plot(path[:, 0] * 1000, path[:, 1] * 1000, color="C0", lw=1.8)
+    ax.plot(start[0] * 1000, start[1] * 1000, "o", color="C0")
+    ax.plot(target[0] * 1000, target[1] * 1000, "x", color="C3", ms=10)
+    ax.set_title("Section 5.2 (Fig. 7): S(50, 650) mm to T(600, 350) mm")
+    _save(fig, "p2p_trajectory.png", out, figures)
+    fig = _figure(8, 6)
+    for k, name in enumerate(BEHAVIOURS):
+        ax = fig.add_subplot(len(BEHAVIOURS) + 1, 1, k + 1)
+        ax.plot(t, activations[:, k], color=f"C{k}")
+        ax.fill_between(t, 0, 1, where=np.array(winners) == k, color=f"C{k}", alpha=0.2, step="mid")
+        ax.set_ylim(-0.05, 1.05)
+        ax.set_ylabel(name.replace("_", "\n"), fontsize=7, rotation=0, ha="right", va="center")
+        ax.tick_params(labelsize=6, labelbottom=False)
+    ax = fig.add_subplot(len(BEHAVIOURS) + 1, 1, len(BEHAVIOURS) + 1)
+    ax.step(t, winners, where="mid", color="k")
+    ax.set_yticks(range(len(BEHAVIOURS)), [b[:6] for b in BEHAVIOURS], fontsize=6)
+    ax.set_xlabel("time (s), sample time 0.1 s")
+    fig.suptitle("Section 5.2 (Fig. 8): behaviour activations a_i (shaded: winner of eq. 5)", fontsize=9)
+    _save(fig, "p2p_activations.png", out, figures)
+    fig = _figure(8, 3.5)
+    for k, label in enumerate(("v (m/s)", "ω (rad/s)")):
+        ax = fig.add_subplot(2, 1, k + 1)
+        ax.plot(t, controls[:, k])
+        ax.set_ylabel(label)
+    ax.set_xlabel("time (s)")
+    fig.suptitle("Section 5.2 (Fig. 9): controls of eq. (6)", fontsize=9)
+    _save(fig, "p2p_controls.png", out, figures)
+    length = float(np.sum(np.linalg.norm(np.diff(path, axis=0), axis=1)))
+    share = {BEHAVIOURS[k]: round(float(np.mean(np.array(winners) == k)), 3) for k in range(len(BEHAVIOURS))}
+    row = {
+        "reached (within 2.5 cm)": bool(math.dist(path[-1], target) < 0.025),
+        "final distance (mm)": round(1000 * math.dist(path[-1], target), 1),
+        "time (s)": round(float(t[-1] + 0.1), 1),
+        "path length (m)": round(length, 3),
+        "straight line (m)": round(math.dist(start, target), 3),
+        "contacts": contacts,
+    }
+    return {"rows": [row], "winner_share": share}
+
+
+# -- sections 5.3 and 5.4 --------------------------------------------------------------------------
+def operator_sequence(config: dict[str, Any], policy_name: str = "nash-explore", seed: int = 0, **policy_kwargs: Any) -> dict:
+    """Play one operator episode; return the operator names per stage and the final metrics."""
+    env = teamgym.make("Exploration-v0", action_type="operator", **config)
+    policy = make_policy(policy_name, env, **policy_kwargs)
+    observations, infos = env.reset(seed=seed)
+    policy.reset(seed)
+    rows, explored = [], []
+    while env.agents:
+        actions = policy.act(observations, infos)
+        rows.append([env.operators[actions[a]] for a in env.agents])
+        observations, _, _, _, infos = env.step(actions)
+        explored.append(int(infos["robot_0"]["explored"]))
+    final = infos["robot_0"]
+    return {
+        "short": [[op.short for op in row] for row in rows],
+        "long": [[op.name for op in row] for row in rows],
+        "explored": explored,
+        "success": bool(final["explored_all"]),
+        "stages": int(final["stages"]),
+        "explore_time_s": final.get("explore_time"),
+        "team_path_length_m": round(float(final["team_path_length"]), 3),
+        "tasks_failed": [int(infos[a]["tasks_failed"]) for a in env.possible_agents],
+        "trajectories": env.trajectories(),
+    }
+
+
+def _sequence_table(rows: list[list[str]], paper: list[tuple[str, ...]], explored: list[int]) -> str:
+    n = len(rows[0]) if rows else len(paper[0])
+    head = (
+        "| n | "
+        + " | ".join(f"robot {i + 1}" for i in range(n))
+        + " | explored | paper: "
+        + " | ".join(f"robot {i + 1}" for i in range(n))
+        + " |"
+    )
+    lines = [head, "|" + "---|" * (2 * n + 2)]
+    for k in range(max(len(rows), len(paper))):
+        ours = rows[k] if k < len(rows) else [""] * n
+        theirs = paper[k] if k < len(paper) else ("",) * n
+        seen = str(explored[k]) if k < len(explored) else ""
+        lines.append(f"| {k + 1} | " + " | ".join(ours) + f" | {seen} | " + " | ".join(theirs) + " |")
+    return "\n".join(lines)
+
+
+def _plot_episode(path: Path, map_name: str, result: dict, title: str, figures: Path | None, out: Path) -> None:
+    fig = _figure(7, 5.5)
+    ax = fig.add_subplot(1, 1, 1)
+    draw_map(load_map(map_name), ax, labels=True)
+    for i, points in enumerate(result["trajectories"].values()):
+        pts = np.asarray(points) * 1000
+        ax.plot(pts[:, 0], pts[:, 1], color=f"C{i}", lw=1.6, label=f"robot {i + 1}")
+        ax.plot(*pts[0], "o", color=f"C{i}")
+    ax.legend(fontsize=7, loc="upper right")
+    ax.set_title(title, fontsize=9)
+    _save(fig, path.name, out, figures)
+
+
+def experiment_table1(out: Path, figures: Path | None, seeds: int, workers: int) -> dict:
+    result: dict[str, Any] = {"rows": [], "tables": {}}
+    for stage_end in ("all", "any"):
+        run = operator_sequence({**TABLE1_SETTING, "stage_end": stage_end})
+        result["tables"][stage_end] = _sequence_table(run["short"], PAPER_TABLE1, run["explored"])
+        result["rows"].append(
+            {
+                "stage_end": stage_end,
+                "stages": run["stages"],
+                "paper stages": len(PAPER_TABLE1),
+                "success": run["success"],
+                "explore_time_s": run["explore_time_s"],
+                "team_path_length_m": run["team_path_length_m"],
+                "tasks_failed": sum(run["tasks_failed"]),
+            }
+        )
+        if stage_end == "all":
+            _plot_episode(
+                out / "table1_trajectories.png",
+                "office12",
+                run,
+                "Section 5.3: nash-explore from S4, S9, S2 (D3,6 closed)",
+                figures,
+                out,
+            )
+    return result
+
+
+def experiment_table2(out: Path, figures: Path | None, seeds: int, workers: int) -> dict:
+    result: dict[str, Any] = {"rows": [], "tables": {}}
+    for stage_end in ("any", "all"):
+        run = operator_sequence({**TABLE2_SETTING, "stage_end": stage_end})
+        result["tables"][stage_end] = _sequence_table(run["long"], PAPER_TABLE2, run["explored"])
+        result["rows"].append(
+            {
+                "stage_end": stage_end,
+                "stages": run["stages"],
+                "paper stages": len(PAPER_TABLE2),
+                "success": run["success"],
+                "explore_time_s": run["explore_time_s"],
+                "team_path_length_m": run["team_path_length_m"],
+                "tasks_failed": sum(run["tasks_failed"]),
+            }
+        )
+        if stage_end == "any":
+            _plot_episode(out / "table2_trajectories.png", "lab7", run, "Section 5.4: nash-explore from S5, S6", figures, out)
+    return result
+
+
+# -- comparison over seeds ---------------------------------------------------------------------
+def _summary(name: str, results: list) -> dict:
+    first = [next(iter(r.metrics.values())) for r in results]
+    success = [r.success for r in results]
+    stages = [m["stages"] for m in first]
+    times = [m["explore_time"] for m, ok in zip(first, success) if ok]
+    return {
+        "policy": name,
+        "episodes": len(results),
+        "success": float(np.mean(success)),
+        "stages (mean, all)": float(np.mean(stages)),
+        "stages (successful)": float(np.mean([s for s, ok in zip(stages, success) if ok])) if times else math.nan,
+        "stages (median)": float(np.median(stages)),
+        "time to full exploration (s)": float(np.mean(times)) if times else math.nan,
+        "team path length (m)": float(np.mean([m["team_path_length"] for m in first])),
+        "explored fraction": float(np.mean([m["explored_fraction"] for m in first])),
+        "failed tasks / episode": float(np.mean([sum(x["tasks_failed"] for x in r.metrics.values()) for r in results])),
+    }
+
+
+def experiment_compare(out: Path, figures: Path | None, seeds: int, workers: int) -> dict:
+    rows = []
+    for name in POLICIES:
+        started = time.perf_counter()
+        results = evaluate("Exploration-v0", name, episodes=seeds, seed=0, workers=workers)
+        row = _summary(name, results)
+        row["wall (s)"] = round(time.perf_counter() - started, 1)
+        rows.append(row)
+        print(f"  {name}: {row}", flush=True)
+    return {"rows": rows}
+
+
+def experiment_ablation(out: Path, figures: Path | None, seeds: int, workers: int) -> dict:
+    rows = []
+    variants = [
+        ("assigned (default)", {}, {}),
+        ("after", {"unexplored": "after"}, {}),
+        ("before (literal)", {"unexplored": "before"}, {}),
+        ("assigned, stage_end=all", {}, {"stage_end": "all"}),
+        ("assigned, selection=first", {"selection": "first"}, {}),
+    ]
+    for label, policy_kwargs, config in variants:
+        runs = [operator_sequence(config, "nash-explore", s, **policy_kwargs) for s in range(seeds)]
+        ok = [r["success"] for r in runs]
+        rows.append(
+            {
+                "variant": label,
+                "success": float(np.mean(ok)),
+                "stages": float(np.mean([r["stages"] for r in runs])),
+                "time to full exploration (s)": float(np.mean([r["explore_time_s"] for r in runs if r["success"]]))
+                if any(ok)
+                else math.nan,
+                "team path length (m)": float(np.mean([r["team_path_length_m"] for r in runs])),
+            }
+        )
+        print(f"  {rows[-1]}", flush=True)
+    return {"rows": rows}
+
+
+# -- CLI -----------------------------------------------------------------------------------------
+def markdown_table(rows: list[dict]) -> str:
+    keys = list(rows[0])
+    lines = ["| " + " | ".join(keys) + " |", "|" + "---|" * len(keys)]
+    for row in rows:
+        cells = [f"{v:.3g}" if isinstance(v, float) else str(v) for v in row.values()]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+EXPERIMENTS = {
+    "maps": experiment_maps,
+    "p2p": experiment_p2p,
+    "table1": experiment_table1,
+    "table2": experiment_table2,
+    "compare": experiment_compare,
+    "ablation": experiment_ablation,
+}
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description="Reproduce paper 000's experiments (sections 5.2-5.4) and compare planners.")
+    parser.add_argument("experiment", choices=[*EXPERIMENTS, "all"])
+    parser.add_argument("--out", type=Path, default=Path("results/paper000"))
+    parser.add_argument("--seeds", type=int, default=100, help="episodes (seeds 0..N-1) for compare and ablation")
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--figures", type=Path, default=None, help="also copy the figures here (e.g. docs/figures)")
+    args = parser.parse_args(argv)
+    args.out.mkdir(parents=True, exist_ok=True)
+    names = list(EXPERIMENTS) if args.experiment == "all" else [args.experiment]
+    for name in names:
+        result = EXPERIMENTS[name](args.out, args.figures, args.seeds, args.workers)
+        serialisable = {k: v for k, v in result.items() if k != "trajectories"}
+        (args.out / f"{name}.json").write_text(json.dumps(serialisable, indent=2, default=str))
+        text = f"## {name}\n\n{markdown_table(result['rows'])}\n"
+        for key, table in result.get("tables", {}).items():
+            text += f"\nstage_end={key}:\n\n{table}\n"
+        if "winner_share" in result:
+            text += "\nShare of control steps won by each behaviour: " + json.dumps(result["winner_share"]) + "\n"
+        (args.out / f"{name}.md").write_text(text)
+        print(text, flush=True)
+
+
+if __name__ == "__main__":
+    main()
