@@ -118,20 +118,18 @@ def experiment_p2p(out: Path, figures: Path | None, seeds: int, workers: int) ->
     start, target = (0.05, 0.65), (0.6, 0.35)
     robot = world.add(DiffDriveRobot("robot", start, 0.0))
     ring = ProximityRing(KHEPERA_RING, 0.1)
-    controller = BehaviourController()
-    path, activations, winners, controls, contacts = [start], [], [], [], 0
+    controller = BehaviourController(record=True)
+    path, contacts = [start], 0
     for _ in range(600):
         step = controller.step(robot.pose, ring.read(robot, world.space), target)
-        activations.append(step.activations)
-        winners.append(step.winner)
-        controls.append(step.command)
         robot.set_command(*step.command)
         world.step()
         contacts += len(world.contacts_of("robot"))
         path.append(robot.position)
         if step.winner == STOP:
             break
-    activations, controls, path = np.array(activations), np.array(controls), np.array(path)
+    activations, winners, controls = controller.activation_history()
+    path = np.array(path)
     t = 0.1 * np.arange(len(activations))
     fig = _figure(5.5, 6)
     ax = fig.add_subplot(1, 1, 1)
@@ -145,7 +143,7 @@ def experiment_p2p(out: Path, figures: Path | None, seeds: int, workers: int) ->
     for k, name in enumerate(BEHAVIOURS):
         ax = fig.add_subplot(len(BEHAVIOURS) + 1, 1, k + 1)
         ax.plot(t, activations[:, k], color=f"C{k}")
-        ax.fill_between(t, 0, 1, where=np.array(winners) == k, color=f"C{k}", alpha=0.2, step="mid")
+        ax.fill_between(t, 0, 1, where=winners == k, color=f"C{k}", alpha=0.2, step="mid")
         ax.set_ylim(-0.05, 1.05)
         ax.set_ylabel(name.replace("_", "\n"), fontsize=7, rotation=0, ha="right", va="center")
         ax.tick_params(labelsize=6, labelbottom=False)
@@ -165,7 +163,7 @@ def experiment_p2p(out: Path, figures: Path | None, seeds: int, workers: int) ->
     fig.suptitle("Section 5.2 (Fig. 9): controls of eq. (6)", fontsize=9)
     _save(fig, "p2p_controls.png", out, figures)
     length = float(np.sum(np.linalg.norm(np.diff(path, axis=0), axis=1)))
-    share = {BEHAVIOURS[k]: round(float(np.mean(np.array(winners) == k)), 3) for k in range(len(BEHAVIOURS))}
+    share = {BEHAVIOURS[k]: round(float(np.mean(winners == k)), 3) for k in range(len(BEHAVIOURS))}
     row = {
         "reached (within 2.5 cm)": bool(math.dist(path[-1], target) < 0.025),
         "final distance (mm)": round(1000 * math.dist(path[-1], target), 1),

@@ -202,18 +202,19 @@ def point_to_point(steps=300):
     build_world(office, world)
     robot = world.add(DiffDriveRobot("robot", (0.05, 0.65), 0.0))
     ring = ProximityRing(KHEPERA_RING, 0.1)
-    ctl = BehaviourController()
+    ctl = BehaviourController(record=True)
     target = (0.6, 0.35)
-    winners, contacts = [], 0
+    contacts = 0
     for _ in range(steps):
         out = ctl.step(robot.pose, ring.read(robot, world.space), target)
-        winners.append(out.winner)
         robot.set_command(*out.command)
         world.step()
         contacts += len(world.contacts_of("robot"))
         if out.winner == STOP:
             break
-    return robot, winners, contacts
+    activations, winners, commands = ctl.activation_history()
+    assert activations.shape == (len(ctl.history), 7) and commands.shape == (len(ctl.history), 2)
+    return robot, winners.tolist(), contacts
 
 
 def test_point_to_point_reaches_the_target_without_collision():

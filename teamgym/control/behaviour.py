@@ -100,13 +100,30 @@ class BehaviourStep:
 
 @dataclass
 class BehaviourController:
-    """The controller of Fig. 3 for one robot; ``step`` is called once per control step."""
+    """The controller of Fig. 3 for one robot; ``step`` is called once per control step.
+
+    With ``record=True`` every :class:`BehaviourStep` is appended to ``history`` (the
+    activation time plots of Fig. 8; :meth:`activation_history` stacks them).
+    """
 
     params: BehaviourParameters = field(default_factory=BehaviourParameters)
+    record: bool = False
+    history: list[BehaviourStep] = field(default_factory=list)
     _turn: float = 0.0
 
     def reset(self) -> None:
         self._turn = 0.0
+        self.history.clear()
+
+    def activation_history(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(activations (T, 7), winners (T,), commands (T, 2))`` of the recorded steps."""
+        if not self.history:
+            return np.zeros((0, len(BEHAVIOURS))), np.zeros(0, dtype=int), np.zeros((0, 2))
+        return (
+            np.array([h.activations for h in self.history]),
+            np.array([h.winner for h in self.history]),
+            np.array([h.command for h in self.history]),
+        )
 
     def activations(
         self, pose: tuple[float, float, float], proximity: np.ndarray, target: tuple[float, float] | None, collided: bool = False
@@ -157,7 +174,10 @@ class BehaviourController:
         if k != AVOID_FRONT:
             self._turn = 0.0
         command = self._control(k, float(a[k]), pose, proximity, target)
-        return BehaviourStep(a, weighted, k, command)
+        out = BehaviourStep(a, weighted, k, command)
+        if self.record:
+            self.history.append(out)
+        return out
 
     def _control(
         self, k: int, a: float, pose: tuple[float, float, float], proximity: np.ndarray, target: tuple[float, float] | None
