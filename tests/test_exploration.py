@@ -150,6 +150,7 @@ def test_spaces_and_layout():
         "sector": (s,),
         "place": (v,),
         "proximity": (8,),
+        "mates_sector": (2, s),
         "mates_place": (2, v),
         "visited": (s,),
         "goal": (s,),
@@ -159,6 +160,7 @@ def test_spaces_and_layout():
         "task": (1,),
     }
     assert fields["sector"].sum() == 1 and fields["place"].sum() == 1 and fields["mates_place"].sum() == 2
+    assert fields["mates_sector"].sum() == 2
     assert fields["task_status"][WatcherState.WAITING] == 1 and fields["task"][0] == -1
     np.testing.assert_allclose(fields["clutter"], [0.7, 0, 0.1, 0.6, 0, 0, 0, 0, 0.2, 0, 0.3, 0.2], atol=1e-6)
     assert fields["door_belief"][ALL_DOORS.index("D3,6")] == pytest.approx(0.2)

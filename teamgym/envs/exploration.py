@@ -32,6 +32,7 @@ field             shape         meaning
 ``sector``        (S,)          one-hot: the sector the robot is in
 ``place``         (V,)          one-hot: x_i, the robot's place (a door while inside its circle)
 ``proximity``     (8,)          Khepera ring distances (m), ``sensor_range`` if free
+``mates_sector``  (N−1, S)      one-hot sectors of the team mates
 ``mates_place``   (N−1, V)      one-hot places of the team mates (the coordinator's state X)
 ``visited``       (S,)          M_V: explored sectors (shared by the coordinator)
 ``goal``          (S,)          M_G
@@ -204,6 +205,7 @@ class Exploration(TeamEnv):
                 ("sector", (s,)),
                 ("place", (s + d,)),
                 ("proximity", (len(KHEPERA_RING),)),
+                ("mates_sector", (n - 1, s)),
                 ("mates_place", (n - 1, s + d)),
                 ("visited", (s,)),
                 ("goal", (s,)),
@@ -496,8 +498,10 @@ class Exploration(TeamEnv):
             layout.view(buffer, "sector")[self._sector[i]] = 1.0
             layout.view(buffer, "place")[self._place[i]] = 1.0
             layout.view(buffer, "proximity")[:] = self._proximity[i]
+            mates_sector = layout.view(buffer, "mates_sector")
             mates = layout.view(buffer, "mates_place")
             for row_m, j in enumerate(self._others[i].tolist()):
+                mates_sector[row_m, self._sector[j]] = 1.0
                 mates[row_m, self._place[j]] = 1.0
             layout.view(buffer, "visited")[:] = self.visited
             layout.view(buffer, "goal")[:] = self.goal
