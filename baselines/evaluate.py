@@ -316,6 +316,16 @@ def summarise(results: Sequence[EpisodeResult]) -> dict[str, Any]:
     return summary
 
 
+def markdown_table(rows: Sequence[Mapping[str, Any]]) -> str:
+    """A Markdown table of dict rows (keys of the first row as columns; floats to 3 significant digits)."""
+    keys = list(rows[0])
+    lines = ["| " + " | ".join(keys) + " |", "|" + "---|" * len(keys)]
+    for row in rows:
+        cells = [f"{row[k]:.3g}" if isinstance(row[k], float) else str(row[k]) for k in keys]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
 def summary_table(summary: Mapping[str, Any], title: str | None = None) -> str:
     """A plain-text, column-aligned table of a :func:`summarise` result."""
 

@@ -37,7 +37,7 @@ from typing import Any
 import numpy as np
 
 import teamgym
-from baselines.evaluate import evaluate
+from baselines.evaluate import evaluate, markdown_table
 from baselines.registry import make_policy
 from teamgym.control.behaviour import BEHAVIOURS, STOP, BehaviourController
 from teamgym.maps import load_map
@@ -342,15 +342,6 @@ def experiment_ablation(out: Path, figures: Path | None, seeds: int, workers: in
 
 
 # -- CLI -----------------------------------------------------------------------------------------
-def markdown_table(rows: list[dict]) -> str:
-    keys = list(rows[0])
-    lines = ["| " + " | ".join(keys) + " |", "|" + "---|" * len(keys)]
-    for row in rows:
-        cells = [f"{v:.3g}" if isinstance(v, float) else str(v) for v in row.values()]
-        lines.append("| " + " | ".join(cells) + " |")
-    return "\n".join(lines)
-
-
 EXPERIMENTS = {
     "maps": experiment_maps,
     "p2p": experiment_p2p,

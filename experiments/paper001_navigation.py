@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 
 import teamgym
+from baselines.evaluate import markdown_table
 from baselines.registry import make_policy, required_config
 
 DELAY_FRACTIONS = (0.0, 0.3, 0.6, 0.9)
@@ -214,15 +215,6 @@ def _plot_nearest(path: Path, result: dict, n: int) -> None:
 
 
 # -- tables and CLI ----------------------------------------------------------------------------
-def markdown_table(rows: list[dict]) -> str:
-    keys = list(rows[0])
-    lines = ["| " + " | ".join(keys) + " |", "|" + "---|" * len(keys)]
-    for row in rows:
-        cells = [f"{v:.3g}" if isinstance(v, float) else str(v) for v in row.values()]
-        lines.append("| " + " | ".join(cells) + " |")
-    return "\n".join(lines)
-
-
 EXPERIMENTS = {"delay": experiment_delay, "decision-set": experiment_decision_set, "obstacles": experiment_obstacles}
 
 
