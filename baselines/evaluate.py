@@ -58,6 +58,21 @@ __all__ = [
 ]
 
 
+def static_geometry(world: Any) -> tuple[list, list]:
+    """Wall and closed-door segments and furniture polygons of a world, for plots."""
+    from teamgym.sim.objects import Door, StaticPolygon, Wall
+
+    walls, furniture = [], []
+    for entity in world.entities.values():
+        if isinstance(entity, Door) and entity.is_open:
+            continue
+        if isinstance(entity, Wall):
+            walls.append((tuple(entity.a), tuple(entity.b)))
+        elif isinstance(entity, StaticPolygon):
+            furniture.append([tuple(v) for v in entity.vertices])
+    return walls, furniture
+
+
 @dataclass
 class EpisodeResult:
     """The outcome of one episode.
@@ -75,6 +90,9 @@ class EpisodeResult:
     trajectories: dict[str, list[tuple[float, float]]] | None = field(default=None, compare=False, repr=False)
     goals: dict[str, tuple[float, float]] | None = field(default=None, compare=False, repr=False)
     arena: tuple[float, float] | None = field(default=None, compare=False, repr=False)
+    #: Static geometry at the end of the episode: wall and closed-door segments, furniture polygons.
+    walls: list[tuple[tuple[float, float], tuple[float, float]]] | None = field(default=None, compare=False, repr=False)
+    furniture: list[list[tuple[float, float]]] | None = field(default=None, compare=False, repr=False)
     frames: list[np.ndarray] | None = field(default=None, compare=False, repr=False)
 
     @property
@@ -153,11 +171,13 @@ def run_episode(env: Any, policy: Any, seed: int, record_frames: bool = False, r
     for agent, info in final.items():
         values = {k: _numeric(v) for k, v in info.items()}
         metrics[agent] = {k: v for k, v in values.items() if v is not None}
-    trajectories = goals = arena = None
+    trajectories = goals = arena = walls = furniture = None
     if record_trajectories:
         trajectories = env.trajectories() if hasattr(env, "trajectories") else None
         world = getattr(env, "world", None)
         arena = tuple(float(s) for s in world.size) if world is not None and hasattr(world, "size") else None
+        if world is not None:
+            walls, furniture = static_geometry(world)
         raw_goals = getattr(env, "goals", None)
         if raw_goals is not None:
             try:
@@ -175,6 +195,8 @@ def run_episode(env: Any, policy: Any, seed: int, record_frames: bool = False, r
         trajectories=trajectories,
         goals=goals,
         arena=arena,
+        walls=walls,
+        furniture=furniture,
         frames=frames,
     )
 
@@ -484,7 +506,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     if first.trajectories:
         title = f"{args.env} · {args.policy} · seed {first.seed} · {'success' if first.success else 'no success'}"
         written.append(
-            plot_trajectories(first.trajectories, out / "trajectories.png", arena=first.arena, goals=first.goals, title=title)
+            plot_trajectories(
+                first.trajectories,
+                out / "trajectories.png",
+                arena=first.arena,
+                goals=first.goals,
+                title=title,
+                walls=first.walls,
+                furniture=first.furniture,
+            )
         )
     if args.gif:
         from teamgym.sim.render import save_gif

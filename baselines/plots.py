@@ -19,16 +19,19 @@ def plot_trajectories(
     arena: tuple[float, float] | None = None,
     goals: Mapping[str, tuple[float, float]] | None = None,
     title: str | None = None,
+    walls: Sequence[tuple[tuple[float, float], tuple[float, float]]] | None = None,
+    furniture: Sequence[Sequence[tuple[float, float]]] | None = None,
 ) -> Path:
     """Draw every robot's path of one episode and save it as a PNG at ``path``.
 
     ``trajectories`` maps agent name to its positions (m); starts are marked with a
     circle, end points with a dot, goals (if given, agent -> ``(x, y)``) with a cross in
-    the robot's colour. ``arena`` ``(width, height)`` draws the arena bounds. Returns the path.
+    the robot's colour. ``arena`` ``(width, height)`` draws the arena bounds, ``walls``
+    (segments) and ``furniture`` (polygons) the static geometry. Returns the path.
     """
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
-    from matplotlib.patches import Rectangle
+    from matplotlib.patches import Polygon, Rectangle
 
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -36,6 +39,10 @@ def plot_trajectories(
     FigureCanvasAgg(fig)
     ax = fig.add_subplot(1, 1, 1)
     goals = goals or {}
+    for polygon in furniture or ():
+        ax.add_patch(Polygon(polygon, closed=True, facecolor="0.8", edgecolor="0.5"))
+    for (x0, y0), (x1, y1) in walls or ():
+        ax.plot([x0, x1], [y0, y1], "-", color="0.2", linewidth=2)
     for i, (agent, points) in enumerate(trajectories.items()):
         colour = _rgb(i)
         if len(points) == 0:
