@@ -73,6 +73,7 @@ class SituatedBehaviourSets(Policy):
         self.activations: Counter[int] = Counter()
         self.situation_steps: Counter[str] = Counter()
         self.last_behaviour: dict[str, int] = {}
+        self.looks = 0
 
     def act(self, observations, infos=None):
         actions = {}
@@ -80,13 +81,17 @@ class SituatedBehaviourSets(Policy):
         for agent, obs in observations.items():
             recognizer = self.recognizers.get(agent)
             if recognizer is None:
-                recognizer = self.recognizers[agent] = SituationRecognizer(self.params)
+                recognizer = self.recognizers[agent] = SituationRecognizer(self.params, self.np_random)
             fields_ = decode(obs)
             facts = recognizer.update(fields_["proximity"], fields_["light"], fields_["encoders"])
             situation = recognizer.situation
             self.situation_steps[situation] += 1
             if fields_["busy"][0] > 0.5:
                 actions[agent] = int(Primitive.STOP)  # ignored by the env while busy
+                continue
+            if recognizer.looking:
+                actions[agent] = int(Primitive.STOP)
+                self.looks += 1
                 continue
             behaviour = select(self.fixed_sbs or int(situation[1]), facts)
             number = behaviour.number if behaviour is not None else 0

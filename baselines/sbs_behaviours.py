@@ -25,8 +25,12 @@ class Behaviour:
 
     @property
     def specificity(self) -> int:
-        """Number of conditions (a disjunction counts as one)."""
-        return len(self.all_of) + (1 if self.any_of else 0)
+        """Number of stimuli the behaviour responds to: its positive conditions (a disjunction counts as one).
+
+        Negated conditions (absences, as in B-1 "nothing ahead or at the sides") do not make a
+        behaviour more specific; see docs/box_pushing.md for why.
+        """
+        return sum(not literal.startswith("¬") for literal in self.all_of) + (1 if self.any_of else 0)
 
     def applies(self, facts: frozenset[str]) -> bool:
         for literal in self.all_of:
@@ -59,9 +63,9 @@ BEHAVIOURS: dict[int, Behaviour] = {
         B(14, ("forward-robot",), "stop"),
         B(15, ("forward-object", "back-robot", "forward-light"), "push-straight"),
         B(16, ("forward-object", "back-robot-leaving"), "following"),
-        B(17, ("forward-robot", "back-robot-leaving"), "following"),
-        B(18, ("forward-robot", "¬forward-light"), "direction-change"),
-        B(19, ("forward-robot", "forward-light"), "side&push"),
+        B(17, ("forward-robot", "forward-object", "back-robot-leaving"), "following"),
+        B(18, ("forward-robot", "forward-object", "¬forward-light"), "direction-change"),
+        B(19, ("forward-robot", "forward-object", "forward-light"), "side&push"),
     )
 }
 

@@ -61,9 +61,13 @@ class RecognizerParams:
     change_threshold: float = 0.004
     stall_slip: float = 0.8
     stall_cycles: int = 3
-    push_cycles: int = 5
+    push_cycles: int = 10
+    look_cycles: int = 3
+    look_on_stall: bool = True
+    look_on_sighting: bool = True
     leaving_time: float = 3.0
     mark_width: float = math.radians(60.0)
+    mark_patience: int = 20
     wheel_radius: float = 0.008
     wheel_base: float = 0.053
     ray_angles: tuple[float, ...] = ()
@@ -83,6 +87,7 @@ class SituationRecognizer:
     """Recognizes M/T and the sensed states of one robot from its observations."""
 
     params: RecognizerParams
+    rng: np.random.Generator | None = None
     m: bool = False
     t: bool = True
     time: float = 0.0
@@ -91,11 +96,15 @@ class SituationRecognizer:
     transitions: list[Transition] = field(default_factory=list)
 
     def __post_init__(self) -> None:
-        self.marks: list[float] = []
+        #: Recognized robots: [bearing in the robot's frame (rad), still steps without a change there].
+        self.marks: list[list] = []
         self._leaving: dict[str, float] = {}
         self._previous: np.ndarray | None = None
         self._stall = 0
         self._push = 0
+        self._look = 0
+        self._ahead = math.inf
+        self._latched_stall = False
         self._angles = np.asarray(self.params.ray_angles, dtype=float)
         self.facts: frozenset[str] = frozenset()
 
@@ -117,6 +126,9 @@ class SituationRecognizer:
         slip = lost / (abs(encoders[0]) + abs(encoders[1])) if commanded > 1e-9 else 0.0
         self._stall = self._stall + 1 if commanded > 1e-9 and slip > p.stall_slip else 0
         objects = {g: bool(min(proximity[i] for i in rays) < p.object_threshold) for g, rays in GROUPS.items()}
+        ahead = min(proximity[i] for i in FORWARD_RAYS)
+        self._update_look(objects["forward"], ahead < p.sensor_range and self._ahead >= p.sensor_range)
+        self._ahead = ahead
 
         self._track_marks(proximity, turned)
         if still and self._previous is not None:
@@ -128,9 +140,10 @@ class SituationRecognizer:
 
         facts = {f"{g}-object" for g, hit in objects.items() if hit}
         facts |= self._light_facts(np.asarray(light, dtype=float))
-        if self._stall >= p.stall_cycles:
+        if self._stall >= p.stall_cycles or (self._latched_stall and not self._look):
             facts.add("no-rotation")
-        robot_groups = {group_of_bearing(b) for b in self.marks}
+            self._latched_stall = bool(self._look)
+        robot_groups = {group_of_bearing(b) for b, _ in self.marks}
         facts |= {f"{g}-robot" for g in robot_groups}
         facts |= {
             f"{g}-robot-leaving"
@@ -142,24 +155,62 @@ class SituationRecognizer:
             self.transitions.append(Transition(self.time, before, self.situation))
         return self.facts
 
+    @property
+    def looking(self) -> bool:
+        """Whether the robot should stand still this step to look for moving robots (the M check)."""
+        return self._look > 0
+
+    def _update_look(self, forward_object: bool, sighted: bool) -> None:
+        """Start a look when something comes into range ahead, touches ahead, or the robot stalls.
+
+        A look lasts 1..``look_cycles`` steps, drawn uniformly: two robots that notice each
+        other in the same step do not resume in the same step, so one sees the other move.
+        """
+        p = self.params
+        if self._look:
+            self._look -= 1
+            return
+        stalled = self._stall == p.stall_cycles and p.look_on_stall
+        touched = forward_object and "forward-object" not in self.facts
+        if p.look_cycles and (stalled or touched or (sighted and p.look_on_sighting)):
+            self._look = int(self.rng.integers(1, p.look_cycles + 1)) if self.rng is not None else p.look_cycles
+            self._latched_stall = stalled
+
+    def _robot_ahead(self) -> bool:
+        return any(group_of_bearing(b) == "forward" for b, _ in self.marks)
+
     # -- M ---------------------------------------------------------------------------------
     def _check_m(self, proximity: np.ndarray) -> None:
-        """Standing still, a reading that changed means a moving object: another robot (AS-1)."""
+        """Standing still, a reading that changed means a moving object: another robot (AS-1).
+
+        Marks that show no change for ``mark_patience`` still steps stand for robots that
+        stopped moving; they are forgotten (the object is still there, but nothing tells it
+        from a box any more), which also keeps two robots that stop facing each other from
+        waiting for ever.
+        """
         p = self.params
         previous = self._previous
         changed = (np.abs(proximity - previous) > p.change_threshold) & (np.minimum(proximity, previous) < p.sensor_range)
+        seen = set()
         for ray in np.flatnonzero(changed).tolist():
             self.m = True
             self.last_m_time = self.time
             angle = float(self._angles[ray])
-            if proximity[ray] < p.sensor_range and all(abs(wrap_angle(angle - b)) > p.mark_width / 2 for b in self.marks):
-                self.marks.append(angle)
+            near = [k for k, mark in enumerate(self.marks) if abs(wrap_angle(angle - mark[0])) <= p.mark_width / 2]
+            if near:
+                seen.update(near)
+            elif proximity[ray] < p.sensor_range:
+                self.marks.append([angle, 0])
+                seen.add(len(self.marks) - 1)
+        for k, mark in enumerate(self.marks):
+            mark[1] = 0 if k in seen else mark[1] + 1
+        self.marks = [mark for mark in self.marks if mark[1] < p.mark_patience]
 
     def _track_marks(self, proximity: np.ndarray, turned: float) -> None:
         """Turn marks with the robot, move each to the nearest ray still seeing something, drop the rest."""
         p = self.params
-        kept: list[float] = []
-        for bearing in self.marks:
+        kept: list[list] = []
+        for bearing, quiet in self.marks:
             bearing = float(wrap_angle(bearing - turned))
             near = [
                 i
@@ -171,15 +222,15 @@ class SituationRecognizer:
                 continue
             nearest = min(near, key=lambda i: abs(wrap_angle(self._angles[i] - bearing)))
             bearing = float(self._angles[nearest])
-            if all(abs(wrap_angle(bearing - other)) > p.mark_width / 2 for other in kept):
-                kept.append(bearing)
+            if all(abs(wrap_angle(bearing - other[0])) > p.mark_width / 2 for other in kept):
+                kept.append([bearing, quiet])
         self.marks = kept
 
     # -- T ---------------------------------------------------------------------------------
     def _check_t(self, proximity: np.ndarray, commanded: float, slip: float, forward_object: bool) -> None:
         p = self.params
         centre = min(proximity[2], proximity[3]) < p.object_threshold
-        pushing = commanded > 1e-9 and slip < 0.2 and centre
+        pushing = commanded > 1e-9 and slip < 0.2 and centre and not self._robot_ahead()
         self._push = self._push + 1 if pushing else 0
         if self._push >= p.push_cycles:
             self.t = True

@@ -38,7 +38,8 @@ Dynamic environment (section 4.2): :meth:`BoxPushing.add_robot`, :meth:`~BoxPush
 between steps, or ``events`` in the config, applied at the end of the given step. Robots
 come from spares in ``possible_agents`` (``n_spare_robots``); an added robot joins ``agents``
 in the next step's returns, a removed or broken robot is terminated in them (a broken robot
-stays on the table as an obstacle).
+stays on the table as an obstacle: motors off, wheels locked, it resists three times the
+force one robot can push with).
 
 Metrics in ``infos[agent]``: ``success``, ``time_to_goal`` (s, once successful),
 ``boxes_delivered``, ``box_progress`` (m, the team's), ``path_length``, ``collisions``,
@@ -72,6 +73,7 @@ __all__ = ["SITUATIONS", "BoxPushing", "BoxPushingConfig", "env", "parallel_env"
 _ROBOT_WALL_GAP = 0.005
 _ROBOT_CLEARANCE = 0.01
 _STALL_SLIP = 0.9
+_BRAKE_FACTOR = 3.0
 
 
 class BoxPushing(TeamEnv):
@@ -249,8 +251,8 @@ class BoxPushing(TeamEnv):
         """
         self._require_running("add_robot")
         self._check_spare()
-        x, y, theta = self._robot_spot(position, heading)
-        self._record("add_robot", (x, y), theta)
+        x, y, theta = self._draw(self._robot_spot, position, heading)
+        self._record("add_robot", position, heading)
         return self._place_robot(x, y, theta)
 
     def remove_robot(self, agent: str) -> None:
@@ -272,8 +274,8 @@ class BoxPushing(TeamEnv):
             raise TypeError(f"add_box: heavy must be a bool, got {heavy!r}")
         if self._n_boxes >= self.box_capacity:
             raise ValueError(f"add_box: all {self.box_capacity} box slots are used; raise n_spare_boxes")
-        x, y, theta = self._box_spot(bool(heavy), position, angle)
-        self._record("add_box", bool(heavy), (x, y), theta)
+        x, y, theta = self._draw(self._box_spot, bool(heavy), position, angle)
+        self._record("add_box", bool(heavy), position, angle)
         return self._place_box(bool(heavy), x, y, theta)
 
     def remove_box(self, name: str) -> None:
@@ -289,6 +291,15 @@ class BoxPushing(TeamEnv):
 
     def is_heavy(self, name: str) -> bool:
         return bool(self._heavy[self._box_slot(name)])
+
+    def _draw(self, spot, *args) -> tuple[float, float, float]:
+        """``spot(*args)``; if it fails, the env's random stream is left as it was (the failed call is not logged)."""
+        state = self.np_random.bit_generator.state
+        try:
+            return spot(*args)
+        except (TypeError, ValueError):
+            self.np_random.bit_generator.state = state
+            raise
 
     # -- events -----------------------------------------------------------------------------
     def _apply_event(self, event: Event) -> None:
@@ -325,7 +336,12 @@ class BoxPushing(TeamEnv):
         self._leaving[agent] = "removed"
 
     def _break_down(self, agent: str) -> None:
-        self.robots[agent].disable()
+        robot = self.robots[agent]
+        robot.disable()
+        # Motors off, wheels locked by the gearbox (a Khepera's is not back-drivable): the
+        # robot resists pushing harder than any one robot can push.
+        robot.pivot.max_force = _BRAKE_FACTOR * robot.spec.max_motor_force
+        robot.gear.max_force = _BRAKE_FACTOR * robot.spec.max_motor_torque
         self.executors[agent].cancel()
         self._leaving[agent] = "broken_down"
 
