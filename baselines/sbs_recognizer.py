@@ -2,27 +2,35 @@
 
 Each robot recognizes its own situation from its own sensors; nothing is communicated.
 
-* **M** (another robot exists) becomes true when the proximity readings change while the
-  robot stands still (its wheels did not turn during the step): only robots move (AS-1).
-  **¬M** when no such change was seen for ``tm`` seconds.
-* **T** (no heavy box observed) becomes true when the robot pushes an object with its wheels
-  turning (AS-2: a robot pushing something immovable does not skid, so its wheels stop) for
-  ``push_cycles`` steps. **¬T** when it collides with immovable objects (stalls with an object
-  ahead) more than ``tt`` times in a row without such a push in between.
+* **M** (another robot exists) becomes true when the proximity readings change (by more than
+  ``change_threshold``) while the robot stands still, its wheels not having turned during
+  the step: only robots move (AS-1). **¬M** when no such change was seen for ``tm`` s.
+  The paper does not say when a robot stops to check; ours stops for a *look* of
+  1..``look_cycles`` steps (uniform, from the policy's seeded stream) whenever something
+  comes into sensor range ahead or touches it ahead (and, with ``look_on_stall``, when it
+  stalls). Random durations break the symmetry of two robots that notice each other at the
+  same moment: one resumes first and the other sees it move.
+* **T** (no heavy box observed) becomes true when the robot pushes an object that is not a
+  recognized robot, its central front rays under the object threshold, with its wheels
+  turning (slip < 0.2; AS-2: pushing something immovable, the wheels stop) for
+  ``push_cycles`` steps in a row. **¬T** when it collides with immovable objects (stalls,
+  see no-rotation, with an object ahead) more than ``tt`` times without such a push between.
 * Situations: S1 = ¬M ∧ T, S2 = M ∧ T, S3 = M ∧ ¬T, S4 = ¬M ∧ ¬T. Initially ¬M ∧ T (nothing
   observed yet: S1).
 
-Sensed states (section 3.1, 3.4), recomputed every step, with the sensor groups of Fig. 3
+Sensed states (sections 3.1, 3.4), recomputed every step, with the sensor groups of Fig. 3
 (forward 1–4, left 0, right 5, back 6–7): ``X-object`` (a reading under the 20 mm object
 threshold in group X), ``X-light`` (the group holds the brightest light sensor), ``no-light``
 (all light readings within 10 % of each other), ``no-rotation`` (the motors were commanded
-to drive but the encoders showed at least 80 % slip for ``stall_cycles`` steps in a row),
-``X-robot`` (a robot recognized by the M check is sensed in group X) and
-``X-robot-leaving`` (a robot sensed in X stopped being sensed less than ``leaving_time`` s
-ago and none is sensed there now). A recognized robot is tracked as a bearing in the
-robot's frame, turned with the robot's own rotation (odometry) and moved to the nearest ray
-that still sees something within ``mark_width`` of it; when no such ray reads anything
-within sensor range, the robot has left.
+to drive but the encoders showed more than ``stall_slip`` slip for ``stall_cycles`` steps in
+a row), ``X-robot`` (a robot recognized by the M check is sensed in group X, within sensor
+range) and ``X-robot-leaving`` (a robot sensed in X stopped being sensed less than
+``leaving_time`` s ago and none is sensed there now). A recognized robot is a *mark*: a
+bearing in the robot's frame, turned with the robot's own rotation (odometry) and moved to
+the nearest ray within ``mark_width`` that still sees something; when none does, the robot
+has left. A mark that shows no change for ``mark_patience`` still steps is forgotten (that
+robot stopped; nothing tells it from a box any more), so two robots that stop facing each
+other (B-14) do not wait for ever.
 """
 
 from __future__ import annotations
@@ -63,7 +71,7 @@ class RecognizerParams:
     stall_cycles: int = 3
     push_cycles: int = 10
     look_cycles: int = 3
-    look_on_stall: bool = True
+    look_on_stall: bool = False
     look_on_sighting: bool = True
     leaving_time: float = 3.0
     mark_width: float = math.radians(60.0)

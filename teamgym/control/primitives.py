@@ -17,12 +17,16 @@ selections are ignored until the program ends:
   turn 90° towards the freer side, drive ``side_offset`` (one robot diameter plus a gap),
   turn back and drive forward until something is within ``contact_distance`` ahead.
 
-Push-clockwise and push-counterclockwise (Fig. 5, missing) are read by what they do to the
-box: a robot that keeps pushing while turning left slides its contact point to the left of
-the box's centre, which rotates the box clockwise (viewed from above). So ``PUSH_CLOCKWISE``
-pushes while turning left, towards a light on the left, the pairing of behaviour B-3, and
-``PUSH_COUNTERCLOCKWISE`` pushes while turning right (B-5). ``tests/test_box_pushing_physics.py``
-checks the box's sense of rotation.
+Pushing is closed-loop on the front rays, as a Khepera would push: ``PUSH_STRAIGHT`` steers
+to keep the pushed object centred ahead (``centring_gain``; open-loop a box slides off the
+round robot). Push-clockwise and push-counterclockwise (Fig. 5 is missing) rotate the box by
+pushing it off-centre: the robot holds the object ``push_offset`` to one side of its axis,
+so the box turns and the robot turns with it. B-3 pairs them with the light on the left, B-5
+with the light on the right; only if the paper counts rotation clockwise-positive (as paper
+001 counts its angles, see docs/simulator.md) do both rules turn the box towards the lamp,
+which is the task. We read it so: ``PUSH_CLOCKWISE`` turns box and robot to the robot's left
+(counter-clockwise seen from above in teamgym's frame), ``PUSH_COUNTERCLOCKWISE`` to its
+right. ``tests/test_box_pushing_physics.py`` checks both senses.
 
 Progress of programs is measured by odometry from the wheel encoders, as on the Khepera.
 """
@@ -70,7 +74,6 @@ class PrimitiveParams:
     follow_speed: float = 0.1
     turn_rate: float = 5.0
     turn_step: float = math.radians(30.0)
-    push_turn_rate: float = 0.6
     centring_gain: float = 20.0
     push_offset: float = 0.01
     direction_change_jitter: float = math.radians(30.0)

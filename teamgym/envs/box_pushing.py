@@ -100,9 +100,9 @@ class BoxPushing(TeamEnv):
             follow_speed=c.follow_speed,
             turn_rate=c.turn_rate,
             turn_step=c.turn_step,
-            push_turn_rate=c.push_turn_rate,
             direction_change_jitter=c.direction_change_jitter,
             side_offset=c.side_offset,
+            follow_step=c.follow_step,
             contact_distance=c.object_threshold,
             sensor_range=c.sensor_range,
             ray_angles=tuple(KHEPERA_RING.tolist()),
@@ -405,7 +405,10 @@ class BoxPushing(TeamEnv):
     def _box_spot(self, heavy: bool, position, angle) -> tuple[float, float, float]:
         c = self.config
         half = (c.heavy_box_size if heavy else c.light_box_size) / 2
-        theta = float(self.np_random.uniform(0, np.pi / 2)) if angle is None else _finite(angle, "angle")
+        if angle is not None:
+            theta = _finite(angle, "angle")
+        else:
+            theta = float(self.np_random.uniform(0, np.pi / 2)) if self.config.box_orientation == "random" else 0.0
         placer = Placer(c.table_width, c.table_height, self.np_random)
         radius = half * math.sqrt(2)
         if position is None:
@@ -436,7 +439,8 @@ class BoxPushing(TeamEnv):
             half = (c.heavy_box_size if heavy else c.light_box_size) / 2
             x, y = placer.sample(half * math.sqrt(2), c.box_margin, occupied, 2 * self.spec_robot.radius, "box")
             occupied.append((x, y, half * math.sqrt(2)))
-            boxes.append((heavy, (x, y, float(rng.uniform(0, np.pi / 2)))))
+            angle = float(rng.uniform(0, np.pi / 2)) if c.box_orientation == "random" else 0.0
+            boxes.append((heavy, (x, y, angle)))
         robots = []
         for _ in range(c.n_robots):
             x, y = placer.sample(self.spec_robot.radius, _ROBOT_WALL_GAP, occupied, _ROBOT_CLEARANCE, "robot")

@@ -71,6 +71,7 @@ class BoxPushingConfig(EnvConfig):
     heavy_box_mass: float = 0.2
     box_friction: float = 0.5
     box_margin: float = 0.08
+    box_orientation: Literal["aligned", "random"] = "random"
     boxes_to_goal: int = 0
     goal_tolerance: float = 0.003
     action_type: Literal["primitives", "wheels"] = "primitives"
@@ -79,9 +80,9 @@ class BoxPushingConfig(EnvConfig):
     follow_speed: float = 0.1
     turn_rate: float = 5.0
     turn_step: float = math.radians(30.0)
-    push_turn_rate: float = 0.6
     direction_change_jitter: float = math.radians(30.0)
     side_offset: float = 0.07
+    follow_step: float = 0.01
     progress_reward: float = 10.0
     success_bonus: float = 10.0
     time_penalty: float = 0.001
@@ -133,9 +134,9 @@ class BoxPushingConfig(EnvConfig):
             0 < self.turn_step / self.dt * half_base <= self.max_wheel_speed,
             "must be > 0 and turnable in one step",
         )
-        require(self, "push_turn_rate", self.push_turn_rate >= 0, "must be >= 0")
         require(self, "direction_change_jitter", 0 <= self.direction_change_jitter <= math.pi / 2, "must be in [0, π/2] rad")
         require(self, "side_offset", 0 < self.side_offset <= 0.5, "must be in (0, 0.5] m")
+        require(self, "follow_step", 0 < self.follow_step <= 0.5, "must be in (0, 0.5] m")
         self._check_boxes()
         self._check_lamp()
         self.parsed_events()
