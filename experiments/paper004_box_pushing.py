@@ -1,0 +1,279 @@
+"""Reproduce the experiments of paper 004 (section 4) with the ``sbs`` baseline and the ``sbs1`` ablation.
+
+    python experiments/paper004_box_pushing.py all --out results/paper004 --figures docs/figures/paper004 \\
+        [--seeds 30] [--workers 2]
+
+Subcommands (each writes JSON and a Markdown table into ``--out``; figures also into ``--figures``):
+
+* ``static`` (section 4.1): situations S1 (1 robot, 1 light box), S2 (2 robots, 2 light
+  boxes), S3 (4 robots, 1 heavy box) and S4 (1 robot, 1 heavy box), ``--seeds`` random
+  initial positions each (seed i places boxes away from the walls), ``sbs`` and ``sbs1`` on
+  the same seeds. Success (every box at the goal wall), for S2 also "at least one box",
+  mean time to success, behaviour activations per episode and the share of robot-steps in
+  each recognized situation. Trajectory plot of one S3 episode.
+* ``dynamic`` (section 4.2): (a) two robots with two light boxes; a heavy box is added once
+  both recognize S2. Did both switch to S3, how fast, how long did both push the heavy box
+  at once. (b) two robots with a light and a heavy box; one robot is removed once the other
+  recognizes it. Did the survivor's situation change (M lapses after Tm), how fast. Every
+  situation comes from a robot's own recognizer.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+from collections import Counter
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+import teamgym
+from baselines.evaluate import markdown_table
+from baselines.registry import make_policy, required_config
+
+SITUATIONS = ("S1", "S2", "S3", "S4")
+POLICIES = ("sbs", "sbs1")
+
+
+def run_static(args: tuple[str, str, int]) -> dict[str, Any]:
+    """One episode of ``policy`` in ``situation`` with ``seed``."""
+    situation, policy_name, seed = args
+    env = teamgym.make("BoxPushing-v0", situation=situation, **required_config(policy_name))
+    policy = make_policy(policy_name, env)
+    observations, infos = env.reset(seed=seed)
+    policy.reset(seed)
+    boxes = [np.array(env.world[b].position) for b in env.box_names()]
+    while env.agents:
+        observations, _, _, _, infos = env.step(policy.act({a: observations[a] for a in env.agents}, infos))
+    final = next(iter(infos.values()))
+    return {
+        "situation": situation,
+        "policy": policy_name,
+        "seed": seed,
+        "success": env.episode_success(),
+        "boxes_delivered": final["boxes_delivered"],
+        "time_to_goal": final.get("time_to_goal"),
+        "steps": env.cycles,
+        "activations": {str(k): v for k, v in sorted(policy.activations.items())},
+        "situation_steps": dict(policy.situation_steps),
+        "path_length": float(np.mean([i["path_length"] for i in infos.values()])),
+        "trajectories": env.trajectories(),
+        "box_starts": [b.tolist() for b in boxes],
+        "box_ends": [list(env.world[b].position) for b in env.box_names()],
+    }
+
+
+def _pool_map(fn, jobs: list, workers: int) -> list:
+    if workers <= 1:
+        return [fn(job) for job in jobs]
+    with ProcessPoolExecutor(workers) as pool:
+        return list(pool.map(fn, jobs))
+
+
+def experiment_static(out: Path, figures: Path | None, seeds: int, workers: int) -> list[dict]:
+    jobs = [(s, p, seed) for s in SITUATIONS for p in POLICIES for seed in range(seeds)]
+    results = _pool_map(run_static, jobs, workers)
+    rows, activation_rows = [], []
+    for situation in SITUATIONS:
+        for policy in POLICIES:
+            runs = [r for r in results if r["situation"] == situation and r["policy"] == policy]
+            times = [r["time_to_goal"] for r in runs if r["time_to_goal"] is not None]
+            steps = Counter()
+            for r in runs:
+                steps.update(r["situation_steps"])
+            total = sum(steps.values())
+            rows.append(
+                {
+                    "situation": situation,
+                    "policy": policy,
+                    "episodes": len(runs),
+                    "success": float(np.mean([r["success"] for r in runs])),
+                    "≥1 box": float(np.mean([r["boxes_delivered"] >= 1 for r in runs])),
+                    "mean time (s)": float(np.mean(times)) if times else float("nan"),
+                    "recognized S1/S2/S3/S4": "/".join(f"{steps[s] / total:.2f}" for s in SITUATIONS),
+                }
+            )
+            counts = Counter()
+            for r in runs:
+                counts.update({int(k): v for k, v in r["activations"].items()})
+            activation_rows.append(
+                {"situation": situation, "policy": policy}
+                | {f"B-{k}" if k else "none": round(counts[k] / len(runs)) for k in range(20)}
+            )
+    _write(out, "static", {"rows": rows, "activations": activation_rows, "episodes": _strip(results)})
+    (out / "static.md").write_text(
+        markdown_table(rows) + "\n\nBehaviour activations per episode (mean):\n\n" + markdown_table(activation_rows) + "\n"
+    )
+    s3 = [r for r in results if r["situation"] == "S3" and r["policy"] == "sbs" and r["success"]]
+    if s3:
+        _plot_episode(min(s3, key=lambda r: r["steps"]), out, figures, "s3_trajectories.png")
+    return rows
+
+
+def run_dynamic(args: tuple[str, int]) -> dict[str, Any]:
+    """Scenario ``"add_heavy"`` or ``"remove_robot"`` with ``seed``; situations from the recognizers.
+
+    As in the paper's experiments, the experimenter intervenes once the robots are in the
+    situation under study: the heavy box is added (``env.add_box``) in the first step in
+    which both robots recognize S2; robot_1 is removed (``env.remove_robot``) in the first
+    step in which robot_0 recognizes another robot (S2 or S3). Nothing is told to the robots.
+    """
+    scenario, seed = args
+    dt = 0.1
+    if scenario == "add_heavy":
+        config = dict(n_robots=2, n_light_boxes=2, n_spare_boxes=1, boxes_to_goal=3)
+    else:  # the survivor cannot finish alone (the heavy box), so the episode runs on
+        config = dict(n_robots=2, n_light_boxes=1, n_heavy_boxes=1, boxes_to_goal=2)
+    env = teamgym.make("BoxPushing-v0", **config)
+    policy = make_policy("sbs", env)
+    observations, infos = env.reset(seed=seed)
+    policy.reset(seed)
+    timeline: dict[str, list[str]] = {a: [] for a in env.possible_agents}
+    at, heavy, both_on_heavy = None, None, 0
+    while env.agents:
+        observations, _, _, _, infos = env.step(policy.act({a: observations[a] for a in env.agents}, infos))
+        situations = policy.situations()
+        for agent in env.agents:
+            timeline[agent].append(situations[agent])
+        if at is None and env.agents:
+            if scenario == "add_heavy" and all(situations.get(a) == "S2" for a in ("robot_0", "robot_1")):
+                at, heavy = env.cycles, env.add_box(heavy=True)
+            elif scenario == "remove_robot" and situations.get("robot_0") in ("S2", "S3") and "robot_1" in env.agents:
+                at = env.cycles
+                env.remove_robot("robot_1")
+        if heavy is not None:
+            both_on_heavy += _robots_touching(env, heavy) >= 2
+    result = {"scenario": scenario, "seed": seed, "event_step": at, "steps": env.cycles, "timelines": timeline}
+    if scenario == "add_heavy":
+        after = {a: timeline[a][at:] if at else [] for a in ("robot_0", "robot_1")}
+        result["s3_after_s"] = {a: (t.index("S3") * dt if "S3" in t else None) for a, t in after.items()}
+        result["both_on_heavy_s"] = both_on_heavy * dt
+        result["heavy_delivered"] = heavy is not None and bool(env._delivered[env._box_slot(heavy)])
+        result["success"] = env.episode_success()
+    else:
+        survivor = timeline["robot_0"][at:] if at else []
+        lapse = next((i for i, s in enumerate(survivor) if s in ("S1", "S4")), None)
+        result["not_m_after_s"] = lapse * dt if lapse is not None else None
+        result["m_regained"] = lapse is not None and any(s in ("S2", "S3") for s in survivor[lapse:])
+    return result
+
+
+def _robots_touching(env, box_name: str) -> int:
+    touching: list = []
+    env.world[box_name].body.each_arbiter(lambda arbiter: touching.append(arbiter.shapes))
+    return len({s.entity.name for shapes in touching for s in shapes if getattr(getattr(s, "entity", None), "kind", None) == 1})
+
+
+def experiment_dynamic(out: Path, figures: Path | None, seeds: int, workers: int) -> list[dict]:
+    results = _pool_map(run_dynamic, [(s, seed) for s in ("add_heavy", "remove_robot") for seed in range(seeds)], workers)
+    add = [r for r in results if r["scenario"] == "add_heavy" and r["event_step"] is not None]
+    rem = [r for r in results if r["scenario"] == "remove_robot" and r["event_step"] is not None]
+    switched = [r for r in add if all(v is not None for v in r["s3_after_s"].values())]
+    delays = [v for r in switched for v in r["s3_after_s"].values()]
+    lapsed = [r for r in rem if r["not_m_after_s"] is not None]
+    rows = [
+        {
+            "change": "heavy box added once both robots recognize S2",
+            "episodes (change happened / run)": f"{len(add)} / {seeds}",
+            "every robot's situation changed": f"{len(switched)} (both S2 → S3)",
+            "mean time to change (s)": float(np.mean(delays)) if delays else float("nan"),
+            "notes": f"both robots on the heavy box {np.mean([r['both_on_heavy_s'] for r in add]):.1f} s per episode; "
+            f"heavy box delivered in {sum(r['heavy_delivered'] for r in add)}",
+        },
+        {
+            "change": "robot_1 removed once robot_0 recognizes a robot (S2/S3)",
+            "episodes (change happened / run)": f"{len(rem)} / {seeds}",
+            "every robot's situation changed": f"{len(lapsed)} (survivor M → ¬M)",
+            "mean time to change (s)": float(np.mean([r["not_m_after_s"] for r in lapsed])) if lapsed else float("nan"),
+            "notes": f"M wrongly regained afterwards in {sum(r['m_regained'] for r in lapsed)}",
+        },
+    ]
+    _write(out, "dynamic", {"rows": rows, "episodes": results})
+    (out / "dynamic.md").write_text(markdown_table(rows) + "\n")
+    if switched:
+        _plot_timeline(min(switched, key=lambda r: r["seed"]), out, figures)
+    return rows
+
+
+# -- output ------------------------------------------------------------------------------------
+
+
+def _strip(results: list[dict]) -> list[dict]:
+    return [{k: v for k, v in r.items() if k != "trajectories"} for r in results]
+
+
+def _write(out: Path, name: str, data: Any) -> None:
+    out.mkdir(parents=True, exist_ok=True)
+    (out / f"{name}.json").write_text(json.dumps(data, indent=1, default=float, allow_nan=True) + "\n")
+
+
+def _save(fig, name: str, out: Path, figures: Path | None) -> None:
+    out.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out / name, dpi=110)
+    if figures is not None:
+        figures.mkdir(parents=True, exist_ok=True)
+        shutil.copy(out / name, figures / name)
+
+
+def _plot_episode(result: dict, out: Path, figures: Path | None, name: str) -> None:
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+    from matplotlib.patches import Rectangle
+
+    fig = Figure(figsize=(6.4, 5.4))
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot(1, 1, 1)
+    ax.add_patch(Rectangle((0, 0), 1.1, 0.9, fill=False, lw=2))
+    ax.plot([1.1, 1.1], [0, 0.9], color="green", lw=4, label="goal wall")
+    for agent, points in result["trajectories"].items():
+        xy = np.array(points)
+        ax.plot(xy[:, 0], xy[:, 1], lw=0.8, label=agent)
+    for start, end in zip(result["box_starts"], result["box_ends"]):
+        ax.annotate("", xy=end, xytext=start, arrowprops={"arrowstyle": "->", "lw": 2.5, "color": "saddlebrown"})
+    ax.set_aspect("equal")
+    title = f"{result['situation']} · {result['policy']} · seed {result['seed']}"
+    ax.set_title(f"{title} · {result['time_to_goal']:.0f} s (box: arrow)")
+    ax.legend(fontsize=7, loc="lower left")
+    _save(fig, name, out, figures)
+
+
+def _plot_timeline(result: dict, out: Path, figures: Path | None) -> None:
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(7, 2.6))
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot(1, 1, 1)
+    level = {s: i for i, s in enumerate(SITUATIONS)}
+    for k, (agent, timeline) in enumerate(result["timelines"].items()):
+        if timeline:
+            t = np.arange(1, len(timeline) + 1) * 0.1
+            ax.step(t, [level[s] + 0.06 * k for s in timeline], where="post", label=agent)
+    ax.axvline(result["event_step"] * 0.1, color="k", ls="--", lw=1, label="heavy box added")
+    ax.set_yticks(range(4), SITUATIONS)
+    ax.set_xlabel("time (s)")
+    ax.set_title(f"Recognized situations, seed {result['seed']}")
+    ax.legend(fontsize=7, loc="upper left")
+    fig.tight_layout()
+    _save(fig, "dynamic_situations.png", out, figures)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("experiment", choices=["static", "dynamic", "all"])
+    parser.add_argument("--out", type=Path, default=Path("results/paper004"))
+    parser.add_argument("--figures", type=Path, default=None)
+    parser.add_argument("--seeds", type=int, default=30)
+    parser.add_argument("--workers", type=int, default=2)
+    args = parser.parse_args()
+    if args.experiment in ("static", "all"):
+        print(markdown_table(experiment_static(args.out, args.figures, args.seeds, args.workers)))
+    if args.experiment in ("dynamic", "all"):
+        print(markdown_table(experiment_dynamic(args.out, args.figures, args.seeds, args.workers)))
+
+
+if __name__ == "__main__":
+    main()
