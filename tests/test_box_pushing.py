@@ -6,6 +6,8 @@ import pickle
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from pettingzoo.test import api_test, parallel_api_test
 
 import teamgym
@@ -386,3 +388,86 @@ def test_render_shows_the_lamp():
     frame = env.render()
     assert frame.ndim == 3 and frame.shape[1] > frame.shape[0]
     assert np.any(np.all(frame == (255, 220, 0), axis=2))  # the lamp beside the east wall
+
+
+# -- action handling ---------------------------------------------------------------------------
+
+HYPOTHESIS = settings(max_examples=40, deadline=None, database=None)
+
+
+def assert_rejected(env, actions, error, fragment):
+    twin = copy.deepcopy(env)
+    state, cycles, agents = env.state().copy(), env.cycles, list(env.agents)
+    with pytest.raises(error, match=fragment):
+        env.step(actions)
+    np.testing.assert_array_equal(env.state(), state)
+    assert (env.cycles, env.agents) == (cycles, agents)
+    a, b = env.step(neutral(env)), twin.step(neutral(twin))
+    assert a[1:] == b[1:]
+
+
+def neutral(env):
+    if env.config.action_type == "wheels":
+        return {a: np.zeros(2, dtype=np.float32) for a in env.agents}
+    return stop_all(env)
+
+
+@HYPOTHESIS
+@given(
+    st.sampled_from(["robot_0", "robot_1"]),
+    st.one_of(
+        st.integers(min_value=13, max_value=10**6),
+        st.integers(max_value=-1),
+        st.floats(allow_nan=True).filter(lambda v: not float(v).is_integer() if np.isfinite(v) else True),
+    ),
+)
+def test_bad_primitive_actions_are_rejected_and_change_nothing(agent, bad):
+    env = make()
+    env.reset(seed=0)
+    env.step(stop_all(env))
+    actions = stop_all(env)
+    actions[agent] = bad
+    assert_rejected(env, actions, (ValueError, TypeError), agent)
+
+
+@HYPOTHESIS
+@given(st.lists(st.floats(allow_nan=True, allow_infinity=True, width=32), min_size=2, max_size=2))
+def test_wheel_actions_outside_the_space_or_not_finite_are_rejected(values):
+    env = make(action_type="wheels")
+    env.reset(seed=0)
+    action = np.array(values, dtype=np.float32)
+    if env.action_space("robot_0").contains(action):
+        env.step({a: action for a in env.agents})
+        return
+    assert_rejected(env, {"robot_0": action, "robot_1": np.zeros(2, dtype=np.float32)}, (ValueError, TypeError), "robot_0")
+
+
+def test_unknown_missing_and_finished_agents_are_rejected():
+    env = make(n_spare_robots=1, max_cycles=5)
+    env.reset(seed=0)
+    assert_rejected(env, {**stop_all(env), "robot_9": STOP}, KeyError, "robot_9")
+    assert_rejected(env, {"robot_0": STOP}, ValueError, "robot_1")
+    assert_rejected(env, {**stop_all(env), "robot_2": STOP}, ValueError, "robot_2")  # a spare not on the table
+    while env.agents:
+        env.step(stop_all(env))
+    with pytest.raises(teamgym.EpisodeOverError):
+        env.step({})
+
+
+@HYPOTHESIS
+@given(
+    st.integers(0, 2**16), st.lists(st.lists(st.integers(0, len(Primitive) - 1), min_size=4, max_size=4), min_size=1, max_size=60)
+)
+def test_any_primitive_sequence_keeps_robots_and_boxes_on_the_table(seed, plan):
+    env = make(situation="S3", motor_noise=0.05)
+    env.reset(seed=seed)
+    for row in plan:
+        if not env.agents:
+            break
+        observations, rewards, *_ = env.step({a: row[i] for i, a in enumerate(env.agents)})
+        assert all(np.all(np.isfinite(o)) for o in observations.values())
+        assert all(np.isfinite(r) for r in rewards.values())
+    state = env.state()
+    robots = state[: 5 * 4].reshape(4, 5)
+    assert np.all(robots[:, 0] > 0.0275 - 0.002) and np.all(robots[:, 0] < 1.1 - 0.0275 + 0.002)
+    assert np.all(robots[:, 1] > 0.0275 - 0.002) and np.all(robots[:, 1] < 0.9 - 0.0275 + 0.002)
