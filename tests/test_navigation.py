@@ -35,6 +35,8 @@ EVERY_KEY = dict(
     target_threshold=0.04,
     object_threshold=0.12,
     speed_rule="any",
+    walls=False,
+    obstacle_motion="straight",
     actuation_delay=0.02,
     goal_tolerance=0.04,
     min_goal_distance=0.5,
@@ -115,6 +117,9 @@ BAD_CONFIGS = [
     ({"min_goal_distance": 2.0}, ["min_goal_distance", "2.0"]),
     ({"sensor_range": 0.0}, ["sensor_range", "0.0"]),
     ({"sensor_noise": -0.1}, ["sensor_noise", "-0.1"]),
+    ({"obstacle_motion": "straight"}, ["obstacle_motion", "straight", "walls=False"]),  # walls would stop it
+    ({"obstacle_motion": "zigzag"}, ["obstacle_motion", "zigzag"]),
+    ({"walls": "maybe"}, ["walls", "maybe"]),
     ({"n_robots": 64, "arena_size": 1.0}, ["n_robots", "64", "room"]),  # arena too small for the team
 ]
 
@@ -210,6 +215,61 @@ def test_proximity_sees_arena_wall():
     proximity = env.decode(observations["robot_0"])["proximity"]
     assert proximity[0] == pytest.approx(0.04, abs=1e-3)
     assert proximity[5] == pytest.approx(env.config.sensor_range)
+
+
+# -- workspace: walls and obstacle paths (paper 001's open workspace) ----------------------
+
+
+def test_open_workspace_has_no_walls_and_robots_may_leave_the_square():
+    env = teamgym.make("Navigation-v0", n_robots=1, n_obstacles=0, walls=False, max_cycles=100)
+    env.reset(seed=0)
+    assert not any(name.startswith("wall") for name in env.world.entities)
+    robot = env.robots["robot_0"]
+    robot.teleport((env.config.robot_radius + 0.04, 1.0), math.pi)  # facing west, 4 cm from the square's edge
+    observations, *_ = env.step({"robot_0": np.zeros(2, dtype=np.float32)})
+    assert np.all(env.decode(observations["robot_0"])["proximity"] == np.float32(env.config.sensor_range))
+    for _ in range(10):
+        _, _, _, _, infos = env.step({"robot_0": np.array([0.3, 0.0], dtype=np.float32)})
+    assert robot.pose[0] < -0.2  # drove out of the square, nothing in the way
+    assert infos["robot_0"]["collisions"] == 0
+
+
+def test_walled_arena_is_the_default():
+    env = teamgym.make("Navigation-v0", n_robots=1, n_obstacles=0)
+    env.reset(seed=0)
+    assert {"wall_south", "wall_east", "wall_north", "wall_west"} <= set(env.world.entities)
+
+
+def _obstacle_track(config, steps=60):
+    env = teamgym.make("Navigation-v0", n_robots=1, n_obstacles=2, max_cycles=steps + 1, dt=0.2, **config)
+    env.reset(seed=3)
+    env.robots["robot_0"].teleport((-5.0, -5.0), 0.0)  # out of the obstacles' way
+    track = []
+    for _ in range(steps):
+        env.step({"robot_0": np.zeros(2, dtype=np.float32)})
+        track.append(np.array([o.position for o in env.obstacles]))
+    return env, np.array(track)
+
+
+def test_straight_obstacles_keep_their_velocity_and_leave_the_square():
+    env, track = _obstacle_track({"walls": False, "obstacle_motion": "straight"})
+    steps = np.diff(track, axis=0)  # (T-1, M, 2) displacement per 0.2 s step
+    np.testing.assert_allclose(np.linalg.norm(steps, axis=2), 0.2 * 0.2, rtol=1e-3)
+    np.testing.assert_allclose(steps, np.broadcast_to(steps[0], steps.shape), atol=1e-4)  # never turns
+    outside = (track < 0) | (track > env.config.arena_size)
+    assert outside.any(axis=(0, 2)).all()  # 12 s at 20 cm/s: every obstacle has left the 2 m square
+    # eq. (23) from successive positions predicts the next one exactly
+    np.testing.assert_allclose(2 * track[1:-1] - track[:-2], track[2:], atol=1e-4)
+
+
+@pytest.mark.parametrize("walls", [True, False])
+def test_bouncing_obstacles_stay_in_the_square_with_or_without_walls(walls):
+    env, track = _obstacle_track({"walls": walls, "obstacle_motion": "bounce"})
+    size, radius = env.config.arena_size, env.config.obstacle_radius
+    assert track.min() > -1e-3 and track.max() < size + 1e-3
+    assert (track.min(axis=(0, 2)) < radius + 0.05).any() or (track.max(axis=(0, 2)) > size - radius - 0.05).any()
+    turns = np.einsum("tmk,tmk->tm", np.diff(track, axis=0)[1:], np.diff(track, axis=0)[:-1]) < 0
+    assert turns.any()  # some obstacle reflected at the square's edge
 
 
 # -- rewards, arrival, metrics ------------------------------------------------------------

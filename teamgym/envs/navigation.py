@@ -4,6 +4,15 @@
 to their own goal point while ``n_obstacles`` convex polygons move on straight lines at
 ``obstacle_speed`` (20 cm/s in the paper) and bounce off the arena walls.
 
+Workspace (``walls``, ``obstacle_motion``): by default the arena is walled and obstacles
+reflect at its edges. Paper 001's workspace W has no walls ("N mobile robots sharing the
+same workspace W with M moving obstacles inside"): ``walls=False`` removes them, so robots
+may drive out of the square and cannot be pinned against a wall, while obstacles still
+reflect at the square's edges and stay inside it (``obstacle_motion="bounce"``) or, with
+``obstacle_motion="straight"``, keep one straight line for the whole episode (the
+constant-velocity model of eq. 23) and leave the square when their line does. Starts, goals
+and obstacles are always sampled inside the square.
+
 Observations (flat float32, fields in order; decode with ``env.decode(obs)``):
 
 =================  ============  ===================================================
@@ -100,6 +109,18 @@ def _scatter(
     return points
 
 
+class StraightPolygon(MovingPolygon):
+    """A moving obstacle that keeps its scripted velocity: a straight line for the whole episode.
+
+    Paper 001's obstacles move on straight lines at constant speed (the model behind eq. 23)
+    in an open workspace; with ``obstacle_motion="straight"`` (and ``walls=False``) they
+    never turn, so they may leave the arena square and do not come back.
+    """
+
+    def plan_bounce(self, bounds: tuple[float, float, float, float], dt: float, state: list[float] | None = None) -> None:
+        return None
+
+
 @dataclass(frozen=True)
 class NavigationConfig(EnvConfig):
     """Configuration of ``Navigation-v0`` (SI units; angles of the heading set in deg/s)."""
@@ -122,6 +143,8 @@ class NavigationConfig(EnvConfig):
     target_threshold: float = 0.05
     object_threshold: float = 0.15
     speed_rule: Literal["ahead", "any"] = "ahead"
+    walls: bool = True
+    obstacle_motion: Literal["bounce", "straight"] = "bounce"
     actuation_delay: float = 0.0
     goal_tolerance: float = 0.03
     min_goal_distance: float = 0.6
@@ -152,6 +175,12 @@ class NavigationConfig(EnvConfig):
         require(self, "spawn_margin", 0 <= self.spawn_margin < 0.4 * self.arena_size, "must be in [0, 0.4·arena_size)")
         require(self, "sensor_range", self.sensor_range > 0, "must be > 0")
         require(self, "sensor_noise", self.sensor_noise >= 0, "must be >= 0")
+        require(
+            self,
+            "obstacle_motion",
+            self.obstacle_motion == "bounce" or not self.walls,
+            "needs walls=False: an obstacle moving straight on would be stopped by the arena walls",
+        )
         free = (self.arena_size - 2 * self.robot_radius) ** 2
         needed = self.n_robots * (4 * self.robot_radius) ** 2 * 2
         require(self, "n_robots", needed < 0.5 * free, "leaves too little room for the robots in this arena")
@@ -217,7 +246,8 @@ class Navigation(TeamEnv):
     def _build(self, rng: np.random.Generator) -> None:
         c = self.config
         self.world = World((c.arena_size, c.arena_size), dt=c.dt, substeps=c.substeps)
-        self.world.add_boundary()
+        if c.walls:
+            self.world.add_boundary()
         try:
             scene = self._sample_scene(rng)
         except PlacementError as error:
@@ -228,8 +258,9 @@ class Navigation(TeamEnv):
             self.robots[agent] = self.world.add(DiffDriveRobot(agent, tuple(start), float(heading), self.spec_robot))
         self.robot_list = list(self.robots.values())
         self.goals = goals
+        mover = MovingPolygon if c.obstacle_motion == "bounce" else StraightPolygon
         self.obstacles = [
-            self.world.add(MovingPolygon(f"obstacle_{k}", vertices, centre, velocity))
+            self.world.add(mover(f"obstacle_{k}", vertices, centre, velocity))
             for k, (vertices, centre, velocity) in enumerate(scene.obstacles)
         ]
         n = c.n_robots
