@@ -15,7 +15,7 @@ Stable-Baselines3 model (see :mod:`baselines.sb3_policy`). Files written to ``DI
   metric, plus ``metrics`` (mean/std/min/max/count of each);
 * ``episodes.csv``: one row per episode (seed, length, success, mean return over robots
   and the per-episode mean of every metric over the robots that report it);
-* ``trajectories.png``: the robots' paths in the first episode;
+* ``trajectories.png``: the robots' (and moving obstacles' or boxes') paths in the first episode;
 * ``episode.gif`` (with ``--gif``): an animation of the first episode.
 
 Metric means pool all (robot, episode) values: a metric a robot does not report (such as
@@ -88,6 +88,8 @@ class EpisodeResult:
     returns: dict[str, float]
     metrics: dict[str, dict[str, float | int | bool]]
     trajectories: dict[str, list[tuple[float, float]]] | None = field(default=None, compare=False, repr=False)
+    #: Paths of the moving obstacles and boxes (``env.object_trajectories()``), if the env has them.
+    object_paths: dict[str, list[tuple[float, float]]] | None = field(default=None, compare=False, repr=False)
     goals: dict[str, tuple[float, float]] | None = field(default=None, compare=False, repr=False)
     arena: tuple[float, float] | None = field(default=None, compare=False, repr=False)
     #: Static geometry at the end of the episode: wall and closed-door segments, furniture polygons.
@@ -171,9 +173,10 @@ def run_episode(env: Any, policy: Any, seed: int, record_frames: bool = False, r
     for agent, info in final.items():
         values = {k: _numeric(v) for k, v in info.items()}
         metrics[agent] = {k: v for k, v in values.items() if v is not None}
-    trajectories = goals = arena = walls = furniture = None
+    trajectories = object_paths = goals = arena = walls = furniture = None
     if record_trajectories:
         trajectories = env.trajectories() if hasattr(env, "trajectories") else None
+        object_paths = env.object_trajectories() if hasattr(env, "object_trajectories") else None
         world = getattr(env, "world", None)
         arena = tuple(float(s) for s in world.size) if world is not None and hasattr(world, "size") else None
         if world is not None:
@@ -193,6 +196,7 @@ def run_episode(env: Any, policy: Any, seed: int, record_frames: bool = False, r
         returns=returns,
         metrics=metrics,
         trajectories=trajectories,
+        object_paths=object_paths,
         goals=goals,
         arena=arena,
         walls=walls,
@@ -514,6 +518,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 title=title,
                 walls=first.walls,
                 furniture=first.furniture,
+                objects=first.object_paths,
             )
         )
     if args.gif:

@@ -195,3 +195,29 @@ def test_explicit_setting_overrides_required_config(tmp_path):
     result = run_cli("--policy", "nash", "--episodes", "1", "--set", "action_type=velocity", "--out", str(tmp_path), "--quiet")
     assert result.returncode == 2
     assert "heading" in result.stderr
+
+
+def test_object_trails_follow_obstacles_and_boxes(tmp_path):
+    from baselines.plots import plot_trajectories
+    from teamgym.control.primitives import Primitive
+
+    env = teamgym.make("Navigation-v0", n_robots=2, n_obstacles=2, max_cycles=10, obstacle_speed=0.2)
+    result = run_episode(env, make_policy("goto", env), seed=4)
+    assert set(result.object_paths) == {"obstacle_0", "obstacle_1"}
+    for name, path in result.object_paths.items():
+        assert len(path) == result.length + 1  # the reset position and one per step
+        assert path[-1] == pytest.approx(env.world[name].position)
+        # an obstacle covers at most speed × Δt per step (bounces and pushes only shorten it)
+        hops = np.hypot(*np.diff(np.array(path), axis=0).T)
+        assert hops.max() <= 0.2 * env.config.dt + 1e-6 and hops.sum() > 0
+    png = plot_trajectories(result.trajectories, tmp_path / "t.png", arena=result.arena, objects=result.object_paths)
+    assert png.stat().st_size > 0
+
+    boxes = teamgym.make("BoxPushing-v0", situation="S1", n_spare_boxes=1)
+    boxes.reset(seed=0)
+    stop = int(Primitive.STOP)
+    boxes.step({a: stop for a in boxes.agents})
+    boxes.add_box(heavy=True)
+    boxes.step({a: stop for a in boxes.agents})
+    trails = boxes.object_trajectories()
+    assert [len(t) for t in trails.values()] == [3, 1]

@@ -65,6 +65,7 @@ class TeamEnv(ParallelEnv):
         self.cycles = 0
         self._renderer: Renderer | None = None
         self._trails: dict[str, list[tuple[float, float]]] = {}
+        self._object_trails: dict[str, list[tuple[float, float]]] = {}
         self._log: list[tuple] = []
 
     # -- hooks for subclasses --------------------------------------------------------
@@ -125,6 +126,8 @@ class TeamEnv(ParallelEnv):
         self.cycles = 0
         self._build(self.np_random)
         self._trails = {a: [self.robots[a].position] for a in self.agents}
+        self._object_trails = {}
+        self._record_object_trails()
         observations = self._collect_observations()
         infos = {a: self._metrics(a) for a in self.agents}
         if self.render_mode == "human":
@@ -176,6 +179,20 @@ class TeamEnv(ParallelEnv):
             row = index.get(agent)
             point = tuple(states[row, :2].tolist()) if row is not None else self.robots[agent].position
             self._trails[agent].append(point)
+        self._record_object_trails()
+
+    def _record_object_trails(self) -> None:
+        """Append the position of every moving obstacle and box (added ones start a new trail)."""
+        world, trails = self.world, self._object_trails
+        states = world.mover_states
+        if len(states) == len(world.movers):  # batch read after the last step (or at reset)
+            points = [tuple(p) for p in states[:, :2].tolist()]
+        else:
+            points = [m.position for m in world.movers]
+        for mover, point in zip(world.movers, points):
+            trails.setdefault(mover.name, []).append(point)
+        for box in world.boxes:
+            trails.setdefault(box.name, []).append(box.position)
 
     def _check_actions(self, actions: dict) -> dict:
         """Validate every action before anything changes; raise naming the culprit."""
@@ -224,6 +241,10 @@ class TeamEnv(ParallelEnv):
     def trajectories(self) -> dict[str, list[tuple[float, float]]]:
         """Positions (m) of every robot at every step of the current episode."""
         return {a: list(points) for a, points in self._trails.items()}
+
+    def object_trajectories(self) -> dict[str, list[tuple[float, float]]]:
+        """Positions (m) of every moving obstacle and box at every step it was in the world."""
+        return {name: list(points) for name, points in self._object_trails.items()}
 
     def decode(self, observation: np.ndarray) -> dict[str, np.ndarray]:
         """Named fields of a flat observation (see :class:`ObservationLayout`)."""

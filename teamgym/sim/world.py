@@ -16,7 +16,7 @@ import pymunk
 from teamgym.sim.categories import Category
 from teamgym.sim.chipmunk import BodyReader, space_step
 from teamgym.sim.entity import Entity
-from teamgym.sim.objects import MovingPolygon, Wall
+from teamgym.sim.objects import Box, MovingPolygon, Wall
 from teamgym.sim.robot import DiffDriveRobot
 
 
@@ -69,6 +69,7 @@ class World:
         self.space.on_collision(begin=self._on_contact_begin)
         self.robots: list[DiffDriveRobot] = []
         self.movers: list[MovingPolygon] = []
+        self.boxes: list[Box] = []
         self._reader: BodyReader | None = None
         #: ``(x, y, angle, vx, vy, ω)`` of every robot / moving obstacle after the last step.
         self.robot_states = np.zeros((0, 6))
@@ -85,6 +86,8 @@ class World:
             self.robots.append(entity)
         elif isinstance(entity, MovingPolygon):
             self.movers.append(entity)
+        elif isinstance(entity, Box):
+            self.boxes.append(entity)
         self._reader = None
         return entity
 
@@ -109,6 +112,8 @@ class World:
             self.robots.remove(entity)
         if entity in self.movers:
             self.movers.remove(entity)
+        if entity in self.boxes:
+            self.boxes.remove(entity)
         self._reader = None
         return entity
 
