@@ -83,6 +83,7 @@ class NashNavigation(Policy):
     def reset(self, seed: int | None = None) -> None:
         super().reset(seed)
         self._previous_obstacles: np.ndarray | None = None
+        self.predicted_obstacles: np.ndarray | None = None
         #: How often each arbiter branch was taken ("nash-unique", "nash-arbiter", ...).
         self.branch_counts: Counter[str] = Counter()
         #: Wall-clock seconds spent per decision (building and solving the game).
@@ -109,6 +110,8 @@ class NashNavigation(Policy):
         else:
             obstacles_next = obstacles_now
         self._previous_obstacles = obstacles_now
+        #: Obstacle centres predicted by eq. (23) for the end of this step, t_n + Δt (M, 2).
+        self.predicted_obstacles = obstacles_next
         positions = np.array([fields[a]["pose"][:2] for a in agents], dtype=float)
         headings = np.array([fields[a]["pose"][2] for a in agents], dtype=float)
         previous = np.array([fields[a]["last_command"] for a in agents], dtype=float)

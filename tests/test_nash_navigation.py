@@ -136,6 +136,26 @@ def test_policy_predicts_the_speed_the_env_applies():
             assert env.robots[agent].command[0] == pytest.approx(predicted[agent], rel=1e-4, abs=1e-6)
 
 
+def test_obstacle_prediction_eq23_is_the_position_one_step_ahead():
+    # Section 6.3: Δt = 0.2 s; with obstacles on straight lines eq. (23) must land on the
+    # obstacle's position at t_n + Δt (from the second step on; the first has no t_{n-1}).
+    env = teamgym.make("Navigation-v0", n_robots=2, dt=0.2, walls=False, obstacle_motion="straight", action_type="heading")
+    policy = make_policy("nash", env)
+    observations, infos = env.reset(seed=5)
+    policy.reset(5)
+    for robot in env.robots.values():  # keep the robots out of the obstacles' way
+        robot.teleport((robot.pose[0] + 10.0, robot.pose[1]), robot.pose[2])
+    errors = []
+    for _ in range(6):
+        actions = policy.act({a: observations[a] for a in env.agents}, infos)
+        predicted = policy.predicted_obstacles.copy()
+        observations, _, _, _, infos = env.step(actions)
+        actual = np.array([o.position for o in env.obstacles])
+        errors.append(np.linalg.norm(predicted - actual, axis=1).max())
+    assert errors[0] == pytest.approx(0.2 * 0.2, rel=0.05)  # first step: current position, 4 cm behind
+    assert max(errors[1:]) < 1e-4
+
+
 def test_policy_needs_the_heading_action_type():
     env = teamgym.make("Navigation-v0", action_type="velocity")
     with pytest.raises(ValueError, match="heading"):
