@@ -285,6 +285,25 @@ def test_stacked_and_player_loop_paths_agree(monkeypatch, ks, tol):
         assert stacked[2] == loop[2]
 
 
+@pytest.mark.parametrize("n", [2, 3, 5, 7])
+def test_python_and_numpy_cost_paths_agree_bitwise(monkeypatch, n):
+    """Eq. (30) in plain Python (few candidates) and in numpy (many) give identical costs."""
+    rng = np.random.default_rng(n)
+    for scale in (1e-3, 1.0, 1e3):
+        flat = rng.standard_normal((n, 40)) * scale
+        flat[:, ::3] = np.round(flat[:, ::3], 1)  # exact ties and permuted loss vectors
+        flat[:, 1] = flat[::-1, 0]
+        idx = np.arange(40)
+        monkeypatch.setattr(solver, "_PYTHON_COST_LIMIT", 1000)
+        python = solver._cost_flat(flat, idx)
+        monkeypatch.setattr(solver, "_PYTHON_COST_LIMIT", 0)
+        vectorised = solver._cost_flat(flat, idx)
+        np.testing.assert_array_equal(python, vectorised)
+        assert python[0] == python[1]
+        by_hand = [sum(v + abs(v - flat[:, j].mean()) for v in flat[:, j]) for j in range(40)]
+        np.testing.assert_allclose(python, by_hand, rtol=1e-12)
+
+
 # --------------------------------------------------------------------------- validation
 
 

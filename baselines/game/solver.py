@@ -263,15 +263,35 @@ def minmax_strategies(losses: npt.ArrayLike, *, tol: float = 0.0) -> npt.NDArray
     return _product(_safety_sets(safe))
 
 
-def _cost(arr: np.ndarray, candidates: npt.NDArray[np.intp]) -> npt.NDArray[np.float64]:
-    """Eq. (30) for validated losses and a (P, N) candidate array."""
-    vals = arr[(slice(None), *candidates.T)]  # (N, P): I_i(S_n)
+#: Up to this many candidates eq. (30) is evaluated in plain Python: a handful of numpy calls on
+#: a (N, P) array cost more than the arithmetic itself. Both paths give bit-identical costs.
+_PYTHON_COST_LIMIT = 16
+
+
+def _cost_flat(flat_losses: np.ndarray, flat_idx: npt.NDArray[np.intp]) -> npt.NDArray[np.float64]:
+    """Eq. (30) for candidates given by flat joint-action indices into ``flat_losses`` (N, M)."""
+    vals = flat_losses[:, flat_idx]  # (N, P): I_i(S_n)
     # Sorting each candidate's loss vector makes C a function of the multiset of losses alone, so
     # candidates whose loss vectors are permutations of each other get bit-identical costs and
     # the lexicographic tie-break of eq. (31) is not decided by floating-point summation order.
+    # Both paths sum in the same (sequential, sorted) order, so they agree to the bit.
+    n = vals.shape[0]
+    if vals.shape[1] <= _PYTHON_COST_LIMIT:
+        costs = []
+        for row in vals.T.tolist():
+            row.sort()
+            mean = sum(row) / n
+            costs.append(sum([v + abs(v - mean) for v in row]))
+        return np.array(costs, dtype=np.float64)
     vals = np.sort(vals, axis=0)
-    mean = vals.mean(axis=0)
+    mean = vals.sum(axis=0) / n
     return (vals + np.abs(vals - mean)).sum(axis=0)
+
+
+def _cost(arr: np.ndarray, candidates: npt.NDArray[np.intp]) -> npt.NDArray[np.float64]:
+    """Eq. (30) for validated losses and a (P, N) candidate array."""
+    flat_idx = np.ravel_multi_index(tuple(candidates.T), arr.shape[1:])
+    return _cost_flat(arr.reshape(arr.shape[0], -1), flat_idx)
 
 
 def arbiter_cost(losses: npt.ArrayLike, candidates: npt.ArrayLike) -> npt.NDArray[np.float64]:
@@ -361,14 +381,16 @@ def arbitrate(losses: npt.ArrayLike, *, selection: Selection = "arbiter", tol: f
     if n_nash == 0 and n_minmax == 1:
         return ArbiterResult(tuple(safe.argmax(axis=1).tolist()), "minmax-unique", 0, 1, None)
     if n_nash:
-        cands, kind = np.array(np.unravel_index(flat_idx, ks), dtype=np.intp).T, "nash"
+        kind = "nash"
     else:
-        cands, kind = _product(_safety_sets(safe)), "minmax"
+        flat_idx, kind = np.ravel_multi_index(tuple(_product(_safety_sets(safe)).T), ks), "minmax"
+    flat_losses = arr.reshape(arr.shape[0], -1)
     if selection == "first":
         k = 0
-        cost = float(_cost(arr, cands[:1])[0])
+        cost = float(_cost_flat(flat_losses, flat_idx[:1])[0])
     else:
-        costs = _cost(arr, cands)
+        costs = _cost_flat(flat_losses, flat_idx)
         k = int(np.argmin(costs))  # first minimum: lowest lexicographic index among exact ties
         cost = float(costs[k])
-    return ArbiterResult(tuple(cands[k].tolist()), f"{kind}-arbiter", n_nash, n_minmax, cost)
+    actions = tuple(int(d) for d in np.unravel_index(int(flat_idx[k]), ks))
+    return ArbiterResult(actions, f"{kind}-arbiter", n_nash, n_minmax, cost)
