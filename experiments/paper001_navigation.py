@@ -11,9 +11,19 @@ Subcommands (each writes JSON, a Markdown table and PNG plots into ``--out``):
   smoothness J_1 of robot 1 and decision time per step.
 * ``obstacles`` (section 6.3, Figs. 8–9): 3 and 5 robots, 2 obstacles at 20 cm/s,
   Δt = 0.2 s, robot radius 5 cm: distance to the nearest object over time for one seed;
-  then over ``--seeds`` seeds success (every robot at its goal, no collision), collisions,
-  minimum separation, and how often the arbiter saw one, several or no equilibria; the
-  same seeds with ``goto`` and ``nash-first`` (no arbiter) for comparison.
+  then over ``--seeds`` seeds (from ``--first-seed``) success (every robot at its goal, no
+  collision), collisions, minimum separation, and how often the arbiter saw one, several
+  or no equilibria; the same seeds with ``goto`` and ``nash-first`` (no arbiter) for
+  comparison. Each in three workspaces (``WORKSPACES``): ``walled`` (2 m arena with walls,
+  obstacles bounce off them: the earlier setting), ``open`` (no walls, as in the paper;
+  obstacles still reflect at the 2 m square's edges and stay inside it) and
+  ``open-straight`` (no walls, obstacles on one straight line for the whole episode).
+* ``failures``: for ``nash`` with 5 robots, the first contact of every failed episode
+  (what was hit, from which side, robot speed, gap to the nearest wall, obstacle just
+  reflected?, distance to goal) in each workspace: the failure taxonomy of
+  docs/navigation.md. Run it on the held-out seeds (``--first-seed 100``).
+
+Seeds 0–99 are the reported ones; 100–199 were used for every tuning decision.
 """
 
 from __future__ import annotations
@@ -34,6 +44,14 @@ from baselines.registry import make_policy, required_config
 DELAY_FRACTIONS = (0.0, 0.3, 0.6, 0.9)
 DECISION_SETS = (3, 5, 9, 17)
 OBSTACLE_SETTING = {"dt": 0.2, "robot_radius": 0.05, "n_obstacles": 2, "obstacle_speed": 0.2}
+#: Workspaces of the obstacle experiment (Navigation-v0 config on top of OBSTACLE_SETTING).
+WORKSPACES = {
+    "walled": {"walls": True, "obstacle_motion": "bounce"},
+    "open": {"walls": False, "obstacle_motion": "bounce"},
+    "open-straight": {"walls": False, "obstacle_motion": "straight"},
+}
+#: A robot counts as exposed in a step when an obstacle centre is this near its centre (m).
+EXPOSURE_DISTANCE = 0.25
 
 
 def run(env_id: str, policy_name: str, seed: int, config: dict[str, Any], policy_kwargs: dict | None = None) -> dict[str, Any]:
@@ -44,12 +62,30 @@ def run(env_id: str, policy_name: str, seed: int, config: dict[str, Any], policy
     policy.reset(seed)
     final = dict(infos)
     nearest: list[np.ndarray] = []
+    obstacle_paths: list[np.ndarray] = []
+    exposed = 0
+    contacts: list[dict[str, Any]] = []
+    turns = np.full(len(env.obstacles), -np.inf)  # step of each obstacle's last change of direction
     while env.agents:
-        actions = policy.act({a: observations[a] for a in env.agents}, infos)
+        live = list(env.agents)
+        before = _snapshot(env)
+        scripted = [o.target_velocity for o in env.obstacles]
+        actions = policy.act({a: observations[a] for a in live}, infos)
         observations, _, _, _, infos = env.step(actions)
         final.update(infos)
         nearest.append(_nearest_centre_distances(env))
+        obstacle_paths.append(np.array([o.position for o in env.obstacles]).reshape(-1, 2))
+        if env.obstacles:
+            live_rows = [env.possible_agents.index(a) for a in live]
+            gaps = np.linalg.norm(env._obs_pos[None, :, :] - env._pos[live_rows][:, None, :], axis=2)
+            exposed += int(np.sum(gaps.min(axis=1) < EXPOSURE_DISTANCE))
+        for k, (o, old) in enumerate(zip(env.obstacles, scripted)):
+            if o.target_velocity != old:
+                turns[k] = env.cycles
+        contacts.extend(_describe_contacts(env, live, before, turns))
     robots = list(final.values())
+    size = env.config.arena_size
+    path_points = np.concatenate([np.asarray(p, dtype=float).reshape(-1, 2) for p in env.trajectories().values()])
     return {
         "seed": seed,
         "success": all(m["arrived"] for m in robots) and sum(m["collisions"] for m in robots) == 0,
@@ -64,10 +100,61 @@ def run(env_id: str, policy_name: str, seed: int, config: dict[str, Any], policy
         "steps": env.cycles,
         "nearest": np.array(nearest),
         "trajectories": env.trajectories(),
+        "obstacle_paths": np.array(obstacle_paths),
         "goals": np.asarray(env.goals).tolist(),
+        "arena": size,
+        "walls": env.config.walls,
+        "exposed_steps": exposed,
+        "outside_square_m": float(np.max(np.maximum(np.maximum(-path_points, path_points - size), 0.0))),
+        "contacts": contacts,
         "branches": dict(getattr(policy, "branch_counts", {})),
         "decision_times": list(getattr(policy, "decision_times", [])),
     }
+
+
+def _snapshot(env) -> dict[str, np.ndarray]:
+    """Robot poses, obstacle positions and velocities before a step (for the failure taxonomy)."""
+    return {
+        "pos": env._pos.copy(),
+        "theta": env._theta.copy(),
+        "obstacles": env._obs_pos.copy(),
+        "obstacle_velocity": env._obs_vel.copy(),
+        "goal_distance": np.linalg.norm(env.goals - env._pos, axis=1),
+    }
+
+
+def _relative_angle(vector: np.ndarray, heading: float) -> float:
+    """Angle of ``vector`` relative to ``heading`` in degrees, in (−180, 180]; 0 = straight ahead."""
+    return float(np.degrees(np.angle(np.exp(1j * (np.arctan2(vector[1], vector[0]) - heading)))))
+
+
+def _describe_contacts(env, live: list[str], before: dict[str, np.ndarray], turns: np.ndarray) -> list[dict[str, Any]]:
+    """Contacts of driving robots that began in the last step, described from the robot's side."""
+    out = []
+    size, radius = env.config.arena_size, env.config.robot_radius
+    for contact in env.world.contacts:
+        for me, other in ((contact.a, contact.b), (contact.b, contact.a)):
+            if me not in live:
+                continue
+            i = env.possible_agents.index(me)
+            pos, heading = before["pos"][i], float(before["theta"][i])
+            row: dict[str, Any] = {
+                "step": env.cycles,
+                "robot": me,
+                "hit": "obstacle" if other.startswith("obstacle") else "robot" if other.startswith("robot") else "wall",
+                "speed_m_s": float(env.robot_list[i].command[0]),
+                "wall_gap_m": float(min(pos[0], pos[1], size - pos[0], size - pos[1]) - radius),
+                "goal_distance_m": float(before["goal_distance"][i]),
+            }
+            if other.startswith("obstacle"):
+                k = int(other.split("_")[1])
+                velocity = before["obstacle_velocity"][k]
+                row["bearing_deg"] = _relative_angle(before["obstacles"][k] - pos, heading)
+                row["obstacle_from_deg"] = _relative_angle(-velocity, heading)
+                # turned (reflected) within the last two steps: eq. (4)'s heading was stale
+                row["obstacle_reflected"] = bool(env.cycles - turns[k] <= 2)
+            out.append(row)
+    return out
 
 
 def _nearest_centre_distances(env) -> np.ndarray:
@@ -125,34 +212,70 @@ def experiment_decision_set(out: Path, seeds: int) -> dict:
 
 
 # -- experiment 3 and statistics: moving obstacles ------------------------------------------
-def experiment_obstacles(out: Path, seeds: int) -> dict:
-    summary: dict[str, Any] = {"rows": [], "branches": {}}
-    for n in (3, 5):
-        config = {**OBSTACLE_SETTING, "n_robots": n}
-        example = run("Navigation-v0", "nash", 0, config)
-        _plot_nearest(out / f"obstacles_{n}_robots.png", example, n)
-        for policy in ("nash", "nash-first", "goto"):
-            started = time.perf_counter()
-            results = [run("Navigation-v0", policy, s, config) for s in range(seeds)]
-            summary["rows"].append(
+def experiment_obstacles(out: Path, seeds: int, first_seed: int = 0) -> dict:
+    summary: dict[str, Any] = {"seeds": [first_seed, first_seed + seeds - 1], "rows": [], "branches": {}}
+    for workspace, setting in WORKSPACES.items():
+        for n in (3, 5):
+            config = {**OBSTACLE_SETTING, **setting, "n_robots": n}
+            example = run("Navigation-v0", "nash", first_seed, config)
+            suffix = "" if workspace == "walled" else f"_{workspace}"
+            _plot_nearest(out / f"obstacles_{n}_robots{suffix}.png", example, n, workspace)
+            for policy in ("nash", "nash-first", "goto"):
+                started = time.perf_counter()
+                results = [run("Navigation-v0", policy, s, config) for s in range(first_seed, first_seed + seeds)]
+                summary["rows"].append(
+                    {
+                        "workspace": workspace,
+                        "robots": n,
+                        "policy": policy,
+                        "success": float(np.mean([r["success"] for r in results])),
+                        "all_arrived": float(np.mean([r["arrived"] for r in results])),
+                        "collisions_per_episode": float(np.mean([r["collisions"] for r in results])),
+                        "min_center_distance_m": float(np.min([r["min_center_distance"] for r in results])),
+                        "median_min_center_distance_m": float(np.median([r["min_center_distance"] for r in results])),
+                        "time_to_goal_s": float(np.nanmean([r["time_to_goal"] for r in results])),
+                        "exposed_steps": float(np.mean([r["exposed_steps"] for r in results])),
+                        "left_square": float(np.mean([r["outside_square_m"] > 0 for r in results])),
+                        "wall_s": time.perf_counter() - started,
+                    }
+                )
+                if policy == "nash":
+                    counts: Counter[str] = Counter()
+                    for r in results:
+                        counts.update(r["branches"])
+                    summary["branches"][f"{workspace}, {n} robots"] = dict(counts)
+    return summary
+
+
+def experiment_failures(out: Path, seeds: int, first_seed: int = 0) -> dict:
+    """First contact of every failed ``nash`` episode with 5 robots, per workspace."""
+    rows = []
+    for workspace, setting in WORKSPACES.items():
+        config = {**OBSTACLE_SETTING, **setting, "n_robots": 5}
+        for seed in range(first_seed, first_seed + seeds):
+            r = run("Navigation-v0", "nash", seed, config)
+            if r["success"]:
+                continue
+            first = r["contacts"][0] if r["contacts"] else {}
+            rows.append(
                 {
-                    "robots": n,
-                    "policy": policy,
-                    "success": float(np.mean([r["success"] for r in results])),
-                    "all_arrived": float(np.mean([r["arrived"] for r in results])),
-                    "collisions_per_episode": float(np.mean([r["collisions"] for r in results])),
-                    "min_center_distance_m": float(np.min([r["min_center_distance"] for r in results])),
-                    "median_min_center_distance_m": float(np.median([r["min_center_distance"] for r in results])),
-                    "time_to_goal_s": float(np.nanmean([r["time_to_goal"] for r in results])),
-                    "wall_s": time.perf_counter() - started,
+                    "workspace": workspace,
+                    "seed": seed,
+                    "outcome": "collision" if r["collisions"] else "timeout",
+                    "robot": first.get("robot", "-"),
+                    "hit": first.get("hit", "-"),
+                    "bearing_deg": round(first["bearing_deg"]) if "bearing_deg" in first else "-",
+                    "obstacle_from_deg": round(first["obstacle_from_deg"]) if "obstacle_from_deg" in first else "-",
+                    "v_cmd_m_s": first.get("speed_m_s", float("nan")),
+                    "wall_gap_m": first.get("wall_gap_m", float("nan")),
+                    "goal_distance_m": first.get("goal_distance_m", float("nan")),
+                    "obstacle_reflected": first.get("obstacle_reflected", "-"),
+                    "contacts": len(r["contacts"]),
                 }
             )
-            if policy == "nash":
-                counts: Counter[str] = Counter()
-                for r in results:
-                    counts.update(r["branches"])
-                summary["branches"][n] = dict(counts)
-    return summary
+    if not rows:
+        rows = [{"workspace": "-", "seed": "-", "outcome": "no failures"}]
+    return {"seeds": [first_seed, first_seed + seeds - 1], "rows": rows}
 
 
 # -- plots -----------------------------------------------------------------------------------
@@ -197,10 +320,22 @@ def _plot_decision_set(path: Path, rows: list[dict]) -> None:
     fig.savefig(path, dpi=100)
 
 
-def _plot_nearest(path: Path, result: dict, n: int) -> None:
+def _plot_nearest(path: Path, result: dict, n: int, workspace: str = "walled") -> None:
     fig = _figure(11, 4.5)
     ax = fig.add_subplot(1, 2, 1)
-    _draw_trajectories(ax, result, f"{n} robots, 2 obstacles (seed 0): success={result['success']}")
+    size = result["arena"]
+    ax.plot(
+        [0, size, size, 0, 0],
+        [0, 0, size, size, 0],
+        color="k",
+        linewidth=2 if result["walls"] else 0.8,
+        linestyle="-" if result["walls"] else ":",
+    )
+    for k in range(result["obstacle_paths"].shape[1] if len(result["obstacle_paths"]) else 0):
+        path_k = result["obstacle_paths"][:, k]
+        ax.plot(path_k[:, 0], path_k[:, 1], color="0.5", linestyle="--", linewidth=1)
+        ax.annotate(f"o{k + 1}", path_k[0], fontsize=8, color="0.3")
+    _draw_trajectories(ax, result, f"{n} robots, 2 obstacles, {workspace} (seed {result['seed']}): success={result['success']}")
     ax = fig.add_subplot(1, 2, 2)
     nearest = result["nearest"]
     t = 0.2 * np.arange(1, len(nearest) + 1)
@@ -215,7 +350,14 @@ def _plot_nearest(path: Path, result: dict, n: int) -> None:
 
 
 # -- tables and CLI ----------------------------------------------------------------------------
-EXPERIMENTS = {"delay": experiment_delay, "decision-set": experiment_decision_set, "obstacles": experiment_obstacles}
+EXPERIMENTS = {
+    "delay": experiment_delay,
+    "decision-set": experiment_decision_set,
+    "obstacles": experiment_obstacles,
+    "failures": experiment_failures,
+}
+#: Experiments that take ``--first-seed`` (the others always start at seed 0).
+SEEDED = ("obstacles", "failures")
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -223,14 +365,24 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("experiment", choices=[*EXPERIMENTS, "all"])
     parser.add_argument("--out", type=Path, default=Path("results/paper001"))
     parser.add_argument("--seeds", type=int, default=100, help="seeds for the obstacle experiment (20 for the others)")
+    parser.add_argument(
+        "--first-seed", type=int, default=0, help="first seed of obstacles/failures (100 = the held-out tuning seeds)"
+    )
     args = parser.parse_args(argv)
+    if args.seeds < 1 or args.first_seed < 0:
+        parser.error("--seeds must be >= 1 and --first-seed >= 0")
     args.out.mkdir(parents=True, exist_ok=True)
-    names = list(EXPERIMENTS) if args.experiment == "all" else [args.experiment]
+    names = [n for n in EXPERIMENTS if n != "failures"] if args.experiment == "all" else [args.experiment]
     for name in names:
-        seeds = args.seeds if name == "obstacles" else min(args.seeds, 20)
-        result = EXPERIMENTS[name](args.out, seeds)
+        seeds = args.seeds if name in SEEDED else min(args.seeds, 20)
+        if name in SEEDED:
+            result = EXPERIMENTS[name](args.out, seeds, args.first_seed)
+            label = f"seeds {args.first_seed}–{args.first_seed + seeds - 1}"
+        else:
+            result = EXPERIMENTS[name](args.out, seeds)
+            label = f"{seeds} seeds"
         (args.out / f"{name}.json").write_text(json.dumps(result, indent=2, default=str))
-        text = f"## {name} ({seeds} seeds)\n\n{markdown_table(result['rows'])}\n"
+        text = f"## {name} ({label})\n\n{markdown_table(result['rows'])}\n"
         if result.get("branches"):
             text += "\nArbiter branches per step (nash): " + json.dumps(result["branches"]) + "\n"
         (args.out / f"{name}.md").write_text(text)

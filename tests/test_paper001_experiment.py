@@ -1,0 +1,73 @@
+"""experiments/paper001_navigation.py: workspaces of experiment 3, contact descriptions, CLI."""
+
+import importlib.util
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+SCRIPT = Path(__file__).resolve().parents[1] / "experiments" / "paper001_navigation.py"
+
+
+@pytest.fixture(scope="module")
+def paper001():
+    spec = importlib.util.spec_from_file_location("paper001_navigation", SCRIPT)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_workspaces_are_the_documented_settings(paper001):
+    assert paper001.WORKSPACES == {
+        "walled": {"walls": True, "obstacle_motion": "bounce"},
+        "open": {"walls": False, "obstacle_motion": "bounce"},
+        "open-straight": {"walls": False, "obstacle_motion": "straight"},
+    }
+    assert paper001.OBSTACLE_SETTING == {"dt": 0.2, "robot_radius": 0.05, "n_obstacles": 2, "obstacle_speed": 0.2}
+
+
+@pytest.mark.parametrize(
+    ("vector", "heading", "expected"),
+    [((1, 0), 0.0, 0.0), ((0, 1), 0.0, 90.0), ((0, -1), 0.0, -90.0), ((-1, 0), np.pi / 2, 90.0), ((1, 0), np.pi, 180.0)],
+)
+def test_relative_angle(paper001, vector, heading, expected):
+    assert abs(paper001._relative_angle(np.array(vector, dtype=float), heading)) == pytest.approx(abs(expected), abs=1e-9)
+    if abs(expected) != 180.0:
+        assert paper001._relative_angle(np.array(vector, dtype=float), heading) == pytest.approx(expected, abs=1e-9)
+
+
+def test_every_counted_collision_is_described(paper001):
+    config = {**paper001.OBSTACLE_SETTING, **paper001.WORKSPACES["walled"], "n_robots": 5}
+    result = paper001.run("Navigation-v0", "goto", 0, config)  # go-to-goal collides often
+    assert result["collisions"] > 0
+    assert len(result["contacts"]) == result["collisions"]
+    for row in result["contacts"]:
+        assert row["hit"] in {"obstacle", "robot", "wall"}
+        assert ("bearing_deg" in row) == (row["hit"] == "obstacle")
+        assert -180.0 <= row.get("bearing_deg", 0.0) <= 180.0
+    assert result["outside_square_m"] == pytest.approx(0.0, abs=0.01)  # the walls keep the robots in
+
+
+def test_open_workspace_records_obstacle_paths_and_exposure(paper001):
+    config = {**paper001.OBSTACLE_SETTING, **paper001.WORKSPACES["open-straight"], "n_robots": 3}
+    result = paper001.run("Navigation-v0", "nash", 0, config)
+    paths = result["obstacle_paths"]
+    assert paths.shape == (result["steps"], 2, 2)
+    np.testing.assert_allclose(np.linalg.norm(np.diff(paths, axis=0), axis=2), 0.04, rtol=0.02)  # 20 cm/s × 0.2 s
+    assert 0 <= result["exposed_steps"] <= 3 * result["steps"]
+    assert result["walls"] is False
+
+
+def test_cli_failures_writes_a_table_for_the_given_seeds(paper001, tmp_path):
+    paper001.main(["failures", "--out", str(tmp_path), "--seeds", "1", "--first-seed", "100"])
+    text = (tmp_path / "failures.md").read_text()
+    assert "seeds 100–100" in text
+    assert json.loads((tmp_path / "failures.json").read_text())["seeds"] == [100, 100]
+
+
+def test_cli_rejects_bad_seed_ranges(paper001, tmp_path):
+    with pytest.raises(SystemExit):
+        paper001.main(["obstacles", "--out", str(tmp_path), "--seeds", "0"])
+    with pytest.raises(SystemExit):
+        paper001.main(["obstacles", "--out", str(tmp_path), "--first-seed", "-1"])
