@@ -309,3 +309,30 @@ def test_removing_a_robot_changes_the_survivors_situation():
     lapse = survivor.transitions[-1]
     assert lapse.before in ("S2", "S3") and lapse.after in ("S1", "S4")
     assert lapse.time - survivor.last_m_time > 10.0 and lapse.time > removed
+
+
+def test_a_line_of_two_robots_pushes_the_heavy_box_towards_the_lamp():
+    """The physics premise of S3 under the sbs rules: a robot that pushes a stalled robot ahead of it
+    (it sees an object, not a recognized robot: the one ahead never moved while it looked) adds its
+    motor force; the line moves the heavy box that neither robot moves alone (docs/box_pushing.md)."""
+    env = teamgym.make("BoxPushing-v0", n_robots=2, n_light_boxes=0, n_heavy_boxes=1, max_cycles=400)
+    observations, infos = env.reset(seed=0)
+    box = env.world[env.box_names()[0]]
+    box.body.position = box.control.position = (0.5, 0.45)
+    box.body.angle = box.control.angle = 0.0
+    env.world.space.reindex_shapes_for_body(box.body)
+    radius = env.spec_robot.radius
+    for k, agent in enumerate(env.agents):  # in a line behind the box, facing the lamp
+        env.robots[agent].teleport((0.5 - 0.08 - radius - 0.004 - k * (2 * radius + 0.012), 0.45), 0.0)
+    env.world.read_states()
+    env._sense(env.agents)
+    observations = env._collect_observations()
+    policy = make_policy("sbs", env)
+    policy.reset(seed=0)
+    start = box.position[0]
+    for _ in range(300):
+        if not env.agents:
+            break
+        observations, _, _, _, infos = env.step(policy.act({a: observations[a] for a in env.agents}, infos))
+    assert box.position[0] - start > 0.3
+    assert policy.activations[4] + policy.activations[15] > 100  # pushing, not leaving (B-2)
