@@ -38,7 +38,7 @@ class SituatedBehaviourSets(Policy):
     fixed_sbs:
         Use this SBS whatever the situation (``1`` for the ``sbs1`` ablation); ``None`` adapts.
     **recognizer:
-        Overrides of :class:`~baselines.sbs_recognizer.RecognizerParams` (e.g. ``tm=60.0``, ``tt=5``).
+        Overrides of :class:`~baselines.sbs_recognizer.RecognizerParams` (e.g. ``tm=60.0``, ``tt=10``).
     """
 
     name = "sbs"

@@ -65,7 +65,7 @@ class RecognizerParams:
     object_threshold: float = 0.02
     sensor_range: float = 0.1
     tm: float = 60.0
-    tt: int = 5
+    tt: int = 10
     change_threshold: float = 0.004
     stall_slip: float = 0.8
     stall_cycles: int = 3

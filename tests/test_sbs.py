@@ -200,6 +200,16 @@ def test_t_lost_after_more_than_tt_immovable_collisions_and_regained_by_pushing(
     assert r.t and r.immovable_collisions == 0 and r.situation == "S1"
 
 
+def test_default_tt_is_the_papers_ten_collisions():
+    """Section 4: Tt = 10. T survives ten immovable collisions and is lost at the eleventh."""
+    r = recognizer()
+    assert r.params.tt == 10
+    for k in range(11):
+        assert r.t, k
+        stall_against_a_wall(r, r.params.stall_cycles)
+    assert not r.t
+
+
 def test_pushing_a_recognized_robot_is_no_evidence_of_a_light_box():
     r = recognizer(tt=0, stall_cycles=1, push_cycles=2)
     stall_against_a_wall(r, 1)
@@ -274,7 +284,7 @@ def test_one_robot_pushes_a_light_box_to_the_lamp():
 def test_heavy_box_added_to_s2_switches_both_robots_to_s3():
     """Section 4.2: once both robots recognize S2, a heavy box is added; each recognizer then reaches S3."""
     env = teamgym.make("BoxPushing-v0", n_robots=2, n_light_boxes=2, n_spare_boxes=1, boxes_to_goal=3)
-    policy = make_policy("sbs", env)
+    policy = make_policy("sbs", env, tt=5)  # fewer immovable collisions than the default 10: a short test
     observations, infos = env.reset(seed=5)
     policy.reset(seed=5)
     added = None
