@@ -262,6 +262,22 @@ def test_straight_obstacles_keep_their_velocity_and_leave_the_square():
     np.testing.assert_allclose(2 * track[1:-1] - track[:-2], track[2:], atol=1e-4)
 
 
+def test_straight_obstacles_cross_the_middle_of_the_square():
+    size = 2.0
+    lo, hi = 0.25 * size, 0.75 * size
+    for seed in range(20):
+        env = teamgym.make("Navigation-v0", n_robots=3, n_obstacles=2, walls=False, obstacle_motion="straight")
+        env.reset(seed=seed)
+        for obstacle in env.obstacles:
+            start = np.array(obstacle.position)
+            heading = np.array(obstacle.target_velocity) / env.config.obstacle_speed
+            # the line start + t·heading (t >= 0) passes through the middle half of the square
+            t = np.linspace(0.0, 3 * size, 601)
+            line = start[None, :] + t[:, None] * heading[None, :]
+            inside = np.all((line >= lo) & (line <= hi), axis=1)
+            assert inside.any(), (seed, obstacle.name, start, heading)
+
+
 @pytest.mark.parametrize("walls", [True, False])
 def test_bouncing_obstacles_stay_in_the_square_with_or_without_walls(walls):
     env, track = _obstacle_track({"walls": walls, "obstacle_motion": "bounce"})

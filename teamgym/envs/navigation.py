@@ -10,8 +10,10 @@ same workspace W with M moving obstacles inside"): ``walls=False`` removes them,
 may drive out of the square and cannot be pinned against a wall, while obstacles still
 reflect at the square's edges and stay inside it (``obstacle_motion="bounce"``) or, with
 ``obstacle_motion="straight"``, keep one straight line for the whole episode (the
-constant-velocity model of eq. 23) and leave the square when their line does. Starts, goals
-and obstacles are always sampled inside the square.
+constant-velocity model of eq. 23) and leave the square when their line does; a straight
+obstacle is aimed at a random point of the middle half of the square, so that it crosses
+the robots' workspace rather than leaving it at once. Starts, goals and obstacles are
+always sampled inside the square.
 
 Observations (flat float32, fields in order; decode with ``env.decode(obs)``):
 
@@ -332,7 +334,13 @@ class Navigation(TeamEnv):
         for centre in centres:
             sides = int(rng.integers(3, 7))
             vertices = regular_polygon(sides, radius, rotation=float(rng.uniform(0, 2 * np.pi)))
-            direction = rng.uniform(0, 2 * np.pi)
+            if c.obstacle_motion == "straight":
+                # Aim across the middle half of the square, where the robots travel, so the
+                # obstacle crosses the workspace instead of leaving it at once.
+                aim = rng.uniform(0.25 * c.arena_size, 0.75 * c.arena_size, size=2) - centre
+                direction = math.atan2(aim[1], aim[0])
+            else:
+                direction = rng.uniform(0, 2 * np.pi)
             velocity = (c.obstacle_speed * math.cos(direction), c.obstacle_speed * math.sin(direction))
             obstacles.append((vertices, (float(centre[0]), float(centre[1])), velocity))
         return obstacles
