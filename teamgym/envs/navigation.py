@@ -111,18 +111,6 @@ def _scatter(
     return points
 
 
-class StraightPolygon(MovingPolygon):
-    """A moving obstacle that keeps its scripted velocity: a straight line for the whole episode.
-
-    Paper 001's obstacles move on straight lines at constant speed (the model behind eq. 23)
-    in an open workspace; with ``obstacle_motion="straight"`` (and ``walls=False``) they
-    never turn, so they may leave the arena square and do not come back.
-    """
-
-    def plan_bounce(self, bounds: tuple[float, float, float, float], dt: float, state: list[float] | None = None) -> None:
-        return None
-
-
 @dataclass(frozen=True)
 class NavigationConfig(EnvConfig):
     """Configuration of ``Navigation-v0`` (SI units; angles of the heading set in deg/s)."""
@@ -260,9 +248,9 @@ class Navigation(TeamEnv):
             self.robots[agent] = self.world.add(DiffDriveRobot(agent, tuple(start), float(heading), self.spec_robot))
         self.robot_list = list(self.robots.values())
         self.goals = goals
-        mover = MovingPolygon if c.obstacle_motion == "bounce" else StraightPolygon
+        bounce = c.obstacle_motion == "bounce"
         self.obstacles = [
-            self.world.add(mover(f"obstacle_{k}", vertices, centre, velocity))
+            self.world.add(MovingPolygon(f"obstacle_{k}", vertices, centre, velocity, bounce=bounce))
             for k, (vertices, centre, velocity) in enumerate(scene.obstacles)
         ]
         n = c.n_robots

@@ -151,7 +151,8 @@ class MovingPolygon(_DrivenBody):
     """A convex polygon moving on a scripted velocity, bouncing inside the arena.
 
     It is driven like a robot, through a force-limited joint, so a robot pinned against a
-    wall stops it instead of being pushed through the wall.
+    wall stops it instead of being pushed through the wall. With ``bounce=False`` it keeps
+    its scripted velocity for good: one straight line, leaving the arena when the line does.
     """
 
     kind = Category.OBSTACLE
@@ -164,8 +165,10 @@ class MovingPolygon(_DrivenBody):
         velocity: Point,
         mass: float = 1.0,
         max_force: float = 5.0,
+        bounce: bool = True,
     ) -> None:
         super().__init__(name, vertices, position, mass, max_force, max_force * 0.1)
+        self.bounce = bool(bounce)
         self.target_velocity = (float(velocity[0]), float(velocity[1]))
         self.control.velocity = self.target_velocity
         self.body.velocity = self.target_velocity
@@ -175,8 +178,10 @@ class MovingPolygon(_DrivenBody):
 
         ``bounds`` is ``(x_min, y_min, x_max, y_max)`` of the free arena interior. Also
         reverses when the body was held back (moved less than half as far as scripted),
-        e.g. by another obstacle.
+        e.g. by another obstacle. Does nothing for an obstacle made with ``bounce=False``.
         """
+        if not self.bounce:
+            return
         vx, vy = self.target_velocity
         if state is None:
             x, y = self.body.position
