@@ -174,3 +174,22 @@ def test_world_pickle_just_after_impact_continues_identically():
         world.step()
         clone.step()
         assert tuple(twin.body.position) == tuple(robot.body.position)
+
+
+@pytest.mark.parametrize("solid_to_each_other", [True, False])
+def test_moving_polygons_collide_unless_masked(solid_to_each_other):
+    from teamgym.sim.categories import SOLID
+    from teamgym.sim.objects import regular_polygon
+
+    mask = SOLID if solid_to_each_other else SOLID & ~Category.OBSTACLE.bit
+    world = World((4.0, 4.0), dt=0.1)
+    square = regular_polygon(4, 0.1)
+    a = world.add(MovingPolygon("a", square, (1.0, 2.0), (0.2, 0.0), bounce=False, collides_with=mask))
+    b = world.add(MovingPolygon("b", square, (3.0, 2.0), (-0.2, 0.0), bounce=False, collides_with=mask))
+    for _ in range(80):  # 8 s: they would meet in the middle after about 4.5 s
+        world.step()
+    if solid_to_each_other:
+        assert abs(a.position[1] - 2.0) > 0.02 and abs(b.position[1] - 2.0) > 0.02  # pushed off their lines
+    else:
+        assert a.position[0] == pytest.approx(2.6, abs=1e-3) and b.position[0] == pytest.approx(1.4, abs=1e-3)
+        assert a.target_velocity == (0.2, 0.0)  # bounce=False: never reflected, even leaving nothing

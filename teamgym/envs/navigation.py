@@ -12,7 +12,8 @@ reflect at the square's edges and stay inside it (``obstacle_motion="bounce"``) 
 ``obstacle_motion="straight"``, keep one straight line for the whole episode (the
 constant-velocity model of eq. 23) and leave the square when their line does; a straight
 obstacle is aimed at a random point of the middle half of the square, so that it crosses
-the robots' workspace rather than leaving it at once. Starts, goals and obstacles are
+the robots' workspace rather than leaving it at once, and passes over other obstacles
+(robots still stop it). Starts, goals and obstacles are
 always sampled inside the square.
 
 Observations (flat float32, fields in order; decode with ``env.decode(obs)``):
@@ -67,6 +68,7 @@ from teamgym.envs.actions import ActionType, CommandContext, HeadingAction, Velo
 from teamgym.envs.base import TeamEnv
 from teamgym.envs.config import ConfigError, EnvConfig, require
 from teamgym.envs.spaces import ObservationLayout
+from teamgym.sim.categories import SOLID, Category
 from teamgym.sim.objects import MovingPolygon, regular_polygon
 from teamgym.sim.render import Overlay, robot_colour
 from teamgym.sim.robot import DiffDriveRobot, RobotSpec
@@ -249,8 +251,10 @@ class Navigation(TeamEnv):
         self.robot_list = list(self.robots.values())
         self.goals = goals
         bounce = c.obstacle_motion == "bounce"
+        # Straight obstacles keep their line (eq. 23's model) even where two of them cross.
+        mask = SOLID if bounce else SOLID & ~Category.OBSTACLE.bit
         self.obstacles = [
-            self.world.add(MovingPolygon(f"obstacle_{k}", vertices, centre, velocity, bounce=bounce))
+            self.world.add(MovingPolygon(f"obstacle_{k}", vertices, centre, velocity, bounce=bounce, collides_with=mask))
             for k, (vertices, centre, velocity) in enumerate(scene.obstacles)
         ]
         n = c.n_robots

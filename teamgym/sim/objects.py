@@ -8,7 +8,7 @@ from collections.abc import Sequence
 import numpy as np
 import pymunk
 
-from teamgym.sim.categories import Category
+from teamgym.sim.categories import SOLID, Category
 from teamgym.sim.entity import Entity
 
 GRAVITY = 9.81
@@ -113,7 +113,14 @@ class _DrivenBody(Entity):
     """
 
     def __init__(
-        self, name: str, vertices: Sequence[Point], position: Point, mass: float, max_force: float, max_torque: float
+        self,
+        name: str,
+        vertices: Sequence[Point],
+        position: Point,
+        mass: float,
+        max_force: float,
+        max_torque: float,
+        collides_with: int = SOLID,
     ) -> None:
         super().__init__(name)
         self.local_vertices = _check_points(name, vertices, 3)
@@ -122,7 +129,7 @@ class _DrivenBody(Entity):
         self.mass = float(mass)
         self.body = pymunk.Body(self.mass, pymunk.moment_for_poly(self.mass, self.local_vertices))
         self.body.position = position
-        self.shape = self._own(pymunk.Poly(self.body, self.local_vertices))
+        self.shape = self._own(pymunk.Poly(self.body, self.local_vertices), mask=collides_with)
         self.shape.friction = 0.4
         self.control = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
         self.control.position = position
@@ -153,6 +160,7 @@ class MovingPolygon(_DrivenBody):
     It is driven like a robot, through a force-limited joint, so a robot pinned against a
     wall stops it instead of being pushed through the wall. With ``bounce=False`` it keeps
     its scripted velocity for good: one straight line, leaving the arena when the line does.
+    ``collides_with`` is the category mask of what it touches (default: everything solid).
     """
 
     kind = Category.OBSTACLE
@@ -166,8 +174,9 @@ class MovingPolygon(_DrivenBody):
         mass: float = 1.0,
         max_force: float = 5.0,
         bounce: bool = True,
+        collides_with: int = SOLID,
     ) -> None:
-        super().__init__(name, vertices, position, mass, max_force, max_force * 0.1)
+        super().__init__(name, vertices, position, mass, max_force, max_force * 0.1, collides_with)
         self.bounce = bool(bounce)
         self.target_velocity = (float(velocity[0]), float(velocity[1]))
         self.control.velocity = self.target_velocity
