@@ -25,10 +25,11 @@ threshold in group X), ``X-light`` (the group holds the brightest light sensor),
 to drive but the encoders showed more than ``stall_slip`` slip for ``stall_cycles`` steps in
 a row), ``X-robot`` (a robot recognized by the M check is sensed in group X, within sensor
 range) and ``X-robot-leaving`` (a robot sensed in X stopped being sensed less than
-``leaving_time`` s ago and none is sensed there now). A recognized robot is a *mark*: a
-bearing in the robot's frame, turned with the robot's own rotation (odometry) and moved to
-the nearest ray within ``mark_width`` that still sees something; when none does, the robot
-has left. A mark that shows no change for ``mark_patience`` still steps is forgotten (that
+``leaving_time`` s ago and none is sensed there now; this includes a reading in X that
+moved out of range while the robot stood still: a robot seen leaving by the M check). A
+recognized robot is a *mark*: a bearing in the robot's frame, turned with the robot's own
+rotation (odometry) and moved to the nearest ray within ``mark_width`` that still sees
+something; when none does, the robot has left. A mark that shows no change for ``mark_patience`` still steps is forgotten (that
 robot stopped; nothing tells it from a box any more), so two robots that stop facing each
 other (B-14) do not wait for ever.
 """
@@ -191,6 +192,10 @@ class SituationRecognizer:
     def _check_m(self, proximity: np.ndarray) -> None:
         """Standing still, a reading that changed means a moving object: another robot (AS-1).
 
+        A reading that changed by moving *out* of range, where no mark was, is a robot seen
+        leaving while the robot stood still: "another robot which was sensed forward/back
+        becomes not to be sensed" (section 3.4), so ``X-robot-leaving`` starts there too.
+
         Marks that show no change for ``mark_patience`` still steps stand for robots that
         stopped moving; they are forgotten (the object is still there, but nothing tells it
         from a box any more), which also keeps two robots that stop facing each other from
@@ -210,6 +215,9 @@ class SituationRecognizer:
             elif proximity[ray] < p.sensor_range:
                 self.marks.append([angle, 0])
                 seen.add(len(self.marks) - 1)
+            else:
+                # A moving object (a robot, AS-1) was sensed here and now is not: it left.
+                self._leaving[group_of_bearing(angle)] = self.time
         for k, mark in enumerate(self.marks):
             mark[1] = 0 if k in seen else mark[1] + 1
         self.marks = [mark for mark in self.marks if mark[1] < p.mark_patience]

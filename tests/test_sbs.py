@@ -162,6 +162,23 @@ def test_leaving_is_remembered_for_leaving_time():
     assert ["back-robot-leaving" in f for f in steps] == [True] * 5 + [False] * 2
 
 
+def test_a_robot_seen_leaving_while_standing_still_is_leaving():
+    # Section 3.4: "forward/back-robot-leaving means that another robot which was sensed
+    # forward/back becomes not to be sensed". Standing still, a forward reading that moves out
+    # of range is a moving object (AS-1) that stopped being sensed, even if it was never marked.
+    r = recognizer(leaving_time=0.25)
+    r.update(readings(r2=0.09), DARK_BACK, DRIVING)  # sighted while driving: no M check
+    facts = r.update(FREE, DARK_BACK, STILL)  # standing still, the reading left the range
+    assert r.m and "forward-robot-leaving" in facts and "forward-robot" not in facts
+    assert "back-robot-leaving" not in facts
+    later = [r.update(FREE, DARK_BACK, STILL) for _ in range(3)]
+    assert ["forward-robot-leaving" in f for f in later] == [True, True, False]
+    # Driving, the same disappearance is the robot's own motion: nothing is inferred.
+    r = recognizer()
+    r.update(readings(r6=0.09), DARK_BACK, DRIVING)
+    assert "back-robot-leaving" not in r.update(FREE, DARK_BACK, DRIVING) and not r.m
+
+
 def test_a_robot_that_stops_moving_is_forgotten():
     r = recognizer(mark_patience=5)
     r.update(readings(r1=0.05), DARK_BACK, STILL)
