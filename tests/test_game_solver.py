@@ -69,7 +69,7 @@ def test_prisoners_dilemma_unique_equilibrium_is_mutual_confession():
     assert as_set(pure_nash_equilibria(PRISONERS)) == {(1, 1)}
     assert as_set(minmax_strategies(PRISONERS)) == {(1, 1)}
     result = arbitrate(PRISONERS)
-    assert result == ArbiterResult(actions=(1, 1), branch="nash-unique", n_nash=1, n_minmax=1, cost=None)
+    assert result == ArbiterResult(actions=(1, 1), branch="nash-unique", n_nash=1, n_minmax=None, cost=None)
 
 
 def test_matching_pennies_falls_back_to_minmax_and_arbiter():
@@ -97,10 +97,10 @@ def test_coordination_game_arbiter_uses_eq30():
     np.testing.assert_array_equal(arbiter_cost(losses, [[0, 0], [1, 1]]), [6.0, 4.0])
     result = arbitrate(losses)
     # Every action's worst case is 5 for both players, so all 4 joint actions are min-max ones.
-    assert result == ArbiterResult(actions=(1, 1), branch="nash-arbiter", n_nash=2, n_minmax=4, cost=4.0)
+    assert result == ArbiterResult(actions=(1, 1), branch="nash-arbiter", n_nash=2, n_minmax=None, cost=4.0)
     # The "no arbiter" ablation takes the lexicographically first equilibrium.
     first = arbitrate(losses, selection="first")
-    assert first == ArbiterResult(actions=(0, 0), branch="nash-arbiter", n_nash=2, n_minmax=4, cost=6.0)
+    assert first == ArbiterResult(actions=(0, 0), branch="nash-arbiter", n_nash=2, n_minmax=None, cost=6.0)
 
 
 def test_three_player_arbiter_cost_by_hand():
@@ -132,7 +132,7 @@ def test_constant_game_every_joint_action_is_an_equilibrium_and_first_wins_ties(
     assert eq.shape == (12, 3)
     np.testing.assert_array_equal(eq, np.array(list(itertools.product(range(2), range(3), range(2)))))
     result = arbitrate(losses)
-    assert result == ArbiterResult(actions=(0, 0, 0), branch="nash-arbiter", n_nash=12, n_minmax=12, cost=21.0)
+    assert result == ArbiterResult(actions=(0, 0, 0), branch="nash-arbiter", n_nash=12, n_minmax=None, cost=21.0)
 
 
 def test_cost_ties_between_permuted_loss_vectors_go_to_lowest_index():
@@ -185,7 +185,7 @@ def test_shapes_against_brute_force(ks):
         result = arbitrate(losses)
         assert len(result.actions) == len(ks)
         assert result.branch in BRANCHES
-        assert (result.n_nash, result.n_minmax) == (len(eq), len(mm))
+        assert (result.n_nash, result.n_minmax) == (len(eq), None if len(eq) else len(mm))
 
 
 def test_six_players_seventeen_actions_has_the_right_shapes():
@@ -228,7 +228,7 @@ def test_arbitrate_follows_fig4(losses, selection):
     cands = nash or [tuple(r) for r in minmax_strategies(losses).tolist()]
     result = arbitrate(losses, selection=selection)
     assert result.n_nash == len(nash)
-    assert result.n_minmax == len(brute_minmax(losses))
+    assert result.n_minmax == (None if nash else len(brute_minmax(losses)))  # Fig. 4: only without equilibria
     assert result.branch == ("nash" if nash else "minmax") + ("-unique" if len(cands) == 1 else "-arbiter")
     if len(cands) == 1:
         assert result.actions == cands[0] and result.cost is None

@@ -332,14 +332,15 @@ class ArbiterResult:
             ``"minmax-arbiter"`` when it is empty and the min-max set (28) has one / several.
             The ``*-arbiter`` branches name the path, whichever ``selection`` rule was applied.
         n_nash: number of pure Nash equilibria (P_N).
-        n_minmax: number of min-max joint actions (P_M), always computed (it is >= 1).
+        n_minmax: number of min-max joint actions (P_M >= 1) when the Nash set was empty; None
+            otherwise, because Fig. 4 only builds the min-max set when there is no equilibrium.
         cost: C of eq. (30) for the chosen joint action, or None when the candidate was unique.
     """
 
     actions: tuple[int, ...]
     branch: str
     n_nash: int
-    n_minmax: int
+    n_minmax: int | None
     cost: float | None
 
 
@@ -370,19 +371,21 @@ def arbitrate(losses: npt.ArrayLike, *, selection: Selection = "arbiter", tol: f
         raise ValueError(f"selection must be 'arbiter' or 'first'; got {selection!r}")
     arr = _as_losses(losses, tol)
     ks = arr.shape[1:]
-    mask, safe = _scan(arr, tol, nash=True, safety=True)
-    n_minmax = math.prod(safe.sum(axis=1).tolist())
+    mask, _ = _scan(arr, tol, nash=True, safety=False)
     flat_idx = np.flatnonzero(mask)
     n_nash = flat_idx.size
+    n_minmax = None
     # Fast exits for the common unique cases, without building candidate arrays.
     if n_nash == 1:
         actions = tuple(int(d) for d in np.unravel_index(int(flat_idx[0]), ks))
-        return ArbiterResult(actions, "nash-unique", 1, n_minmax, None)
-    if n_nash == 0 and n_minmax == 1:
-        return ArbiterResult(tuple(safe.argmax(axis=1).tolist()), "minmax-unique", 0, 1, None)
+        return ArbiterResult(actions, "nash-unique", 1, None, None)
     if n_nash:
         kind = "nash"
     else:
+        _, safe = _scan(arr, tol, nash=False, safety=True)
+        n_minmax = math.prod(safe.sum(axis=1).tolist())
+        if n_minmax == 1:
+            return ArbiterResult(tuple(safe.argmax(axis=1).tolist()), "minmax-unique", 0, 1, None)
         flat_idx, kind = np.ravel_multi_index(tuple(_product(_safety_sets(safe)).T), ks), "minmax"
     flat_losses = arr.reshape(arr.shape[0], -1)
     if selection == "first":
