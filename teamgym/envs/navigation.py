@@ -259,6 +259,10 @@ class Navigation(TeamEnv):
         ]
         n = c.n_robots
         self._obstacle_radii = np.array([o.bounding_radius for o in self.obstacles], dtype=float)
+        # Centre distance at which a robot touches each object (robots first, then obstacles'
+        # bounding circles): gap = centre distance − contact radius.
+        self._contact_radius = np.concatenate([np.full(n, 2 * c.robot_radius), c.robot_radius + self._obstacle_radii])
+        self._robot_rows = np.arange(n)
         self._index = {a: i for i, a in enumerate(self.possible_agents)}
         self._arrived = np.zeros(n, dtype=bool)
         self._arrival_time = np.full(n, np.nan)
@@ -351,34 +355,33 @@ class Navigation(TeamEnv):
         self._obs_vel = movers[:, 3:5]
 
     def _update_distances(self) -> None:
-        """Nearest-object distances of every robot (to other robots and obstacles)."""
-        r = self.config.robot_radius
+        """Nearest-object distances of every robot (to other robots and obstacles).
+
+        Sets the offsets from each robot to each object (robots, then obstacles) and the gaps by
+        centre distance minus radii (bounding radius for obstacles), used by the speed rule of
+        eq. (12), and updates the clearance and centre-distance minima.
+        """
         pos = self._pos
-        diff = pos[None, :, :] - pos[:, None, :]
-        d = np.sqrt(np.einsum("ijk,ijk->ij", diff, diff))
-        np.fill_diagonal(d, np.inf)
-        centre = d.min(axis=1)
-        # Gaps by centre distance minus radii (bounding radius for obstacles), with the
-        # offsets from each robot to each object: used by the speed rule of eq. (12).
-        gaps, offsets = [d - 2 * r], [diff]
-        exact = gaps[0].min(axis=1)
+        n = len(pos)
+        points = np.concatenate([pos, self._obs_pos]) if self.obstacles else pos
+        offsets = points[None, :, :] - pos[:, None, :]
+        d = np.sqrt(np.einsum("ijk,ijk->ij", offsets, offsets))
+        d[self._robot_rows, self._robot_rows] = np.inf
+        gaps = d - self._contact_radius
+        exact = gaps.min(axis=1)
         if self.obstacles:
-            diff = self._obs_pos[None, :, :] - pos[:, None, :]
-            d_obs = np.sqrt(np.einsum("ijk,ijk->ij", diff, diff))
-            centre = np.minimum(centre, d_obs.min(axis=1))
-            gap = d_obs - (r + self._obstacle_radii)
-            gaps.append(gap.copy())
-            offsets.append(diff)
             # Bounding circles under-estimate the gap; measure the polygon exactly when near.
-            near = gap < 0.1
+            near = gaps[:, n:] < 0.1
             if near.any():
+                exact_obstacles = gaps[:, n:].copy()
+                r = self.config.robot_radius
                 for i, k in zip(*np.nonzero(near)):
-                    gap[i, k] = self.obstacles[k].shape.point_query(tuple(pos[i])).distance - r
-            exact = np.minimum(exact, gap.min(axis=1))
-        self._object_gaps = np.concatenate(gaps, axis=1)
-        self._object_offsets = np.concatenate(offsets, axis=1)
+                    exact_obstacles[i, k] = self.obstacles[k].shape.point_query(tuple(pos[i])).distance - r
+                exact = np.minimum(gaps[:, :n].min(axis=1), exact_obstacles.min(axis=1))
+        self._object_gaps = gaps
+        self._object_offsets = offsets
         np.minimum(self._min_clearance, exact, out=self._min_clearance)
-        np.minimum(self._min_center, centre, out=self._min_center)
+        np.minimum(self._min_center, d.min(axis=1), out=self._min_center)
 
     def _command_context(self, agent: str) -> CommandContext:
         i = self._index[agent]
