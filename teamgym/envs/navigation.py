@@ -13,8 +13,7 @@ reflect at the square's edges and stay inside it (``obstacle_motion="bounce"``) 
 constant-velocity model of eq. 23) and leave the square when their line does; a straight
 obstacle is aimed at a random point of the middle half of the square, so that it crosses
 the robots' workspace rather than leaving it at once, and passes over other obstacles
-(robots still stop it). Starts, goals and obstacles are
-always sampled inside the square.
+(robots still stop it). Starts, goals and obstacles are always sampled inside the square.
 
 Observations (flat float32, fields in order; decode with ``env.decode(obs)``):
 
