@@ -16,6 +16,7 @@ _POLICIES: dict[str, tuple[str, dict[str, Any]]] = {
     "nash-first": ("baselines.nash_navigation:NashNavigation", {"selection": "first"}),
     "sbs": ("baselines.sbs:SituatedBehaviourSets", {}),
     "sbs1": ("baselines.sbs:SituatedBehaviourSets", {"fixed_sbs": 1}),
+    "sbs-oracle": ("baselines.sbs:SituatedBehaviourSets", {"recognition": "oracle"}),
     "nash-explore": ("baselines.nash_explore:NashExplore", {}),
     "greedy": ("baselines.exploration_policies:GreedyExplore", {}),
     "random-admissible": ("baselines.exploration_policies:RandomAdmissible", {}),

@@ -23,6 +23,7 @@ from typing import Any
 
 from baselines.policy import Policy
 from baselines.sbs_behaviours import primitive_for, select
+from baselines.sbs_oracle import TrueRobotBearings
 from baselines.sbs_recognizer import RecognizerParams, SituationRecognizer
 from teamgym.control.primitives import Primitive
 from teamgym.envs.primitive_action import PrimitiveAction
@@ -37,6 +38,9 @@ class SituatedBehaviourSets(Policy):
         A ``BoxPushing-v0`` env with ``action_type="primitives"``.
     fixed_sbs:
         Use this SBS whatever the situation (``1`` for the ``sbs1`` ablation); ``None`` adapts.
+    recognition:
+        ``"sensors"`` (the paper's M check) or ``"oracle"`` (diagnostic: robots recognized from
+        the simulator's state, :mod:`baselines.sbs_oracle`; the ``sbs-oracle`` policy).
     **recognizer:
         Overrides of :class:`~baselines.sbs_recognizer.RecognizerParams` (e.g. ``tm=60.0``, ``tt=10``).
     """
@@ -44,12 +48,14 @@ class SituatedBehaviourSets(Policy):
     name = "sbs"
     required_config = {"action_type": "primitives"}
 
-    def __init__(self, env, fixed_sbs: int | None = None, **recognizer: Any) -> None:
+    def __init__(self, env, fixed_sbs: int | None = None, recognition: str = "sensors", **recognizer: Any) -> None:
         super().__init__(env)
         if not isinstance(getattr(env, "action_type", None), PrimitiveAction):
             raise TypeError(f"{type(self).__name__} needs BoxPushing-v0 with action_type='primitives'")
         if fixed_sbs not in (None, 1, 2, 3, 4):
             raise ValueError(f"fixed_sbs must be None or 1..4, got {fixed_sbs!r}")
+        if recognition not in ("sensors", "oracle"):
+            raise ValueError(f"recognition must be 'sensors' or 'oracle', got {recognition!r}")
         known = {f.name for f in fields(RecognizerParams)}
         unknown = sorted(set(recognizer) - known)
         if unknown:
@@ -65,6 +71,11 @@ class SituatedBehaviourSets(Policy):
         )
         self.params = replace(base, **recognizer)
         self.fixed_sbs = fixed_sbs
+        self.oracle = (
+            TrueRobotBearings(c.sensor_range, self.params.change_threshold, self.params.mark_patience)
+            if recognition == "oracle"
+            else None
+        )
         self.reset()
 
     def reset(self, seed: int | None = None) -> None:
@@ -74,16 +85,19 @@ class SituatedBehaviourSets(Policy):
         self.situation_steps: Counter[str] = Counter()
         self.last_behaviour: dict[str, int] = {}
         self.looks = 0
+        if getattr(self, "oracle", None) is not None:
+            self.oracle.reset()
 
     def act(self, observations, infos=None):
         actions = {}
         decode = self.env.decode
+        true_robots = self.oracle.update(self.env) if self.oracle is not None else {}
         for agent, obs in observations.items():
             recognizer = self.recognizers.get(agent)
             if recognizer is None:
                 recognizer = self.recognizers[agent] = SituationRecognizer(self.params, self.np_random)
             fields_ = decode(obs)
-            facts = recognizer.update(fields_["proximity"], fields_["light"], fields_["encoders"])
+            facts = recognizer.update(fields_["proximity"], fields_["light"], fields_["encoders"], true_robots.get(agent))
             situation = recognizer.situation
             self.situation_steps[situation] += 1
             if fields_["busy"][0] > 0.5:

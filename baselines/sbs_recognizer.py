@@ -121,8 +121,14 @@ class SituationRecognizer:
     def situation(self) -> str:
         return SITUATIONS[(self.m, self.t)]
 
-    def update(self, proximity: np.ndarray, light: np.ndarray, encoders: np.ndarray) -> frozenset[str]:
-        """Process one step's readings; returns the set of sensed states that hold now."""
+    def update(
+        self, proximity: np.ndarray, light: np.ndarray, encoders: np.ndarray, robots: list[float] | None = None
+    ) -> frozenset[str]:
+        """Process one step's readings; returns the set of sensed states that hold now.
+
+        ``robots`` (diagnostic, :mod:`baselines.sbs_oracle`): bearings of the robots a perfect M
+        check would recognize now; given, they replace the marks and the M check.
+        """
         p = self.params
         before = self.situation
         self.time += p.dt
@@ -139,9 +145,12 @@ class SituationRecognizer:
         self._update_look(objects["forward"], ahead < p.sensor_range and self._ahead >= p.sensor_range)
         self._ahead = ahead
 
-        self._track_marks(proximity, turned)
-        if still and self._previous is not None:
-            self._check_m(proximity)
+        if robots is not None:
+            self._take_true_robots(robots)
+        else:
+            self._track_marks(proximity, turned)
+            if still and self._previous is not None:
+                self._check_m(proximity)
         if self.m and self.time - self.last_m_time > p.tm:
             self.m = False
         self._check_t(proximity, commanded, slip, objects["forward"])
@@ -221,6 +230,17 @@ class SituationRecognizer:
         for k, mark in enumerate(self.marks):
             mark[1] = 0 if k in seen else mark[1] + 1
         self.marks = [mark for mark in self.marks if mark[1] < p.mark_patience]
+
+    def _take_true_robots(self, bearings: list[float]) -> None:
+        """Marks from ground truth: M is refreshed by every recognized robot; a group that lost its robots starts leaving."""
+        now = {group_of_bearing(b) for b in bearings}
+        for bearing, _ in self.marks:
+            if group_of_bearing(bearing) not in now:
+                self._leaving[group_of_bearing(bearing)] = self.time
+        self.marks = [[b, 0] for b in bearings]
+        if bearings:
+            self.m = True
+            self.last_m_time = self.time
 
     def _track_marks(self, proximity: np.ndarray, turned: float) -> None:
         """Turn marks with the robot, move each to the nearest ray still seeing something, drop the rest."""

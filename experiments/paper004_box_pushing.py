@@ -16,6 +16,12 @@ Subcommands (each writes JSON and a Markdown table into ``--out``; figures also 
   at once. (b) two robots with a light and a heavy box; one robot is removed once the other
   recognizes it. Did the survivor's situation change (M lapses after Tm), how fast. Every
   situation comes from a robot's own recognizer.
+* ``diagnose`` (S3, not in ``all``): why S3 misses the paper's 80 %. The same seeds under
+  ``sbs``, SBS-3 in every situation (perfect situation recognition), ``sbs1`` (no swarm
+  rules), ``sbs-oracle`` (robots recognized from the simulator's state, a perfect M check)
+  and both together. Reports success, seconds with two or more robots touching the heavy
+  box, and the share of robot-steps stopped by the line-keeping rules B-12/B-14.
+  ``--first-seed`` picks the seeds (held-out seeds 100+ by default).
 """
 
 from __future__ import annotations
@@ -198,6 +204,60 @@ def experiment_dynamic(out: Path, figures: Path | None, seeds: int, workers: int
     return rows
 
 
+#: ``diagnose`` variants: (label, policy name, extra policy keyword arguments).
+DIAGNOSE_VARIANTS: tuple[tuple[str, str, dict[str, Any]], ...] = (
+    ("sbs", "sbs", {}),
+    ("sbs, SBS-3 always", "sbs", {"fixed_sbs": 3}),
+    ("sbs1 (no swarm rules)", "sbs1", {}),
+    ("sbs-oracle", "sbs-oracle", {}),
+    ("sbs-oracle, SBS-3 always", "sbs-oracle", {"fixed_sbs": 3}),
+)
+
+
+def run_diagnose(args: tuple[int, int]) -> dict[str, Any]:
+    """One S3 episode of variant ``DIAGNOSE_VARIANTS[index]`` with ``seed``."""
+    index, seed = args
+    label, policy_name, kwargs = DIAGNOSE_VARIANTS[index]
+    env = teamgym.make("BoxPushing-v0", situation="S3", **required_config(policy_name))
+    policy = make_policy(policy_name, env, **kwargs)
+    observations, infos = env.reset(seed=seed)
+    policy.reset(seed)
+    heavy = env.box_names()[0]
+    together = 0
+    while env.agents:
+        actions = policy.act({a: observations[a] for a in env.agents}, infos)
+        together += _robots_touching(env, heavy) >= 2
+        observations, _, _, _, infos = env.step(actions)
+    robot_steps = sum(policy.situation_steps.values())
+    return {
+        "variant": label,
+        "seed": seed,
+        "success": env.episode_success(),
+        "together_s": together * env.config.dt,
+        "stopped_b12_b14": (policy.activations[12] + policy.activations[14]) / robot_steps,
+    }
+
+
+def experiment_diagnose(out: Path, seeds: int, first_seed: int, workers: int) -> list[dict]:
+    jobs = [(i, seed) for i in range(len(DIAGNOSE_VARIANTS)) for seed in range(first_seed, first_seed + seeds)]
+    results = _pool_map(run_diagnose, jobs, workers)
+    rows = []
+    for label, _, _ in DIAGNOSE_VARIANTS:
+        runs = [r for r in results if r["variant"] == label]
+        rows.append(
+            {
+                "S3 variant": label,
+                "episodes": len(runs),
+                "success": float(np.mean([r["success"] for r in runs])),
+                "≥2 robots on the box (s/episode)": float(np.mean([r["together_s"] for r in runs])),
+                "robot-steps stopped by B-12/B-14": float(np.mean([r["stopped_b12_b14"] for r in runs])),
+            }
+        )
+    _write(out, "diagnose", {"first_seed": first_seed, "rows": rows, "episodes": results})
+    (out / "diagnose.md").write_text(f"S3, seeds {first_seed}–{first_seed + seeds - 1}\n\n" + markdown_table(rows) + "\n")
+    return rows
+
+
 # -- output ------------------------------------------------------------------------------------
 
 
@@ -263,12 +323,15 @@ def _plot_timeline(result: dict, out: Path, figures: Path | None) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("experiment", choices=["static", "dynamic", "all"])
+    parser.add_argument("experiment", choices=["static", "dynamic", "all", "diagnose"])
     parser.add_argument("--out", type=Path, default=Path("results/paper004"))
     parser.add_argument("--figures", type=Path, default=None)
     parser.add_argument("--seeds", type=int, default=30)
     parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--first-seed", type=int, default=100, help="first seed of `diagnose` (held-out seeds)")
     args = parser.parse_args()
+    if args.experiment == "diagnose":
+        print(markdown_table(experiment_diagnose(args.out, args.seeds, args.first_seed, args.workers)))
     if args.experiment in ("static", "all"):
         print(markdown_table(experiment_static(args.out, args.figures, args.seeds, args.workers)))
     if args.experiment in ("dynamic", "all"):
