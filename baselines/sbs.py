@@ -85,7 +85,7 @@ class SituatedBehaviourSets(Policy):
         self.situation_steps: Counter[str] = Counter()
         self.last_behaviour: dict[str, int] = {}
         self.looks = 0
-        if getattr(self, "oracle", None) is not None:
+        if self.oracle is not None:
             self.oracle.reset()
 
     def act(self, observations, infos=None):
