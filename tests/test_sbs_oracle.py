@@ -57,7 +57,8 @@ def test_a_robot_beyond_sensor_range_is_not_seen():
 def test_true_robots_drive_the_robot_facts_and_m():
     params = RecognizerParams(ray_angles=tuple(KHEPERA_RING.tolist()), look_cycles=0)
     recognizer = SituationRecognizer(params)
-    assert recognizer.update(FREE, LAMP_AHEAD, STILL, robots=[]) >= set() and not recognizer.m
+    facts = recognizer.update(FREE, LAMP_AHEAD, STILL, robots=[])
+    assert not recognizer.m and not any("robot" in fact for fact in facts)
     facts = recognizer.update(FREE, LAMP_AHEAD, STILL, robots=[0.1])
     assert "forward-robot" in facts and recognizer.m
     facts = recognizer.update(FREE, LAMP_AHEAD, STILL, robots=[])
