@@ -7,7 +7,7 @@ Command line::
 
 Episode ``i`` resets the env with seed ``S + i`` and the policy with ``policy.reset(S + i)``,
 so results do not depend on ``--workers``. ``--policy sb3:PATH`` evaluates a saved
-Stable-Baselines3 model (see :mod:`baselines.sb3_policy`). Files written to ``DIR``
+Stable-Baselines3 model (see :mod:`baselines.rl.sb3_policy`). Files written to ``DIR``
 (default ``results/<env>_<policy>/``):
 
 * ``summary.json``: env, policy, resolved config, episodes, seed, ``success_rate``,

@@ -10,16 +10,16 @@ from teamgym.envs.base import TeamEnv
 
 #: name -> ("module:Class", constructor keyword arguments)
 _POLICIES: dict[str, tuple[str, dict[str, Any]]] = {
-    "goto": ("baselines.goto_goal:GoToGoal", {}),
+    "goto": ("baselines.navigation.goto_goal:GoToGoal", {}),
     "random": ("baselines.policy:RandomPolicy", {}),
-    "nash": ("baselines.nash_navigation:NashNavigation", {}),
-    "nash-first": ("baselines.nash_navigation:NashNavigation", {"selection": "first"}),
-    "sbs": ("baselines.sbs:SituatedBehaviourSets", {}),
-    "sbs1": ("baselines.sbs:SituatedBehaviourSets", {"fixed_sbs": 1}),
-    "sbs-oracle": ("baselines.sbs:SituatedBehaviourSets", {"recognition": "oracle"}),
-    "nash-explore": ("baselines.nash_explore:NashExplore", {}),
-    "greedy": ("baselines.exploration_policies:GreedyExplore", {}),
-    "random-admissible": ("baselines.exploration_policies:RandomAdmissible", {}),
+    "nash": ("baselines.navigation.nash:NashNavigation", {}),
+    "nash-first": ("baselines.navigation.nash:NashNavigation", {"selection": "first"}),
+    "sbs": ("baselines.box_pushing.sbs:SituatedBehaviourSets", {}),
+    "sbs1": ("baselines.box_pushing.sbs:SituatedBehaviourSets", {"fixed_sbs": 1}),
+    "sbs-oracle": ("baselines.box_pushing.sbs:SituatedBehaviourSets", {"recognition": "oracle"}),
+    "nash-explore": ("baselines.exploration.nash_explore:NashExplore", {}),
+    "greedy": ("baselines.exploration.policies:GreedyExplore", {}),
+    "random-admissible": ("baselines.exploration.policies:RandomAdmissible", {}),
 }
 
 
@@ -36,7 +36,7 @@ def policies() -> list[str]:
 def policy_class(name: str) -> type[Policy]:
     """The class behind policy ``name`` (``sb3:PATH`` gives :class:`SB3Policy`)."""
     if name.startswith("sb3:"):
-        from baselines.sb3_policy import SB3Policy
+        from baselines.rl.sb3_policy import SB3Policy
 
         return SB3Policy
     if name not in _POLICIES:

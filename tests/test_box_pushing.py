@@ -12,7 +12,7 @@ from pettingzoo.test import api_test, parallel_api_test
 
 import teamgym
 from teamgym.control.primitives import Primitive
-from teamgym.envs.box_pushing_config import SITUATIONS
+from teamgym.envs.box_pushing.config import SITUATIONS
 
 STOP = int(Primitive.STOP)
 

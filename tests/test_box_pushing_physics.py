@@ -11,7 +11,7 @@ import pytest
 
 import teamgym
 from teamgym.control.primitives import Primitive, PrimitiveExecutor, PrimitiveParams
-from teamgym.envs.box_pushing_config import BoxPushingConfig
+from teamgym.envs.box_pushing.config import BoxPushingConfig
 from teamgym.sim import KHEPERA_RING, Box, Category, DiffDriveRobot, ProximityRing, RobotSpec, World
 
 MAX_OVERLAP = 2e-3

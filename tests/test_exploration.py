@@ -11,7 +11,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import teamgym
-from baselines.exploration_policies import GreedyExplore
+from baselines.exploration.policies import GreedyExplore
 from teamgym.control.watcher import WatcherState
 from teamgym.envs.exploration import ExplorationConfig
 from teamgym.maps import load_map, wall_layout

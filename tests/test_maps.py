@@ -19,7 +19,7 @@ from teamgym.maps import (
     passage_cost,
     wall_layout,
 )
-from teamgym.maps.validate import point_in_convex
+from teamgym.sim.geometry import point_in_convex
 
 PAPER_CLUTTER = [0.7, 0, 0.1, 0.6, 0, 0, 0, 0, 0.2, 0, 0.3, 0.2]
 TABLE1_DOORS = {"D3,4", "D9,10", "D1,2_1", "D1,2_2", "D2,3", "D10,11", "D1,8", "D11,12", "D3,6"}

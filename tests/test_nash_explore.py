@@ -8,9 +8,9 @@ import pytest
 
 import teamgym
 from baselines.evaluate import evaluate, summarise
-from baselines.exploration_planning import TeamView, team_view
-from baselines.exploration_policies import GreedyExplore, RandomAdmissible
-from baselines.nash_explore import UNREACHABLE, NashExplore, assignment_cost
+from baselines.exploration.nash_explore import UNREACHABLE, NashExplore, assignment_cost
+from baselines.exploration.planning import TeamView, team_view
+from baselines.exploration.policies import GreedyExplore, RandomAdmissible
 from baselines.registry import make_policy, required_config
 from teamgym.maps.topology import TopologicalModel
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import teamgym
-from baselines.navigation_game import ForceGains, TeamState, loss_tensor, predict_poses
+from baselines.navigation.game import ForceGains, TeamState, loss_tensor, predict_poses
 from baselines.registry import make_policy, required_config
 from teamgym.control.heading import nearest_gap
 

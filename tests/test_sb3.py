@@ -16,8 +16,8 @@ from stable_baselines3.common.vec_env import VecEnv  # noqa: E402
 
 import teamgym  # noqa: E402
 from baselines.evaluate import evaluate  # noqa: E402
-from baselines.sb3_env import TeamVecEnv  # noqa: E402
-from baselines.sb3_policy import SB3Policy, detect_algorithm  # noqa: E402
+from baselines.rl.sb3_env import TeamVecEnv  # noqa: E402
+from baselines.rl.sb3_policy import SB3Policy, detect_algorithm  # noqa: E402
 
 CONFIG = {"max_cycles": 12, "n_robots": 2, "n_obstacles": 1}
 

@@ -6,9 +6,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import teamgym
+from baselines.box_pushing.behaviours import BEHAVIOURS, SBS, primitive_for, select
+from baselines.box_pushing.recognizer import RecognizerParams, SituationRecognizer, group_of_bearing
 from baselines.registry import make_policy
-from baselines.sbs_behaviours import BEHAVIOURS, SBS, primitive_for, select
-from baselines.sbs_recognizer import RecognizerParams, SituationRecognizer, group_of_bearing
 from teamgym.control.primitives import Primitive
 from teamgym.sim.sensors import KHEPERA_RING
 

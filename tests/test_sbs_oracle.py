@@ -1,4 +1,4 @@
-"""The ``sbs-oracle`` diagnostic: robots recognized from the simulator's state (baselines/sbs_oracle.py)."""
+"""The ``sbs-oracle`` diagnostic: robots recognized from the simulator's state (baselines/box_pushing/oracle.py)."""
 
 import math
 
@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 import teamgym
+from baselines.box_pushing.oracle import TrueRobotBearings
+from baselines.box_pushing.recognizer import RecognizerParams, SituationRecognizer
 from baselines.registry import make_policy
-from baselines.sbs_oracle import TrueRobotBearings
-from baselines.sbs_recognizer import RecognizerParams, SituationRecognizer
 from teamgym.sim.sensors import KHEPERA_RING
 
 FREE = np.full(8, 0.1)

@@ -14,7 +14,6 @@ from dataclasses import dataclass
 import numpy as np
 from gymnasium import spaces
 
-from teamgym.control.heading import HeadingHeuristic
 from teamgym.sim.robot import RobotSpec, body_command
 
 
@@ -71,27 +70,3 @@ class WheelSpeedAction(ActionType):
 
     def command(self, action, context: CommandContext) -> tuple[float, float]:
         return body_command(float(action[0]), float(action[1]), self.spec.wheel_base)
-
-
-class HeadingAction(ActionType):
-    """Paper 001's decision set (eq. 11): K angular-velocity levels, v from eqs. (12)–(13).
-
-    Level ``k`` of ``K`` is ``ω_k = −ω_max + 2 ω_max k / (K − 1)``; with K = 5 and
-    ω_max = 225 deg/s this is the paper's set {−225, −112.5, 0, 112.5, 225} deg/s.
-    """
-
-    name = "heading"
-    needs_context = True
-
-    def __init__(self, levels: int, max_rate_deg: float, heuristic: HeadingHeuristic) -> None:
-        if levels < 2:
-            raise ValueError(f"HeadingAction needs at least 2 levels, got {levels}")
-        self.rates = np.deg2rad(np.linspace(-max_rate_deg, max_rate_deg, levels))
-        self.heuristic = heuristic
-
-    def space(self) -> spaces.Discrete:
-        return spaces.Discrete(len(self.rates))
-
-    def command(self, action, context: CommandContext) -> tuple[float, float]:
-        v = float(self.heuristic.speed(context.target_distance, context.nearest_distance))
-        return v, float(self.rates[int(action)])

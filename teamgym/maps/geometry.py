@@ -1,4 +1,4 @@
-"""The geometric layer: wall and door segments derived from the sector rectangles.
+"""Office geometry: shared sector edges, door openings, and the wall and door segments.
 
 Every sector edge is a wall, except where two sectors are joined by an open passage
 (corridor parts) and where a door opening is cut into it; the opening holds a door segment
@@ -11,8 +11,46 @@ from __future__ import annotations
 from collections import defaultdict
 from dataclasses import dataclass
 
-from teamgym.maps.model import OfficeMap, Point
-from teamgym.maps.validate import EPS, door_opening
+from teamgym.maps.model import DoorObject, MapError, OfficeMap, Point, Sector
+from teamgym.sim.geometry import EPS
+
+
+def shared_edge(a: Sector, b: Sector) -> tuple[str, float, float, float] | None:
+    """The common boundary of two sectors as ``(axis, c, lo, hi)``, or None.
+
+    ``axis == "x"``: the segment ``x = c``, ``lo <= y <= hi``; ``axis == "y"``: ``y = c``,
+    ``lo <= x <= hi``. Only boundaries of positive length count.
+    """
+    for c, other in ((a.x_max, b.x_min), (a.x_min, b.x_max)):
+        if abs(c - other) < EPS:
+            lo, hi = max(a.y_min, b.y_min), min(a.y_max, b.y_max)
+            if hi - lo > EPS:
+                return ("x", c, lo, hi)
+    for c, other in ((a.y_max, b.y_min), (a.y_min, b.y_max)):
+        if abs(c - other) < EPS:
+            lo, hi = max(a.x_min, b.x_min), min(a.x_max, b.x_max)
+            if hi - lo > EPS:
+                return ("y", c, lo, hi)
+    return None
+
+
+def on_boundary(sector: Sector, p: Point) -> bool:
+    """Whether ``p`` lies on the rectangle's boundary."""
+    x, y = p
+    on_vertical = (abs(x - sector.x_min) < EPS or abs(x - sector.x_max) < EPS) and sector.y_min - EPS <= y <= sector.y_max + EPS
+    on_horizontal = (abs(y - sector.y_min) < EPS or abs(y - sector.y_max) < EPS) and sector.x_min - EPS <= x <= sector.x_max + EPS
+    return on_vertical or on_horizontal
+
+
+def door_opening(office: OfficeMap, door: DoorObject) -> tuple[str, float, float, float]:
+    """The door's opening in the wall as ``(axis, c, lo, hi)`` (see :func:`shared_edge`)."""
+    a, b = office.sector(door.sectors[0]), office.sector(door.sectors[1])
+    edge = shared_edge(a, b)
+    if edge is None:
+        raise MapError(f"{office.source}: door {door.id!r}: sectors {door.sectors[0]!r} and {door.sectors[1]!r} do not touch")
+    axis, c, _, _ = edge
+    along = door.centre[1] if axis == "x" else door.centre[0]
+    return axis, c, along - door.width / 2, along + door.width / 2
 
 
 @dataclass(frozen=True)

@@ -11,56 +11,17 @@ with ``always_connected`` also when every door that may be closed, o_j < 1, is c
 from __future__ import annotations
 
 import dataclasses
-import math
 from collections.abc import Sequence
 
 import networkx as nx
 
+from teamgym.maps.geometry import door_opening, on_boundary, shared_edge
 from teamgym.maps.model import DoorObject, Furniture, MapError, OfficeMap, Point, Sector
-
-EPS = 1e-9
+from teamgym.sim.geometry import EPS, convex_overlap, distance_to_polygon, is_convex, point_in_convex
 
 
 def _mm(p: Point) -> str:
     return f"({p[0] * 1000:.0f}, {p[1] * 1000:.0f}) mm"
-
-
-def shared_edge(a: Sector, b: Sector) -> tuple[str, float, float, float] | None:
-    """The common boundary of two sectors as ``(axis, c, lo, hi)``, or None.
-
-    ``axis == "x"``: the segment ``x = c``, ``lo <= y <= hi``; ``axis == "y"``: ``y = c``,
-    ``lo <= x <= hi``. Only boundaries of positive length count.
-    """
-    for c, other in ((a.x_max, b.x_min), (a.x_min, b.x_max)):
-        if abs(c - other) < EPS:
-            lo, hi = max(a.y_min, b.y_min), min(a.y_max, b.y_max)
-            if hi - lo > EPS:
-                return ("x", c, lo, hi)
-    for c, other in ((a.y_max, b.y_min), (a.y_min, b.y_max)):
-        if abs(c - other) < EPS:
-            lo, hi = max(a.x_min, b.x_min), min(a.x_max, b.x_max)
-            if hi - lo > EPS:
-                return ("y", c, lo, hi)
-    return None
-
-
-def on_boundary(sector: Sector, p: Point) -> bool:
-    """Whether ``p`` lies on the rectangle's boundary."""
-    x, y = p
-    on_vertical = (abs(x - sector.x_min) < EPS or abs(x - sector.x_max) < EPS) and sector.y_min - EPS <= y <= sector.y_max + EPS
-    on_horizontal = (abs(y - sector.y_min) < EPS or abs(y - sector.y_max) < EPS) and sector.x_min - EPS <= x <= sector.x_max + EPS
-    return on_vertical or on_horizontal
-
-
-def door_opening(office: OfficeMap, door: DoorObject) -> tuple[str, float, float, float]:
-    """The door's opening in the wall as ``(axis, c, lo, hi)`` (see :func:`shared_edge`)."""
-    a, b = office.sector(door.sectors[0]), office.sector(door.sectors[1])
-    edge = shared_edge(a, b)
-    if edge is None:
-        raise MapError(f"{office.source}: door {door.id!r}: sectors {door.sectors[0]!r} and {door.sectors[1]!r} do not touch")
-    axis, c, _, _ = edge
-    along = door.centre[1] if axis == "x" else door.centre[0]
-    return axis, c, along - door.width / 2, along + door.width / 2
 
 
 def infer_door_sectors(office: OfficeMap, declared: Sequence[bool]) -> OfficeMap:
@@ -79,57 +40,6 @@ def infer_door_sectors(office: OfficeMap, declared: Sequence[bool]) -> OfficeMap
             door = dataclasses.replace(door, sectors=(touching[0], touching[1]))
         doors.append(door)
     return dataclasses.replace(office, doors=tuple(doors))
-
-
-def _cross(o: Point, a: Point, b: Point) -> float:
-    return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
-
-
-def is_convex(vertices: Sequence[Point]) -> bool:
-    """Whether the polygon is convex with non-zero area (either orientation)."""
-    n = len(vertices)
-    if n < 3:
-        return False
-    signs = {
-        math.copysign(1.0, c)
-        for i in range(n)
-        if abs(c := _cross(vertices[i], vertices[(i + 1) % n], vertices[(i + 2) % n])) > EPS
-    }
-    area = sum(vertices[i][0] * vertices[(i + 1) % n][1] - vertices[(i + 1) % n][0] * vertices[i][1] for i in range(n))
-    return len(signs) == 1 and abs(area) > EPS
-
-
-def point_in_convex(vertices: Sequence[Point], p: Point) -> bool:
-    n = len(vertices)
-    crosses = [_cross(vertices[i], vertices[(i + 1) % n], p) for i in range(n)]
-    return all(c >= -EPS for c in crosses) or all(c <= EPS for c in crosses)
-
-
-def distance_to_polygon(vertices: Sequence[Point], p: Point) -> float:
-    """Distance from ``p`` to a convex polygon (0 inside)."""
-    if point_in_convex(vertices, p):
-        return 0.0
-    best = math.inf
-    n = len(vertices)
-    for i in range(n):
-        (ax, ay), (bx, by) = vertices[i], vertices[(i + 1) % n]
-        dx, dy = bx - ax, by - ay
-        t = max(0.0, min(1.0, ((p[0] - ax) * dx + (p[1] - ay) * dy) / (dx * dx + dy * dy)))
-        best = min(best, math.hypot(p[0] - ax - t * dx, p[1] - ay - t * dy))
-    return best
-
-
-def convex_overlap(a: Sequence[Point], b: Sequence[Point]) -> bool:
-    """Whether two convex polygons overlap with positive area (separating-axis test)."""
-    for poly in (a, b):
-        for i in range(len(poly)):
-            (x0, y0), (x1, y1) = poly[i], poly[(i + 1) % len(poly)]
-            nx_, ny_ = y0 - y1, x1 - x0
-            pa = [nx_ * x + ny_ * y for x, y in a]
-            pb = [nx_ * x + ny_ * y for x, y in b]
-            if max(pa) <= min(pb) + EPS or max(pb) <= min(pa) + EPS:
-                return False
-    return True
 
 
 def topology(office: OfficeMap, closed: Sequence[str] = ()) -> nx.Graph:

@@ -1,6 +1,6 @@
 """Adaptive action selection by situated behaviour sets, paper 004 (``--policy sbs`` / ``sbs1``).
 
-Every robot runs its own :class:`~baselines.sbs_recognizer.SituationRecognizer` on its own
+Every robot runs its own :class:`~baselines.box_pushing.recognizer.SituationRecognizer` on its own
 sensor readings (no communication) and, every 100 ms action cycle, fires one behaviour of
 the set for its situation: SBS-1 in S1, SBS-2 in S2, SBS-3 in S3, SBS-4 (wandering with
 SBS-1) in S4 (sections 2.3 and 3). While a multi-cycle primitive runs the robot keeps
@@ -21,12 +21,12 @@ from collections import Counter
 from dataclasses import fields, replace
 from typing import Any
 
+from baselines.box_pushing.behaviours import primitive_for, select
+from baselines.box_pushing.oracle import TrueRobotBearings
+from baselines.box_pushing.recognizer import RecognizerParams, SituationRecognizer
 from baselines.policy import Policy
-from baselines.sbs_behaviours import primitive_for, select
-from baselines.sbs_oracle import TrueRobotBearings
-from baselines.sbs_recognizer import RecognizerParams, SituationRecognizer
 from teamgym.control.primitives import Primitive
-from teamgym.envs.primitive_action import PrimitiveAction
+from teamgym.envs.box_pushing.actions import PrimitiveAction
 
 
 class SituatedBehaviourSets(Policy):
@@ -40,9 +40,9 @@ class SituatedBehaviourSets(Policy):
         Use this SBS whatever the situation (``1`` for the ``sbs1`` ablation); ``None`` adapts.
     recognition:
         ``"sensors"`` (the paper's M check) or ``"oracle"`` (diagnostic: robots recognized from
-        the simulator's state, :mod:`baselines.sbs_oracle`; the ``sbs-oracle`` policy).
+        the simulator's state, :mod:`baselines.box_pushing.oracle`; the ``sbs-oracle`` policy).
     **recognizer:
-        Overrides of :class:`~baselines.sbs_recognizer.RecognizerParams` (e.g. ``tm=60.0``, ``tt=10``).
+        Overrides of :class:`~baselines.box_pushing.recognizer.RecognizerParams` (e.g. ``tm=60.0``, ``tt=10``).
     """
 
     name = "sbs"

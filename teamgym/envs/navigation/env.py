@@ -56,16 +56,18 @@ and m/s (section 6.2).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 from gymnasium import spaces
 
 from teamgym.control.heading import HeadingHeuristic, nearest_gap
-from teamgym.envs.actions import ActionType, CommandContext, HeadingAction, VelocityAction, WheelSpeedAction
+from teamgym.envs.actions import ActionType, CommandContext, VelocityAction, WheelSpeedAction
 from teamgym.envs.base import TeamEnv
-from teamgym.envs.config import ConfigError, EnvConfig, require
+from teamgym.envs.config import ConfigError
+from teamgym.envs.navigation.actions import HeadingAction
+from teamgym.envs.navigation.config import NavigationConfig
+from teamgym.envs.navigation.scene import NavigationScene, PlacementError, scatter
 from teamgym.envs.spaces import ObservationLayout
 from teamgym.sim.categories import SOLID, Category
 from teamgym.sim.objects import MovingPolygon, regular_polygon
@@ -75,106 +77,6 @@ from teamgym.sim.sensors import KHEPERA_RING, ProximityRing
 from teamgym.sim.world import World
 
 __all__ = ["Navigation", "NavigationConfig", "env", "parallel_env"]
-
-
-class PlacementError(RuntimeError):
-    """Robots, goals or obstacles could not be placed without overlap."""
-
-
-@dataclass(frozen=True)
-class NavigationScene:
-    """A sampled initial scene: robot starts, headings and goals, and obstacles."""
-
-    starts: np.ndarray
-    headings: np.ndarray
-    goals: np.ndarray
-    obstacles: list[tuple[list, tuple, tuple]]
-
-
-def _scatter(
-    rng: np.random.Generator, count: int, size: float, margin: float, separation: float, avoid: np.ndarray | None = None
-) -> np.ndarray:
-    """``count`` random points in ``[margin, size - margin]²``, pairwise (and from ``avoid``) ``separation`` apart."""
-    points = np.zeros((count, 2))
-    for i in range(count):
-        for _ in range(10_000):
-            p = rng.uniform(margin, size - margin, size=2)
-            if i and np.min(np.linalg.norm(points[:i] - p, axis=1)) < separation:
-                continue
-            if avoid is not None and len(avoid) and np.min(np.linalg.norm(avoid - p, axis=1)) < separation:
-                continue
-            points[i] = p
-            break
-        else:
-            raise PlacementError(
-                f"could not place {count} objects {separation:.3f} m apart in a {size} m arena; it is too crowded"
-            )
-    return points
-
-
-@dataclass(frozen=True)
-class NavigationConfig(EnvConfig):
-    """Configuration of ``Navigation-v0`` (SI units; angles of the heading set in deg/s)."""
-
-    n_robots: int = 3
-    n_obstacles: int = 2
-    arena_size: float = 2.0
-    layout: Literal["random", "circle"] = "random"
-    robot_radius: float = 0.0275
-    max_wheel_speed: float = 0.4
-    max_motor_force: float = 0.6
-    obstacle_speed: float = 0.2
-    obstacle_radius: float = 0.08
-    action_type: Literal["velocity", "wheels", "heading"] = "velocity"
-    heading_levels: int = 5
-    heading_max_rate: float = 225.0
-    v_opt: float = 0.25
-    alpha: float = 100.0
-    beta: float = 40.0
-    target_threshold: float = 0.05
-    object_threshold: float = 0.15
-    speed_rule: Literal["ahead", "any"] = "ahead"
-    walls: bool = True
-    obstacle_motion: Literal["bounce", "straight"] = "bounce"
-    actuation_delay: float = 0.0
-    goal_tolerance: float = 0.03
-    min_goal_distance: float = 0.6
-    spawn_margin: float = 0.05
-    sensor_range: float = 0.1
-    sensor_noise: float = 0.0
-    progress_reward: float = 10.0
-    collision_penalty: float = 1.0
-    arrival_bonus: float = 10.0
-    time_penalty: float = 0.01
-
-    def check(self) -> None:
-        super().check()
-        require(self, "n_robots", 1 <= self.n_robots <= 64, "must be in [1, 64]")
-        require(self, "n_obstacles", 0 <= self.n_obstacles <= 32, "must be in [0, 32]")
-        require(self, "arena_size", 0.5 <= self.arena_size <= 100, "must be in [0.5, 100] m")
-        require(self, "robot_radius", 0.005 <= self.robot_radius <= 0.5, "must be in [0.005, 0.5] m")
-        require(self, "max_wheel_speed", self.max_wheel_speed > 0, "must be > 0")
-        require(self, "max_motor_force", self.max_motor_force > 0, "must be > 0")
-        require(self, "obstacle_speed", self.obstacle_speed >= 0, "must be >= 0")
-        require(self, "obstacle_radius", 0.01 <= self.obstacle_radius <= self.arena_size / 4, "must be in [0.01, arena_size/4]")
-        require(self, "heading_levels", 2 <= self.heading_levels <= 64, "must be in [2, 64]")
-        require(self, "heading_max_rate", self.heading_max_rate > 0, "must be > 0")
-        require(self, "v_opt", 0 < self.v_opt <= self.max_wheel_speed, "must be in (0, max_wheel_speed]")
-        require(self, "actuation_delay", 0 <= self.actuation_delay <= self.dt, "must be in [0, dt]")
-        require(self, "goal_tolerance", self.goal_tolerance > 0, "must be > 0")
-        require(self, "min_goal_distance", 0 <= self.min_goal_distance <= 0.8 * self.arena_size, "must be in [0, 0.8·arena_size]")
-        require(self, "spawn_margin", 0 <= self.spawn_margin < 0.4 * self.arena_size, "must be in [0, 0.4·arena_size)")
-        require(self, "sensor_range", self.sensor_range > 0, "must be > 0")
-        require(self, "sensor_noise", self.sensor_noise >= 0, "must be >= 0")
-        require(
-            self,
-            "obstacle_motion",
-            self.obstacle_motion == "bounce" or not self.walls,
-            "needs walls=False: an obstacle moving straight on would be stopped by the arena walls",
-        )
-        free = (self.arena_size - 2 * self.robot_radius) ** 2
-        needed = self.n_robots * (4 * self.robot_radius) ** 2 * 2
-        require(self, "n_robots", needed < 0.5 * free, "leaves too little room for the robots in this arena")
 
 
 class Navigation(TeamEnv):
@@ -301,7 +203,7 @@ class Navigation(TeamEnv):
             offsets = goals - starts
             return starts, np.arctan2(offsets[:, 1], offsets[:, 0]), goals
         separation = 4 * r
-        starts = _scatter(rng, n, size, margin, separation)
+        starts = scatter(rng, n, size, margin, separation)
         goals = np.zeros_like(starts)
         for i in range(n):
             for _ in range(10_000):
@@ -324,7 +226,7 @@ class Navigation(TeamEnv):
         c = self.config
         radius = c.obstacle_radius
         clear = max(radius + c.robot_radius + 0.1, 2 * radius + 0.05)
-        centres = _scatter(rng, c.n_obstacles, c.arena_size, radius + 0.02, clear, avoid=starts)
+        centres = scatter(rng, c.n_obstacles, c.arena_size, radius + 0.02, clear, avoid=starts)
         obstacles = []
         for centre in centres:
             sides = int(rng.integers(3, 7))

@@ -2,7 +2,7 @@
 
 Every control step the robots still driving play one normal-form game: robot i chooses
 among the K angular velocities of the env's ``heading`` action type (eq. 11), its loss is
-eq. (25) built from virtual forces (:mod:`baselines.navigation_game`), and the arbiter of
+eq. (25) built from virtual forces (:mod:`baselines.navigation.game`), and the arbiter of
 section 5.1 picks the team's decision: the pure Nash equilibria (eq. 27) if there are
 any, else the min–max strategies (eq. 28); several candidates are resolved by the fair
 cost C of eqs. (30)–(31).
@@ -23,10 +23,10 @@ from typing import Any
 import numpy as np
 
 from baselines.game import arbitrate
-from baselines.navigation_game import ForceGains, TeamState, loss_tensor
+from baselines.navigation.game import ForceGains, TeamState, loss_tensor
 from baselines.policy import Policy
 from teamgym.control.heading import nearest_gap
-from teamgym.envs.actions import HeadingAction
+from teamgym.envs.navigation.actions import HeadingAction
 
 
 class NashNavigation(Policy):

@@ -4,7 +4,7 @@ A 110 cm × 90 cm table enclosed by walls; a lamp beside it (default 15 cm outsi
 of the right wall); the goal is the wall nearest the lamp (section 2.1). ``n_light_boxes``
 boxes that one robot can slide and ``n_heavy_boxes`` that need two or more robots pushing
 together: the difference is only mass and ground friction against the motors' force limit
-(see :mod:`teamgym.envs.box_pushing_config`). Boxes are clear plastic: the light sensor sees
+(see :mod:`teamgym.envs.box_pushing.config`). Boxes are clear plastic: the light sensor sees
 the lamp through them; by default nothing casts a shadow ("a robot can sense the direction of
 the goal (lamp) at any place", section 2.1); ``light_shadows=True`` lets robots do so.
 There is no communication; the paper's situations S1–S4 are presets (``situation="S3"``).
@@ -57,9 +57,9 @@ from gymnasium import spaces
 from teamgym.control.primitives import PrimitiveExecutor, PrimitiveParams
 from teamgym.envs.actions import ActionType, CommandContext, WheelSpeedAction
 from teamgym.envs.base import EpisodeOverError, TeamEnv
-from teamgym.envs.box_pushing_config import SITUATIONS, BoxPushingConfig, Event
-from teamgym.envs.box_pushing_scene import GoalWall, Placer
-from teamgym.envs.primitive_action import PrimitiveAction, PrimitiveContext
+from teamgym.envs.box_pushing.actions import PrimitiveAction, PrimitiveContext
+from teamgym.envs.box_pushing.config import SITUATIONS, BoxPushingConfig, Event
+from teamgym.envs.box_pushing.scene import GoalWall, Placer
 from teamgym.envs.spaces import ObservationLayout
 from teamgym.sim.categories import OPAQUE, Category
 from teamgym.sim.objects import Box

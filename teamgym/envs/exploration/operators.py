@@ -27,8 +27,8 @@ from gymnasium import spaces
 from teamgym.control.behaviour import DEFAULT_PRIORITIES, NARROW_PASSAGE, BehaviourParameters
 from teamgym.control.watcher import Task
 from teamgym.envs.actions import ActionType, CommandContext
+from teamgym.maps.geometry import door_opening, shared_edge
 from teamgym.maps.model import OfficeMap, Point
-from teamgym.maps.validate import door_opening, shared_edge
 
 OPERATOR_KINDS = ("wait", "find_door", "traverse_door", "goto")
 

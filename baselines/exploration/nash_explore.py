@@ -54,7 +54,7 @@ from typing import Any
 
 import numpy as np
 
-from baselines.exploration_planning import TeamView, check_operator_env, team_view
+from baselines.exploration.planning import TeamView, check_operator_env, team_view
 from baselines.game import arbitrate
 from baselines.policy import Policy
 from teamgym.maps.topology import TopologicalModel

@@ -1,6 +1,6 @@
 """``SB3Policy``: a saved Stable-Baselines3 model as a parameter-shared teamgym policy.
 
-The model (trained with :class:`baselines.sb3_env.TeamVecEnv`, or any model whose
+The model (trained with :class:`baselines.rl.sb3_env.TeamVecEnv`, or any model whose
 spaces match one agent's) acts for every robot: the live agents' observations are
 stacked and passed to one deterministic ``model.predict`` call.
 

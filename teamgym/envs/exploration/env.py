@@ -13,7 +13,7 @@ Action types (``action_type``):
 
 * ``"velocity"``: continuous (v, ω) per control step, for RL;
 * ``"operator"``: the paper's operators Wait(), FindDoor(D), TraverseDoor(D, S), GoTo(S1, S2)
-  (:mod:`teamgym.envs.exploration_operators`) as macro actions. One ``step()`` is one planning
+  (:mod:`teamgym.envs.exploration.operators`) as macro actions. One ``step()`` is one planning
   stage (Fig. 5): every robot's operator runs on the behaviour-based controller
   (:mod:`teamgym.control.behaviour`) under the task-execution watcher
   (:mod:`teamgym.control.watcher`) until some robot completes or fails its task
@@ -54,10 +54,8 @@ Metrics in ``infos``: ``explored``, ``explored_fraction``, ``explored_all``, ``e
 
 from __future__ import annotations
 
-import functools
 import math
-from dataclasses import dataclass
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 from gymnasium import spaces
@@ -65,13 +63,14 @@ from gymnasium import spaces
 from teamgym.control.watcher import TaskWatcher, WatcherState
 from teamgym.envs.actions import ActionType, VelocityAction
 from teamgym.envs.base import EpisodeOverError, TeamEnv
-from teamgym.envs.config import ConfigError, EnvConfig, require
-from teamgym.envs.exploration_operators import OperatorAction, OperatorSet, TaskFactory
+from teamgym.envs.config import ConfigError
+from teamgym.envs.exploration.config import ExplorationConfig, cached_map
+from teamgym.envs.exploration.operators import OperatorAction, OperatorSet, TaskFactory
 from teamgym.envs.spaces import ObservationLayout
 from teamgym.maps.build import build_world
-from teamgym.maps.model import MapError, OfficeMap, load_map
+from teamgym.maps.model import OfficeMap
 from teamgym.maps.topology import ClutterEstimate, TopologicalModel
-from teamgym.maps.validate import distance_to_polygon
+from teamgym.sim.geometry import distance_to_polygon
 from teamgym.sim.render import Overlay
 from teamgym.sim.robot import DiffDriveRobot, RobotSpec
 from teamgym.sim.sensors import KHEPERA_RING, ProximityRing
@@ -80,73 +79,6 @@ from teamgym.sim.world import World
 __all__ = ["Exploration", "ExplorationConfig", "env", "parallel_env"]
 
 WATCHER_STATES = [s.name.lower() for s in WatcherState]
-
-
-@functools.lru_cache(maxsize=32)
-def cached_map(name: str) -> OfficeMap:
-    """A shipped map by name or a map file by path, loaded once per process."""
-    return load_map(name)
-
-
-@dataclass(frozen=True)
-class ExplorationConfig(EnvConfig):
-    """Configuration of ``Exploration-v0`` (SI units; ids are the map's sector and door ids)."""
-
-    max_cycles: int = 3000
-    map: str = "office12"
-    n_robots: int = 3
-    action_type: Literal["velocity", "operator"] = "velocity"
-    goal_sectors: tuple[str, ...] = ()
-    start_sectors: tuple[str, ...] = ()
-    start_positions: Literal["random", "centre"] = "random"
-    door_states: Literal["sample", "open"] = "sample"
-    open_doors: tuple[str, ...] = ()
-    closed_doors: tuple[str, ...] = ()
-    door_resample_period: float = 0.0
-    furniture: bool = True
-    stage_end: Literal["any", "all"] = "any"
-    wait_steps: int = 10
-    max_speed: float = 0.12
-    task_timeout: float = 60.0
-    stall_time: float = 5.0
-    fail_on_collision: bool = False
-    clutter_prior_weight: float = 5.0
-    sensor_range: float = 0.1
-    sensor_noise: float = 0.0
-    explore_reward: float = 1.0
-    collision_penalty: float = 0.1
-    time_penalty: float = 0.001
-
-    def check(self) -> None:
-        super().check()
-        require(self, "n_robots", 1 <= self.n_robots <= 16, "must be in [1, 16]")
-        try:
-            office = cached_map(self.map)
-        except MapError as error:
-            raise ConfigError(f"ExplorationConfig: map={self.map!r} is invalid: {error}") from None
-        sectors, doors = set(office.sector_ids), set(office.door_ids)
-        for key in ("goal_sectors", "start_sectors"):
-            unknown = [s for s in getattr(self, key) if s not in sectors]
-            require(self, key, not unknown, f"names unknown sector(s) {unknown}; map {office.name!r} has {office.sector_ids}")
-        require(
-            self,
-            "start_sectors",
-            len(self.start_sectors) in (0, self.n_robots),
-            f"must be empty (random) or give one sector per robot ({self.n_robots})",
-        )
-        for key in ("open_doors", "closed_doors"):
-            unknown = [d for d in getattr(self, key) if d not in doors]
-            require(self, key, not unknown, f"names unknown door(s) {unknown}; map {office.name!r} has {office.door_ids}")
-        both = sorted(set(self.open_doors) & set(self.closed_doors))
-        require(self, "closed_doors", not both, f"names door(s) {both} that open_doors also names")
-        require(self, "door_resample_period", self.door_resample_period >= 0, "must be >= 0 (0: never)")
-        require(self, "wait_steps", self.wait_steps >= 1, "must be >= 1")
-        require(self, "max_speed", 0 < self.max_speed <= RobotSpec.max_wheel_speed, "must be in (0, 0.4] m/s")
-        require(self, "task_timeout", self.task_timeout > 0, "must be > 0")
-        require(self, "stall_time", self.stall_time > 0, "must be > 0")
-        require(self, "clutter_prior_weight", self.clutter_prior_weight > 0, "must be > 0")
-        require(self, "sensor_range", self.sensor_range > 0, "must be > 0")
-        require(self, "sensor_noise", self.sensor_noise >= 0, "must be >= 0")
 
 
 class Exploration(TeamEnv):

@@ -126,7 +126,7 @@ class SituationRecognizer:
     ) -> frozenset[str]:
         """Process one step's readings; returns the set of sensed states that hold now.
 
-        ``robots`` (diagnostic, :mod:`baselines.sbs_oracle`): bearings of the robots a perfect M
+        ``robots`` (diagnostic, :mod:`baselines.box_pushing.oracle`): bearings of the robots a perfect M
         check would recognize now; given, they replace the marks and the M check.
         """
         p = self.params

@@ -9,7 +9,8 @@ from __future__ import annotations
 import numpy as np
 
 from baselines.policy import Policy
-from teamgym.envs.actions import HeadingAction, VelocityAction, WheelSpeedAction
+from teamgym.envs.actions import VelocityAction, WheelSpeedAction
+from teamgym.envs.navigation.actions import HeadingAction
 from teamgym.sim.robot import wheel_speeds, wrap_angle
 
 

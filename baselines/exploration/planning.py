@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from teamgym.envs.exploration_operators import OperatorSet
+from teamgym.envs.exploration.operators import OperatorSet
 from teamgym.maps.topology import TopologicalModel
 
 
