@@ -133,14 +133,6 @@ def _numeric(value: Any) -> float | int | bool | None:
     return None
 
 
-def _episode_success(env: Any, final_infos: Mapping[str, Mapping[str, Any]]) -> bool:
-    """``env.episode_success(final_infos)`` if the env defines it, else every agent ``arrived``."""
-    method = getattr(env, "episode_success", None)
-    if callable(method):
-        return bool(method(final_infos))
-    return bool(final_infos) and all(bool(info.get("arrived", False)) for info in final_infos.values())
-
-
 def run_episode(env: Any, policy: Any, seed: int, record_frames: bool = False, record_trajectories: bool = True) -> EpisodeResult:
     """Play one episode of ``policy`` on ``env`` with ``seed`` and collect its results.
 
@@ -157,6 +149,7 @@ def run_episode(env: Any, policy: Any, seed: int, record_frames: bool = False, r
     frames = [env.render()] if record_frames else None
     limit = getattr(getattr(env, "config", None), "max_cycles", None)
     length = 0
+    success = any(bool(info.get("success", False)) for info in infos.values())
     while env.agents:
         actions = policy.act({a: observations[a] for a in env.agents}, infos)
         observations, rewards, _terminations, _truncations, infos = env.step(actions)
@@ -165,13 +158,14 @@ def run_episode(env: Any, policy: Any, seed: int, record_frames: bool = False, r
             returns[agent] = returns.get(agent, 0.0) + float(reward)
         for agent, info in infos.items():
             final[agent] = dict(info)
+        success = any(bool(info.get("success", False)) for info in infos.values())
         if frames is not None:
             frames.append(env.render())
         if limit is not None and length > limit:
             raise RuntimeError(f"episode with seed {seed} ran past max_cycles={limit}; the env does not truncate")
     metrics: dict[str, dict[str, float | int | bool]] = {}
     for agent, info in final.items():
-        values = {k: _numeric(v) for k, v in info.items()}
+        values = {k: _numeric(v) for k, v in info.items() if k != "success"}  # success is the episode's column
         metrics[agent] = {k: v for k, v in values.items() if v is not None}
     trajectories = object_paths = goals = arena = walls = furniture = None
     if record_trajectories:
@@ -192,7 +186,7 @@ def run_episode(env: Any, policy: Any, seed: int, record_frames: bool = False, r
     return EpisodeResult(
         seed=int(seed),
         length=length,
-        success=_episode_success(env, final),
+        success=success,
         returns=returns,
         metrics=metrics,
         trajectories=trajectories,

@@ -353,7 +353,7 @@ def test_greedy_episode_explores_everything_with_consistent_metrics():
     assert info["stages"] == len(record)
     assert info["explore_time"] == pytest.approx(env.cycles * env.config.dt)
     assert info["team_path_length"] == pytest.approx(sum(i["path_length"] for i in infos.values()))
-    assert env.episode_success(infos)
+    assert env.episode_success()
     # rewards: one explore_reward per newly explored sector, time penalty per control step
     total = sum(sum(r.values()) for _, _, r, _, _, _ in record)
     collisions = sum(i["collisions"] for i in infos.values())

@@ -96,6 +96,14 @@ class TeamEnv(ParallelEnv):
     def _metrics(self, agent: str) -> dict[str, Any]:
         return {}
 
+    def episode_success(self) -> bool:
+        """Whether the episode has reached the task's goal (the episode contract).
+
+        Every env defines it; ``infos[agent]["success"]`` holds its value after ``reset`` and
+        every ``step``, so the evaluation CLI, the SB3 adapter and the experiments read only that.
+        """
+        raise NotImplementedError(f"{type(self).__name__} must define episode_success()")
+
     def _before_physics(self) -> None:
         """Called after commands are set and before the world steps (e.g. to draw delays)."""
 
@@ -129,7 +137,7 @@ class TeamEnv(ParallelEnv):
         self._object_trails = {}
         self._record_object_trails()
         observations = self._collect_observations()
-        infos = {a: self._metrics(a) for a in self.agents}
+        infos = self._collect_infos()
         if self.render_mode == "human":
             self.render()
         return observations, infos
@@ -148,7 +156,7 @@ class TeamEnv(ParallelEnv):
         truncated = self.cycles >= self.config.max_cycles
         truncations = {a: truncated and not terminations[a] for a in self.agents}
         observations = self._collect_observations()
-        infos = {a: self._metrics(a) for a in self.agents}
+        infos = self._collect_infos()
         self.agents = [a for a in self.agents if not (terminations[a] or truncations[a])]
         for agent in terminations:
             if terminations[agent] or truncations[agent]:
@@ -213,6 +221,13 @@ class TeamEnv(ParallelEnv):
         out = np.zeros((len(self.agents), self.layout.size), dtype=np.float32)
         self._observe(out)
         return {a: out[i] for i, a in enumerate(self.agents)}
+
+    def _collect_infos(self) -> dict[str, dict[str, Any]]:
+        success = bool(self.episode_success())
+        infos = {a: self._metrics(a) for a in self.agents}
+        for info in infos.values():
+            info["success"] = success
+        return infos
 
     # -- rendering -------------------------------------------------------------------
     def render(self) -> np.ndarray | None:

@@ -238,9 +238,13 @@ class BoxPushing(TeamEnv):
             metrics["time_to_goal"] = float(self._success_time)
         return metrics
 
-    def episode_success(self, final_infos: dict | None = None) -> bool:
+    def episode_success(self) -> bool:
         """Whether the episode reached its goal (``boxes_to_goal`` boxes at the goal wall)."""
         return bool(self._success) if self.world is not None else False
+
+    def is_delivered(self, name: str) -> bool:
+        """Whether box ``name`` has touched the goal wall in this episode."""
+        return bool(self._delivered[self._box_slot(name)])
 
     # -- dynamic environment (paper 004, section 4.2) ---------------------------------------
     def add_robot(self, position: tuple[float, float] | None = None, heading: float | None = None) -> str:

@@ -488,9 +488,9 @@ class Exploration(TeamEnv):
             return {}
         return {a: self.action_mask(a) for a in self.agents}
 
-    def episode_success(self, final_infos: dict[str, dict[str, Any]]) -> bool:
-        """Every goal sector explored (used by ``baselines.evaluate``)."""
-        return bool(final_infos) and all(bool(info.get("explored_all", False)) for info in final_infos.values())
+    def episode_success(self) -> bool:
+        """Every goal sector explored (M_G ⊆ M_V)."""
+        return self.world is not None and self._all_explored()
 
     def state(self) -> np.ndarray:
         if self.world is None:

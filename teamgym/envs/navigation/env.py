@@ -391,6 +391,36 @@ class Navigation(TeamEnv):
             metrics["time_to_goal"] = float(self._arrival_time[i])
         return metrics
 
+    def episode_success(self) -> bool:
+        """Every robot has reached its goal (collisions are counted in the metrics, not here)."""
+        return self.world is not None and bool(self._arrived.all())
+
+    # -- read-only views of the simulation, for analysis (copies; rows follow possible_agents) --
+    @property
+    def robot_positions(self) -> np.ndarray:
+        """``(N, 2)`` robot centres (m) after the last step."""
+        return self._pos.copy()
+
+    @property
+    def robot_headings(self) -> np.ndarray:
+        """``(N,)`` robot headings θ (rad, in (−π, π])."""
+        return self._theta.copy()
+
+    @property
+    def obstacle_positions(self) -> np.ndarray:
+        """``(M, 2)`` obstacle centres (m)."""
+        return self._obs_pos.copy()
+
+    @property
+    def obstacle_velocities(self) -> np.ndarray:
+        """``(M, 2)`` obstacle velocities (m/s)."""
+        return self._obs_vel.copy()
+
+    @property
+    def goal_distances(self) -> np.ndarray:
+        """``(N,)`` distances from each robot to its goal (m)."""
+        return np.linalg.norm(self.goals - self._pos, axis=1)
+
     def state(self) -> np.ndarray:
         if self.world is None:
             raise RuntimeError("state() called before reset()")
