@@ -18,6 +18,15 @@ Stable-Baselines3 model (see :mod:`baselines.rl.sb3_policy`). Files written to `
 * ``trajectories.png``: the robots' (and moving obstacles' or boxes') paths in the first episode;
 * ``episode.gif`` (with ``--gif``): an animation of the first episode.
 
+Success is the episode contract's: ``infos[agent]["success"]`` of an episode's last step
+(one episode: :func:`baselines.episode.run_episode`, re-exported here); it is the
+``success`` column, never a metric column.
+
+Errors: a bad command line, env id, config, ``--out`` (an existing file, or under one) or a
+policy that does not fit the env (``Policy.check_env``) exits with code 2 and one
+``error: ...`` line before any episode runs; a failure while running exits with code 1 and
+one line (``TEAMGYM_TRACEBACK=1`` shows the traceback instead).
+
 Metric means pool all (robot, episode) values: a metric a robot does not report (such as
 ``time_to_goal`` before arrival) is left out rather than counted as zero; booleans count
 as 0/1 (so ``mean_arrived`` is the arrival rate). Non-finite means are written as ``null``.
@@ -38,12 +47,13 @@ import math
 import os
 import re
 import sys
-from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 import numpy as np
+
+from baselines.episode import EpisodeResult, metric_names, run_episode
 
 __all__ = [
     "EpisodeResult",
@@ -58,154 +68,15 @@ __all__ = [
 ]
 
 
-def static_geometry(world: Any) -> tuple[list, list]:
-    """Wall and closed-door segments and furniture polygons of a world, for plots."""
-    from teamgym.sim.objects import Door, StaticPolygon, Wall
-
-    walls, furniture = [], []
-    for entity in world.entities.values():
-        if isinstance(entity, Door) and entity.is_open:
-            continue
-        if isinstance(entity, Wall):
-            walls.append((tuple(entity.a), tuple(entity.b)))
-        elif isinstance(entity, StaticPolygon):
-            furniture.append([tuple(v) for v in entity.vertices])
-    return walls, furniture
-
-
-@dataclass
-class EpisodeResult:
-    """The outcome of one episode.
-
-    ``metrics`` maps each agent to the numeric metrics of the last ``infos`` it received
-    (booleans kept as ``bool``); ``returns`` is each agent's summed reward. Equality
-    compares only seed, length, success, returns and metrics (not the recordings).
-    """
-
-    seed: int
-    length: int
-    success: bool
-    returns: dict[str, float]
-    metrics: dict[str, dict[str, float | int | bool]]
-    trajectories: dict[str, list[tuple[float, float]]] | None = field(default=None, compare=False, repr=False)
-    #: Paths of the moving obstacles and boxes (``env.object_trajectories()``), if the env has them.
-    object_paths: dict[str, list[tuple[float, float]]] | None = field(default=None, compare=False, repr=False)
-    goals: dict[str, tuple[float, float]] | None = field(default=None, compare=False, repr=False)
-    arena: tuple[float, float] | None = field(default=None, compare=False, repr=False)
-    #: Static geometry at the end of the episode: wall and closed-door segments, furniture polygons.
-    walls: list[tuple[tuple[float, float], tuple[float, float]]] | None = field(default=None, compare=False, repr=False)
-    furniture: list[list[tuple[float, float]]] | None = field(default=None, compare=False, repr=False)
-    frames: list[np.ndarray] | None = field(default=None, compare=False, repr=False)
-
-    @property
-    def mean_return(self) -> float:
-        """Summed reward averaged over the agents."""
-        return float(np.mean(list(self.returns.values()))) if self.returns else math.nan
-
-    def metric_values(self, name: str) -> list[float]:
-        """Values of metric ``name`` over the agents that report it."""
-        return [float(m[name]) for m in self.metrics.values() if name in m]
-
-    def metric_means(self) -> dict[str, float]:
-        """Per-episode mean of every metric over the agents that report it."""
-        return {name: float(np.mean(self.metric_values(name))) for name in metric_names([self])}
-
-
-def metric_names(results: Iterable[EpisodeResult]) -> list[str]:
-    """Every metric name in ``results``, in first-seen order."""
-    names: dict[str, None] = {}
-    for result in results:
-        for metrics in result.metrics.values():
-            names.update(dict.fromkeys(metrics))
-    return list(names)
-
-
-def _numeric(value: Any) -> float | int | bool | None:
-    """``value`` as a plain Python number if it is a numeric scalar, else ``None``."""
-    if isinstance(value, (bool, np.bool_)):
-        return bool(value)
-    if isinstance(value, (int, np.integer)):
-        return int(value)
-    if isinstance(value, (float, np.floating)):
-        return float(value)
-    if isinstance(value, np.ndarray) and value.shape == () and np.issubdtype(value.dtype, np.number):
-        return value.item()
-    return None
-
-
-def run_episode(env: Any, policy: Any, seed: int, record_frames: bool = False, record_trajectories: bool = True) -> EpisodeResult:
-    """Play one episode of ``policy`` on ``env`` with ``seed`` and collect its results.
-
-    The env is reset with ``seed`` and then the policy with ``policy.reset(seed)``. With
-    ``record_frames`` the env must have ``render_mode="rgb_array"``; every frame (after
-    reset and after each step) is kept in ``result.frames``.
-    """
-    if record_frames and getattr(env, "render_mode", None) != "rgb_array":
-        raise ValueError("record_frames needs an env made with render_mode='rgb_array'")
-    observations, infos = env.reset(seed=seed)
-    policy.reset(seed)
-    final: dict[str, dict[str, Any]] = {a: dict(infos.get(a, {})) for a in env.possible_agents if a in infos}
-    returns = {a: 0.0 for a in env.agents}
-    frames = [env.render()] if record_frames else None
-    limit = getattr(getattr(env, "config", None), "max_cycles", None)
-    length = 0
-    success = any(bool(info.get("success", False)) for info in infos.values())
-    while env.agents:
-        actions = policy.act({a: observations[a] for a in env.agents}, infos)
-        observations, rewards, _terminations, _truncations, infos = env.step(actions)
-        length += 1
-        for agent, reward in rewards.items():
-            returns[agent] = returns.get(agent, 0.0) + float(reward)
-        for agent, info in infos.items():
-            final[agent] = dict(info)
-        success = any(bool(info.get("success", False)) for info in infos.values())
-        if frames is not None:
-            frames.append(env.render())
-        if limit is not None and length > limit:
-            raise RuntimeError(f"episode with seed {seed} ran past max_cycles={limit}; the env does not truncate")
-    metrics: dict[str, dict[str, float | int | bool]] = {}
-    for agent, info in final.items():
-        values = {k: _numeric(v) for k, v in info.items() if k != "success"}  # success is the episode's column
-        metrics[agent] = {k: v for k, v in values.items() if v is not None}
-    trajectories = object_paths = goals = arena = walls = furniture = None
-    if record_trajectories:
-        trajectories = env.trajectories() if hasattr(env, "trajectories") else None
-        object_paths = env.object_trajectories() if hasattr(env, "object_trajectories") else None
-        world = getattr(env, "world", None)
-        arena = tuple(float(s) for s in world.size) if world is not None and hasattr(world, "size") else None
-        if world is not None:
-            walls, furniture = static_geometry(world)
-        raw_goals = getattr(env, "goals", None)
-        if raw_goals is not None:
-            try:
-                points = np.asarray(raw_goals, dtype=float).reshape(-1, 2)
-                if len(points) == len(env.possible_agents):
-                    goals = {a: (float(p[0]), float(p[1])) for a, p in zip(env.possible_agents, points)}
-            except (TypeError, ValueError):
-                goals = None
-    return EpisodeResult(
-        seed=int(seed),
-        length=length,
-        success=success,
-        returns=returns,
-        metrics=metrics,
-        trajectories=trajectories,
-        object_paths=object_paths,
-        goals=goals,
-        arena=arena,
-        walls=walls,
-        furniture=furniture,
-        frames=frames,
-    )
-
-
 class _Runner:
     """An env and a policy built once and reused for many episodes."""
 
     def __init__(self, env_id: str, policy_name: str, config: Mapping[str, Any] | None, render_mode: str | None = None) -> None:
         import teamgym
-        from baselines.registry import make_policy, required_config
+        from baselines.registry import make_policy, policy_class, required_config
 
+        if env_id in teamgym.envs():  # a policy for another env fails here, before its required config
+            policy_class(policy_name).check_env_id(env_id, policy_name)
         config = {**required_config(policy_name), **dict(config or {})}
         self.env = teamgym.make(env_id, render_mode=render_mode, **config)
         self.policy = make_policy(policy_name, self.env)
@@ -251,10 +122,13 @@ def evaluate(
     With ``workers > 1`` episodes run in that many spawned processes, each with its own
     env and policy; results are identical to a sequential run. Trajectories are kept for
     the first episode only unless ``keep_trajectories``. Config, env-id and policy errors
-    raise (``ConfigError``/``KeyError``/``FileNotFoundError``) before any episode runs.
+    (including a policy that does not fit the env) raise (``ConfigError``/``ValueError``/
+    ``KeyError``/``FileNotFoundError``) before any episode runs.
     """
     if episodes < 1:
         raise ValueError(f"episodes must be >= 1, got {episodes}")
+    if seed < 0:
+        raise ValueError(f"seed must be >= 0, got {seed}")
     if workers < 1:
         raise ValueError(f"workers must be >= 1, got {workers}")
     from tqdm import tqdm
@@ -419,6 +293,28 @@ class _UsageError(Exception):
     """A command-line or configuration mistake: reported in one line, exit code 2."""
 
 
+class _Parser(argparse.ArgumentParser):
+    """An argument parser that reports a bad command line in one line (``error: ...``), exit code 2."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"error: {_one_line(message)} (see --help)\n")
+
+
+def _at_least(minimum: int) -> Callable[[str], int]:
+    """An argparse ``type``: an integer ``>= minimum``."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+        if value < minimum:
+            raise argparse.ArgumentTypeError(f"must be >= {minimum}, got {value}")
+        return value
+
+    return parse
+
+
 def _parse_sets(items: Sequence[str] | None) -> dict[str, str]:
     config: dict[str, str] = {}
     for item in items or []:
@@ -429,41 +325,82 @@ def _parse_sets(items: Sequence[str] | None) -> dict[str, str]:
     return config
 
 
+def _check_out(out: Path) -> None:
+    """Raise :class:`_UsageError` if ``out`` cannot be an output directory (a file, or under one)."""
+    if out.exists() and not out.is_dir():
+        raise _UsageError(f"--out {str(out)!r} is an existing file, not a directory")
+    for parent in out.parents:
+        if parent.exists():
+            if not parent.is_dir():
+                raise _UsageError(f"--out {str(out)!r} is under {str(parent)!r}, which is a file")
+            return
+
+
 def _slug(text: str) -> str:
     if text.startswith("sb3:"):
         text = "sb3-" + Path(text[4:]).stem
     return re.sub(r"[^A-Za-z0-9_.-]+", "-", text).strip("-") or "policy"
 
 
+def _one_line(text: str) -> str:
+    return " ".join(text.split())
+
+
 def _message(error: BaseException) -> str:
     if isinstance(error, KeyError) and error.args:
-        return str(error.args[0])
-    return str(error) or type(error).__name__
+        return _one_line(str(error.args[0]))
+    return _one_line(str(error)) or type(error).__name__
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """The ``python -m baselines.evaluate`` argument parser."""
-    parser = argparse.ArgumentParser(
+    """The ``python -m baselines.evaluate`` argument parser (a bad command line exits 2 with a one-line error)."""
+    parser = _Parser(
         prog="python -m baselines.evaluate",
         description="Evaluate a policy on a teamgym env over seeded episodes.",
     )
+    count, seed = _at_least(1), _at_least(0)  # episodes and workers; seeds (numpy rejects negative ones)
     parser.add_argument("--env", default="Navigation-v0", help="env id (default: Navigation-v0)")
     parser.add_argument("--policy", default="goto", help="policy name or sb3:PATH (default: goto)")
-    parser.add_argument("--episodes", type=int, default=10, help="number of episodes (default: 10)")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the first episode; episode i uses seed+i (default: 0)")
+    parser.add_argument("--episodes", type=count, default=10, help="number of episodes, >= 1 (default: 10)")
+    parser.add_argument("--seed", type=seed, default=0, help="first seed, >= 0; episode i uses seed+i (default: 0)")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="env config override (repeatable)")
     parser.add_argument("--max-cycles", type=int, default=None, help="shorthand for --set max_cycles=M")
     parser.add_argument("--out", default=None, help="output directory (default: results/<env>_<policy>/)")
     parser.add_argument("--gif", action="store_true", help="also write an animated GIF of the first episode")
-    parser.add_argument("--workers", type=int, default=1, help="parallel worker processes (default: 1)")
+    parser.add_argument("--workers", type=count, default=1, help="parallel worker processes, >= 1 (default: 1)")
     parser.add_argument("--quiet", action="store_true", help="no progress bar or table")
     parser.add_argument("--list", action="store_true", help="list env ids and policy names and exit")
     return parser
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the evaluation CLI; returns the exit code (2 for usage or configuration errors)."""
-    args = build_parser().parse_args(argv)
+    """Run the evaluation CLI; returns the exit code.
+
+    Exit code 2, with one ``error: ...`` line on stderr and before any episode runs, for a
+    bad command line, env id, config, policy, policy/env mismatch or ``--out``; 1, with
+    one line, for a failure while running (``TEAMGYM_TRACEBACK=1`` re-raises it instead).
+    """
+    try:
+        args = build_parser().parse_args(argv)
+    except SystemExit as done:  # --help, or a usage error already reported in one line
+        return 0 if done.code is None else done.code if isinstance(done.code, int) else 2
+    try:
+        return _run(args)
+    except _UsageError as error:
+        print(f"error: {_one_line(str(error))}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("error: interrupted", file=sys.stderr)
+        return 130
+    except Exception as error:  # noqa: BLE001 - no traceback reaches a command-line user
+        if os.environ.get("TEAMGYM_TRACEBACK"):
+            raise
+        print(f"error: {type(error).__name__}: {_message(error)} (TEAMGYM_TRACEBACK=1 shows where)", file=sys.stderr)
+        return 1
+
+
+def _run(args: argparse.Namespace) -> int:
+    """The CLI after parsing: validate everything, then run the episodes and write the outputs."""
     import teamgym
     from baselines.registry import policies
 
@@ -471,31 +408,27 @@ def main(argv: Sequence[str] | None = None) -> int:
         print("envs:     " + " ".join(teamgym.envs()))
         print("policies: " + " ".join(policies()) + " sb3:PATH")
         return 0
-    try:
-        if args.episodes < 1:
-            raise _UsageError(f"--episodes must be >= 1, got {args.episodes}")
-        if args.workers < 1:
-            raise _UsageError(f"--workers must be >= 1, got {args.workers}")
-        config = _parse_sets(args.set)
-        if args.max_cycles is not None:
-            config["max_cycles"] = str(args.max_cycles)
-        try:
-            probe = _Runner(args.env, args.policy, config)
-        except (ValueError, KeyError, FileNotFoundError, ImportError) as error:
-            raise _UsageError(_message(error)) from error
-        resolved = probe.env.config.as_dict() if hasattr(probe.env.config, "as_dict") else dict(config)
-        if "torch" in sys.modules:  # an SB3 policy: tiny batches run fastest single-threaded
-            sys.modules["torch"].set_num_threads(1)
-        probe.close()
-    except _UsageError as error:
-        print(f"error: {error}", file=sys.stderr)
-        return 2
-
+    config = _parse_sets(args.set)
+    if args.max_cycles is not None:
+        config["max_cycles"] = str(args.max_cycles)
     out = Path(args.out) if args.out else Path("results") / f"{_slug(args.env)}_{_slug(args.policy)}"
+    _check_out(out)
+    try:
+        probe = _Runner(args.env, args.policy, config)
+    except (ValueError, TypeError, KeyError, FileNotFoundError, ImportError) as error:
+        raise _UsageError(_message(error)) from error
+    resolved = probe.env.config.as_dict() if hasattr(probe.env.config, "as_dict") else dict(config)
+    if "torch" in sys.modules:  # an SB3 policy: tiny batches run fastest single-threaded
+        sys.modules["torch"].set_num_threads(1)
+    probe.close()
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        raise _UsageError(f"cannot create --out {str(out)!r}: {error.strerror or error}") from error
+
     results = evaluate(args.env, args.policy, args.episodes, args.seed, config, args.workers, progress=not args.quiet)
     summary = {"env": args.env, "policy": args.policy, "config": resolved, "seed": args.seed, "workers": args.workers}
     summary.update(summarise(results))
-    out.mkdir(parents=True, exist_ok=True)
     written = [write_summary_json(out / "summary.json", summary), write_episodes_csv(out / "episodes.csv", results)]
 
     from baselines.plots import plot_trajectories

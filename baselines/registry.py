@@ -51,8 +51,13 @@ def required_config(name: str) -> dict[str, Any]:
 
 
 def make_policy(name: str, env: TeamEnv, **kwargs: Any) -> Policy:
-    """Build policy ``name`` for ``env``; ``sb3:PATH`` loads a saved Stable-Baselines3 model."""
+    """Build policy ``name`` for ``env``; ``sb3:PATH`` loads a saved Stable-Baselines3 model.
+
+    Raises ``ValueError`` naming the policy, the env and what is missing when the policy
+    does not fit the env (:meth:`Policy.check_env`; an SB3 model's spaces must match the env's).
+    """
     cls = policy_class(name)
+    cls.check_env(env, name)
     if name.startswith("sb3:"):
         return cls.load(name[4:], env, **kwargs)
     return cls(env, **{**_POLICIES[name][1], **kwargs})

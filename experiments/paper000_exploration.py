@@ -37,6 +37,7 @@ from typing import Any
 import numpy as np
 
 import teamgym
+from baselines.episode import Step, run_episode
 from baselines.evaluate import evaluate, markdown_table
 from baselines.registry import make_policy
 from teamgym.control.behaviour import BEHAVIOURS, STOP, BehaviourController
@@ -180,24 +181,23 @@ def operator_sequence(config: dict[str, Any], policy_name: str = "nash-explore",
     """Play one operator episode; return the operator names per stage and the final metrics."""
     env = teamgym.make("Exploration-v0", action_type="operator", **config)
     policy = make_policy(policy_name, env, **policy_kwargs)
-    observations, infos = env.reset(seed=seed)
-    policy.reset(seed)
     rows, explored = [], []
-    while env.agents:
-        actions = policy.act(observations, infos)
-        rows.append([env.operators[actions[a]] for a in env.agents])
-        observations, _, _, _, infos = env.step(actions)
-        explored.append(int(infos["robot_0"]["explored"]))
-    final = infos["robot_0"]
+
+    def record(step: Step) -> None:
+        rows.append([env.operators[step.actions[a]] for a in step.agents])
+        explored.append(int(step.infos["robot_0"]["explored"]))
+
+    result = run_episode(env, policy, seed, on_step=record, record_trajectories=False)
+    final = result.metrics["robot_0"]
     return {
         "short": [[op.short for op in row] for row in rows],
         "long": [[op.name for op in row] for row in rows],
         "explored": explored,
-        "success": bool(final["explored_all"]),
+        "success": result.success,
         "stages": int(final["stages"]),
         "explore_time_s": final.get("explore_time"),
         "team_path_length_m": round(float(final["team_path_length"]), 3),
-        "tasks_failed": [int(infos[a]["tasks_failed"]) for a in env.possible_agents],
+        "tasks_failed": [int(result.metrics[a]["tasks_failed"]) for a in env.possible_agents],
         "trajectories": env.trajectories(),
     }
 

@@ -11,16 +11,17 @@ Subcommands (each writes JSON, a Markdown table and PNG plots into ``--out``):
   smoothness J_1 of robot 1 and decision time per step.
 * ``obstacles`` (section 6.3, Figs. 8–9): 3 and 5 robots, 2 obstacles at 20 cm/s,
   Δt = 0.2 s, robot radius 5 cm: distance to the nearest object over time for one seed;
-  then over ``--seeds`` seeds (from ``--first-seed``) success (every robot at its goal, no
-  collision), collisions, minimum separation, and how often the arbiter saw one, several
+  then over ``--seeds`` seeds (from ``--first-seed``) ``strict_success`` (every robot at
+  its goal and no contact: the paper's criterion), ``success`` (the env's: every robot at
+  its goal), collisions, minimum separation, and how often the arbiter saw one, several
   or no equilibria; the same seeds with ``goto`` and ``nash-first`` (no arbiter) for
   comparison. Each in three workspaces (``WORKSPACES``): ``walled`` (2 m arena with walls,
   obstacles bounce off them: the earlier setting), ``open`` (no walls, as in the paper;
   obstacles still reflect at the 2 m square's edges and stay inside it) and
   ``open-straight`` (no walls, obstacles on one straight line for the whole episode).
-* ``failures``: for ``nash`` with 5 robots, the first contact of every failed episode
-  (what was hit, from which side, robot speed, gap to the nearest wall, obstacle just
-  reflected?, distance to goal) in each workspace: the failure taxonomy of
+* ``failures``: for ``nash`` with 5 robots, the first contact of every episode without
+  strict success (what was hit, from which side, robot speed, gap to the nearest wall,
+  obstacle just reflected?, distance to goal) in each workspace: the failure taxonomy of
   docs/navigation.md. Run it on the held-out seeds (``--first-seed 100``).
 
 Seeds 0–99 are the reported ones; 100–199 were used for every tuning decision.
@@ -38,6 +39,7 @@ from typing import Any
 import numpy as np
 
 import teamgym
+from baselines.episode import Step, run_episode
 from baselines.evaluate import markdown_table
 from baselines.registry import make_policy, required_config
 
@@ -55,71 +57,89 @@ EXPOSURE_DISTANCE = 0.25
 
 
 def run(env_id: str, policy_name: str, seed: int, config: dict[str, Any], policy_kwargs: dict | None = None) -> dict[str, Any]:
-    """One episode; returns per-robot final metrics, per-step centre distances and policy statistics."""
+    """One episode; returns per-robot final metrics, per-step centre distances and policy statistics.
+
+    ``success`` is the env's (every robot at its goal, from ``infos``); ``strict_success``
+    also requires that no robot touched anything (the paper's criterion, from the metrics).
+    """
     env = teamgym.make(env_id, **{**required_config(policy_name), **config})
     policy = make_policy(policy_name, env, **(policy_kwargs or {}))
-    observations, infos = env.reset(seed=seed)
-    policy.reset(seed)
-    final = dict(infos)
-    nearest: list[np.ndarray] = []
-    obstacle_paths: list[np.ndarray] = []
-    exposed = 0
-    contacts: list[dict[str, Any]] = []
-    turns = np.full(len(env.obstacles), -np.inf)  # step of each obstacle's last change of direction
-    while env.agents:
-        live = list(env.agents)
-        before = _snapshot(env)
-        scripted = [o.target_velocity for o in env.obstacles]
-        actions = policy.act({a: observations[a] for a in live}, infos)
-        observations, _, _, _, infos = env.step(actions)
-        final.update(infos)
-        nearest.append(_nearest_centre_distances(env))
-        obstacle_paths.append(np.array([o.position for o in env.obstacles]).reshape(-1, 2))
-        if env.obstacles:
-            live_rows = [env.possible_agents.index(a) for a in live]
-            gaps = np.linalg.norm(env._obs_pos[None, :, :] - env._pos[live_rows][:, None, :], axis=2)
-            exposed += int(np.sum(gaps.min(axis=1) < EXPOSURE_DISTANCE))
-        for k, (o, old) in enumerate(zip(env.obstacles, scripted)):
-            if o.target_velocity != old:
-                turns[k] = env.cycles
-        contacts.extend(_describe_contacts(env, live, before, turns))
-    robots = list(final.values())
+    recorder = _Recorder()
+    result = run_episode(env, policy, seed, on_step=recorder.after_step, on_reset=recorder.after_reset, record_trajectories=False)
+    robots = list(result.metrics.values())
     size = env.config.arena_size
     path_points = np.concatenate([np.asarray(p, dtype=float).reshape(-1, 2) for p in env.trajectories().values()])
+    collisions = sum(m["collisions"] for m in robots)
     return {
         "seed": seed,
-        "success": all(m["arrived"] for m in robots) and sum(m["collisions"] for m in robots) == 0,
-        "arrived": all(m["arrived"] for m in robots),
-        "collisions": sum(m["collisions"] for m in robots),
+        "success": result.success,
+        "strict_success": result.success and collisions == 0,
+        "collisions": collisions,
         "min_center_distance": min(m["min_center_distance"] for m in robots),
         "min_clearance": min(m["min_clearance"] for m in robots),
         "time_to_goal": float(np.mean([m["time_to_goal"] for m in robots if "time_to_goal" in m]))
         if any("time_to_goal" in m for m in robots)
         else float("nan"),
-        "smoothness": [final[a]["smoothness"] for a in env.possible_agents],
+        "smoothness": [result.metrics[a]["smoothness"] for a in env.possible_agents],
         "steps": env.cycles,
-        "nearest": np.array(nearest),
+        "nearest": np.array(recorder.nearest),
         "trajectories": env.trajectories(),
-        "obstacle_paths": np.array(obstacle_paths),
+        "obstacle_paths": np.array(recorder.obstacle_paths),
         "goals": np.asarray(env.goals).tolist(),
         "arena": size,
         "walls": env.config.walls,
-        "exposed_steps": exposed,
+        "exposed_steps": recorder.exposed,
         "outside_square_m": float(np.max(np.maximum(np.maximum(-path_points, path_points - size), 0.0))),
-        "contacts": contacts,
+        "contacts": recorder.contacts,
         "branches": dict(getattr(policy, "branch_counts", {})),
         "decision_times": list(getattr(policy, "decision_times", [])),
     }
 
 
+class _Recorder:
+    """Episode hooks of :func:`run`: nearest distances, obstacle paths, exposure and described contacts per step."""
+
+    def __init__(self) -> None:
+        self.nearest: list[np.ndarray] = []
+        self.obstacle_paths: list[np.ndarray] = []
+        self.exposed = 0
+        self.contacts: list[dict[str, Any]] = []
+        self.turns = np.zeros(0)  # step of each obstacle's last change of direction
+        self.before: dict[str, np.ndarray] = {}  # the state the last step started from
+        self.scripted: list = []  # each obstacle's scripted velocity before the last step
+
+    def after_reset(self, step: Step) -> None:
+        self.turns = np.full(len(step.env.obstacles), -np.inf)
+        self._remember(step.env)
+
+    def after_step(self, step: Step) -> None:
+        env = step.env
+        self.nearest.append(_nearest_centre_distances(env))
+        self.obstacle_paths.append(np.array([o.position for o in env.obstacles]).reshape(-1, 2))
+        if env.obstacles:
+            live_rows = [env.possible_agents.index(a) for a in step.agents]
+            robots = env.robot_positions[live_rows]
+            gaps = np.linalg.norm(env.obstacle_positions[None, :, :] - robots[:, None, :], axis=2)
+            self.exposed += int(np.sum(gaps.min(axis=1) < EXPOSURE_DISTANCE))
+        for k, (o, old) in enumerate(zip(env.obstacles, self.scripted)):
+            if o.target_velocity != old:
+                self.turns[k] = env.cycles
+        self.contacts.extend(_describe_contacts(env, list(step.agents), self.before, self.turns))
+        self._remember(env)
+
+    def _remember(self, env) -> None:
+        self.before = _snapshot(env)
+        self.scripted = [o.target_velocity for o in env.obstacles]
+
+
 def _snapshot(env) -> dict[str, np.ndarray]:
     """Robot poses, obstacle positions and velocities before a step (for the failure taxonomy)."""
     return {
-        "pos": env._pos.copy(),
-        "theta": env._theta.copy(),
-        "obstacles": env._obs_pos.copy(),
-        "obstacle_velocity": env._obs_vel.copy(),
-        "goal_distance": np.linalg.norm(env.goals - env._pos, axis=1),
+        "pos": env.robot_positions,
+        "theta": env.robot_headings,
+        "obstacles": env.obstacle_positions,
+        "obstacle_velocity": env.obstacle_velocities,
+        "goal_distance": env.goal_distances,
     }
 
 
@@ -180,7 +200,7 @@ def experiment_delay(out: Path, seeds: int) -> dict:
                 {
                     "T0/dt": fraction,
                     "T0 modelled": modelled,
-                    "success": float(np.mean([r["arrived"] for r in results])),
+                    "success": float(np.mean([r["success"] for r in results])),
                     "collisions": int(sum(r["collisions"] for r in results)),
                     "time_to_goal_s": float(np.nanmean([r["time_to_goal"] for r in results])),
                     "steps": float(np.mean([r["steps"] for r in results])),
@@ -204,7 +224,7 @@ def experiment_decision_set(out: Path, seeds: int) -> dict:
                 "K": k,
                 "J_1": float(np.mean([r["smoothness"][0] for r in results])),
                 "decision_ms": float(1000 * np.mean(times)),
-                "success": float(np.mean([r["arrived"] for r in results])),
+                "success": float(np.mean([r["success"] for r in results])),
             }
         )
     _plot_decision_set(out / "decision_set.png", rows)
@@ -228,8 +248,8 @@ def experiment_obstacles(out: Path, seeds: int, first_seed: int = 0) -> dict:
                         "workspace": workspace,
                         "robots": n,
                         "policy": policy,
+                        "strict_success": float(np.mean([r["strict_success"] for r in results])),
                         "success": float(np.mean([r["success"] for r in results])),
-                        "all_arrived": float(np.mean([r["arrived"] for r in results])),
                         "collisions_per_episode": float(np.mean([r["collisions"] for r in results])),
                         "min_center_distance_m": float(np.min([r["min_center_distance"] for r in results])),
                         "median_min_center_distance_m": float(np.median([r["min_center_distance"] for r in results])),
@@ -254,7 +274,7 @@ def experiment_failures(out: Path, seeds: int, first_seed: int = 0) -> dict:
         config = {**OBSTACLE_SETTING, **setting, "n_robots": 5}
         for seed in range(first_seed, first_seed + seeds):
             r = run("Navigation-v0", "nash", seed, config)
-            if r["success"]:
+            if r["strict_success"]:
                 continue
             first = r["contacts"][0] if r["contacts"] else {}
             rows.append(
@@ -302,7 +322,7 @@ def _plot_pair(path: Path, examples: dict, title: str) -> None:
     for column, modelled in enumerate((False, True)):
         ax = fig.add_subplot(1, 2, column + 1)
         r = examples[modelled]
-        _draw_trajectories(ax, r, f"T0 {'modelled' if modelled else 'not modelled'}: arrived={r['arrived']}, {r['steps']} steps")
+        _draw_trajectories(ax, r, f"T0 {'modelled' if modelled else 'not modelled'}: success={r['success']}, {r['steps']} steps")
     fig.suptitle(title)
     fig.savefig(path, dpi=100)
 
@@ -335,7 +355,8 @@ def _plot_nearest(path: Path, result: dict, n: int, workspace: str = "walled") -
         path_k = result["obstacle_paths"][:, k]
         ax.plot(path_k[:, 0], path_k[:, 1], color="0.5", linestyle="--", linewidth=1)
         ax.annotate(f"o{k + 1}", path_k[0], fontsize=8, color="0.3")
-    _draw_trajectories(ax, result, f"{n} robots, 2 obstacles, {workspace} (seed {result['seed']}): success={result['success']}")
+    title = f"{n} robots, 2 obstacles, {workspace} (seed {result['seed']}): strict success={result['strict_success']}"
+    _draw_trajectories(ax, result, title)
     ax = fig.add_subplot(1, 2, 2)
     nearest = result["nearest"]
     t = 0.2 * np.arange(1, len(nearest) + 1)

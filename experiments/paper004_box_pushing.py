@@ -37,6 +37,7 @@ from typing import Any
 import numpy as np
 
 import teamgym
+from baselines.episode import Step, run_episode
 from baselines.evaluate import markdown_table
 from baselines.registry import make_policy, required_config
 
@@ -49,25 +50,23 @@ def run_static(args: tuple[str, str, int]) -> dict[str, Any]:
     situation, policy_name, seed = args
     env = teamgym.make("BoxPushing-v0", situation=situation, **required_config(policy_name))
     policy = make_policy(policy_name, env)
-    observations, infos = env.reset(seed=seed)
-    policy.reset(seed)
-    boxes = [np.array(env.world[b].position) for b in env.box_names()]
-    while env.agents:
-        observations, _, _, _, infos = env.step(policy.act({a: observations[a] for a in env.agents}, infos))
-    final = next(iter(infos.values()))
+    result = run_episode(env, policy, seed, record_trajectories=False)
+    final = result.metrics
+    first = next(iter(final.values()))
+    starts = env.object_trajectories()
     return {
         "situation": situation,
         "policy": policy_name,
         "seed": seed,
-        "success": env.episode_success(),
-        "boxes_delivered": final["boxes_delivered"],
-        "time_to_goal": final.get("time_to_goal"),
+        "success": result.success,
+        "boxes_delivered": first["boxes_delivered"],
+        "time_to_goal": first.get("time_to_goal"),
         "steps": env.cycles,
         "activations": {str(k): v for k, v in sorted(policy.activations.items())},
         "situation_steps": dict(policy.situation_steps),
-        "path_length": float(np.mean([i["path_length"] for i in infos.values()])),
+        "path_length": float(np.mean([m["path_length"] for m in final.values()])),
         "trajectories": env.trajectories(),
-        "box_starts": [b.tolist() for b in boxes],
+        "box_starts": [list(starts[b][0]) for b in env.box_names()],
         "box_ends": [list(env.world[b].position) for b in env.box_names()],
     }
 
@@ -135,30 +134,31 @@ def run_dynamic(args: tuple[str, int]) -> dict[str, Any]:
         config = dict(n_robots=2, n_light_boxes=1, n_heavy_boxes=1, boxes_to_goal=2)
     env = teamgym.make("BoxPushing-v0", **config)
     policy = make_policy("sbs", env)
-    observations, infos = env.reset(seed=seed)
-    policy.reset(seed)
     timeline: dict[str, list[str]] = {a: [] for a in env.possible_agents}
-    at, heavy, both_on_heavy = None, None, 0
-    while env.agents:
-        observations, _, _, _, infos = env.step(policy.act({a: observations[a] for a in env.agents}, infos))
+    event: dict[str, Any] = {"at": None, "heavy": None, "both_on_heavy": 0}
+
+    def after_step(step: Step) -> None:
         situations = policy.situations()
         for agent in env.agents:
             timeline[agent].append(situations[agent])
-        if at is None and env.agents:
+        if event["at"] is None and env.agents:
             if scenario == "add_heavy" and all(situations.get(a) == "S2" for a in ("robot_0", "robot_1")):
-                at, heavy = env.cycles, env.add_box(heavy=True)
+                event["at"], event["heavy"] = env.cycles, env.add_box(heavy=True)
             elif scenario == "remove_robot" and situations.get("robot_0") in ("S2", "S3") and "robot_1" in env.agents:
-                at = env.cycles
+                event["at"] = env.cycles
                 env.remove_robot("robot_1")
-        if heavy is not None:
-            both_on_heavy += _robots_touching(env, heavy) >= 2
+        if event["heavy"] is not None:
+            event["both_on_heavy"] += _robots_touching(env, event["heavy"]) >= 2
+
+    episode = run_episode(env, policy, seed, on_step=after_step, record_trajectories=False)
+    at, heavy, both_on_heavy = event["at"], event["heavy"], event["both_on_heavy"]
     result = {"scenario": scenario, "seed": seed, "event_step": at, "steps": env.cycles, "timelines": timeline}
     if scenario == "add_heavy":
         after = {a: timeline[a][at:] if at else [] for a in ("robot_0", "robot_1")}
         result["s3_after_s"] = {a: (t.index("S3") * dt if "S3" in t else None) for a, t in after.items()}
         result["both_on_heavy_s"] = both_on_heavy * dt
-        result["heavy_delivered"] = heavy is not None and bool(env._delivered[env._box_slot(heavy)])
-        result["success"] = env.episode_success()
+        result["heavy_delivered"] = heavy is not None and env.is_delivered(heavy)
+        result["success"] = episode.success
     else:
         survivor = timeline["robot_0"][at:] if at else []
         lapse = next((i for i, s in enumerate(survivor) if s in ("S1", "S4")), None)
@@ -214,26 +214,35 @@ DIAGNOSE_VARIANTS: tuple[tuple[str, str, dict[str, Any]], ...] = (
 )
 
 
+class _TogetherOnBox:
+    """Episode hook: steps that start with two or more robots touching the (first) box."""
+
+    def __init__(self) -> None:
+        self.box: str | None = None
+        self.steps = 0
+
+    def count(self, step: Step) -> None:
+        """Count the state a step starts from: after reset and after every step but the last."""
+        if step.index == 0:
+            self.box = step.env.box_names()[0]
+        if not step.done:
+            self.steps += _robots_touching(step.env, self.box) >= 2
+
+
 def run_diagnose(args: tuple[int, int]) -> dict[str, Any]:
     """One S3 episode of variant ``DIAGNOSE_VARIANTS[index]`` with ``seed``."""
     index, seed = args
     label, policy_name, kwargs = DIAGNOSE_VARIANTS[index]
     env = teamgym.make("BoxPushing-v0", situation="S3", **required_config(policy_name))
     policy = make_policy(policy_name, env, **kwargs)
-    observations, infos = env.reset(seed=seed)
-    policy.reset(seed)
-    heavy = env.box_names()[0]
-    together = 0
-    while env.agents:
-        actions = policy.act({a: observations[a] for a in env.agents}, infos)
-        together += _robots_touching(env, heavy) >= 2
-        observations, _, _, _, infos = env.step(actions)
+    together = _TogetherOnBox()
+    result = run_episode(env, policy, seed, on_step=together.count, on_reset=together.count, record_trajectories=False)
     robot_steps = sum(policy.situation_steps.values())
     return {
         "variant": label,
         "seed": seed,
-        "success": env.episode_success(),
-        "together_s": together * env.config.dt,
+        "success": result.success,
+        "together_s": together.steps * env.config.dt,
         "stopped_b12_b14": (policy.activations[12] + policy.activations[14]) / robot_steps,
     }
 

@@ -165,10 +165,10 @@ def test_light_passes_through_boxes_and_over_walls(shadows):
     env.reset(seed=0)
     place_robot(env, "robot_0", 0.3, 0.45, 0.0)
     place_box(env, env.box_names()[0], 2.0, 2.0)  # off the table: nothing between
-    env._sense(env.agents)
+    env._read_sensors(env.agents)
     clear = light_of(env, "robot_0").copy()
     place_box(env, env.box_names()[0], 0.6, 0.45)  # between robot and lamp
-    env._sense(env.agents)
+    env._read_sensors(env.agents)
     np.testing.assert_allclose(light_of(env, "robot_0"), clear)
     assert np.argmax(clear) in (2, 3) and clear.max() > 0  # the lamp is straight ahead, beyond the east wall
 
@@ -181,7 +181,7 @@ def test_light_shadows_from_robots_only_when_enabled():
             place_box(env, name, 3.0, 3.0 + env.box_names().index(name))
         place_robot(env, "robot_0", 0.3, 0.45, 0.0)
         place_robot(env, "robot_1", 0.6, 0.45, 0.0)
-        env._sense(env.agents)
+        env._read_sensors(env.agents)
         assert (light_of(env, "robot_0").max() == 0.0) == blocked
 
 

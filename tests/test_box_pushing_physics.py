@@ -38,7 +38,7 @@ def env_with_box(heavy, n_robots, offsets, seconds, heading=0.0):
     for agent, dy in zip(env.agents, offsets):
         env.robots[agent].teleport((0.5 - half - SPEC.radius - 0.003, 0.45 + dy), heading)
     env.world.read_states()
-    env._sense(env.agents)
+    env._read_sensors(env.agents)
     return env, box
 
 

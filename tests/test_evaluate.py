@@ -15,6 +15,7 @@ import pytest
 
 import teamgym
 from baselines import make_policy
+from baselines.episode import Step, success_of
 from baselines.evaluate import EpisodeResult, evaluate, main, run_episode, summarise, summary_table
 
 REPO = Path(__file__).resolve().parents[1]
@@ -99,6 +100,24 @@ def test_bad_set_key_exits_2_with_message():
     assert len(proc.stderr.strip().splitlines()) == 1
 
 
+@pytest.fixture
+def no_episodes(monkeypatch):
+    """Fail the test if the CLI gets as far as running an episode."""
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("an episode ran although the command line is invalid")
+
+    monkeypatch.setattr("baselines.evaluate.evaluate", refuse)
+    monkeypatch.setattr("baselines.evaluate.run_episode", refuse)
+
+
+def assert_one_line_error(err: str, needle: str) -> None:
+    assert err.startswith("error: ")
+    assert len(err.strip().splitlines()) == 1, err
+    assert "Traceback" not in err
+    assert needle in err
+
+
 @pytest.mark.parametrize(
     ("args", "needle"),
     [
@@ -108,14 +127,95 @@ def test_bad_set_key_exits_2_with_message():
         (["--policy", "no_such_policy"], "unknown policy 'no_such_policy'"),
         (["--policy", "sb3:/no/such/model.zip"], "no saved SB3 model"),
         (["--episodes", "0"], "--episodes"),
+        (["--episodes", "-3"], "--episodes"),
+        (["--episodes", "many"], "--episodes"),
+        (["--seed", "-1"], "--seed"),
+        (["--workers", "0"], "--workers"),
+        (["--env", "Exploration-v0", "--policy", "goto"], "policy 'goto' does not fit Exploration-v0"),
+        (["--env", "Navigation-v0", "--policy", "greedy"], "policy 'greedy' does not fit Navigation-v0"),
+        (["--env", "BoxPushing-v0", "--policy", "nash-first"], "policy 'nash-first' does not fit BoxPushing-v0"),
+        (["--env", "Exploration-v0", "--policy", "sbs"], "policy 'sbs' does not fit Exploration-v0"),
+        (["--env", "BoxPushing-v0", "--policy", "sbs", "--set", "action_type=wheels"], "primitives"),
     ],
 )
-def test_usage_errors(args, needle, capsys, tmp_path):
+def test_usage_errors(args, needle, capsys, tmp_path, no_episodes):
     assert main([*args, "--out", str(tmp_path / "x"), "--quiet"]) == 2
-    err = capsys.readouterr().err
-    assert needle in err
-    assert err.startswith("error: ")
+    assert_one_line_error(capsys.readouterr().err, needle)
     assert not (tmp_path / "x").exists()
+
+
+@pytest.mark.parametrize("under", [False, True])
+def test_out_naming_a_file_fails_before_any_episode(under, capsys, tmp_path, no_episodes):
+    existing = tmp_path / "results.txt"
+    existing.write_text("keep me")
+    out = existing / "run" if under else existing
+    assert main(["--episodes", "1", "--out", str(out), "--quiet"]) == 2
+    assert_one_line_error(capsys.readouterr().err, str(existing))
+    assert existing.read_text() == "keep me"
+
+
+def test_negative_seed_from_the_shell_is_one_line():
+    proc = run_cli("--seed", "-1", "--episodes", "1")
+    assert proc.returncode == 2
+    assert_one_line_error(proc.stderr, "--seed")
+    assert proc.stdout == ""
+
+
+def test_failure_while_running_is_one_line_exit_1(monkeypatch, capsys, tmp_path):
+    def crash(*args, **kwargs):
+        raise RuntimeError("simulator exploded\nwith details")
+
+    monkeypatch.delenv("TEAMGYM_TRACEBACK", raising=False)
+    monkeypatch.setattr("baselines.evaluate.evaluate", crash)
+    assert main(["--episodes", "1", "--out", str(tmp_path / "x"), "--quiet"]) == 1
+    assert_one_line_error(capsys.readouterr().err, "RuntimeError: simulator exploded with details")
+    monkeypatch.setenv("TEAMGYM_TRACEBACK", "1")
+    with pytest.raises(RuntimeError, match="simulator exploded"):
+        main(["--episodes", "1", "--out", str(tmp_path / "x"), "--quiet"])
+
+
+def test_sb3_model_for_another_env_is_a_usage_error(capsys, tmp_path, no_episodes):
+    pytest.importorskip("stable_baselines3")
+    from stable_baselines3 import PPO
+
+    from baselines.rl.sb3_env import TeamVecEnv
+
+    venv = TeamVecEnv(lambda: teamgym.make("Navigation-v0", n_robots=2), n_envs=1)
+    PPO("MlpPolicy", venv, n_steps=16, batch_size=16, device="cpu").save(str(tmp_path / "nav.zip"))
+    args = ["--env", "BoxPushing-v0", "--policy", f"sb3:{tmp_path / 'nav.zip'}", "--out", str(tmp_path / "x")]
+    assert main([*args, "--quiet"]) == 2
+    assert_one_line_error(capsys.readouterr().err, "observations of shape")
+
+
+def test_make_policy_rejects_a_policy_for_another_env():
+    with pytest.raises(ValueError, match="policy 'goto' does not fit Exploration-v0: it is written for Navigation-v0"):
+        make_policy("goto", teamgym.make("Exploration-v0"))
+    with pytest.raises(ValueError, match="policy 'nash-explore' does not fit BoxPushing-v0"):
+        make_policy("nash-explore", teamgym.make("BoxPushing-v0"))
+    with pytest.raises(ValueError, match="policy 'goto' does not fit Exploration-v0"):
+        evaluate("Exploration-v0", "goto", episodes=1)
+    with pytest.raises(ValueError, match="seed must be >= 0"):
+        evaluate("Navigation-v0", "goto", episodes=1, seed=-1)
+    for env_id in teamgym.envs():  # random fits every env
+        assert make_policy("random", teamgym.make(env_id)).env.possible_agents
+
+
+def test_check_env_names_missing_observation_fields():
+    from baselines.policy import Policy
+
+    class NeedsLidar(Policy):
+        name = "lidar"
+        observation_fields = ("pose", "lidar", "map")
+
+        def act(self, observations, infos=None):
+            return {}
+
+    env = teamgym.make("Navigation-v0")
+    with pytest.raises(ValueError, match="policy 'lidar' does not fit Navigation-v0: .*lidar, map") as error:
+        NeedsLidar.check_env(env)
+    assert "pose" in str(error.value).split("they have:")[1]  # the fields it has are listed
+    NeedsLidar.observation_fields = ("pose",)
+    NeedsLidar.check_env(env)
 
 
 def test_run_episode_collects_final_metrics():
@@ -134,6 +234,38 @@ def test_run_episode_collects_final_metrics():
     assert again == result
 
 
+def test_run_episode_calls_the_hooks_after_reset_and_every_step():
+    env = teamgym.make("Navigation-v0", n_robots=2, max_cycles=6)
+    seen: list[tuple[int, tuple[str, ...], bool, bool]] = []
+
+    def hook(step: Step) -> None:
+        assert step.env is env and step.policy is policy
+        assert set(step.actions) == (set() if step.index == 0 else set(step.agents))
+        assert set(step.infos) == set(step.agents)
+        seen.append((step.index, step.agents, step.done, step.success))
+
+    policy = make_policy("goto", env)
+    result = run_episode(env, policy, 1, on_step=hook, on_reset=hook)
+    assert [index for index, *_ in seen] == list(range(result.length + 1))
+    assert seen[0][1] == ("robot_0", "robot_1")
+    assert [done for _, _, done, _ in seen] == [False] * result.length + [True]
+    assert seen[-1][3] == result.success
+
+
+def test_a_hook_may_change_the_episode():
+    env = teamgym.make("BoxPushing-v0", situation="S2", max_cycles=8)
+    acted: list[tuple[str, ...]] = []
+
+    def remove_after_two_steps(step: Step) -> None:
+        acted.append(step.agents)
+        if step.index == 2:
+            env.remove_robot("robot_1")  # it terminates in the next step's returns
+
+    result = run_episode(env, make_policy("sbs", env), 0, on_step=remove_after_two_steps)
+    assert acted[:3] == [("robot_0", "robot_1")] * 3
+    assert all(agents == ("robot_0",) for agents in acted[3:]) and len(acted) == result.length == 8
+
+
 def test_success_is_read_from_the_episode_contract():
     env = teamgym.make("Navigation-v0", max_cycles=3)
     policy = make_policy("goto", env)
@@ -141,6 +273,28 @@ def test_success_is_read_from_the_episode_contract():
     env.episode_success = lambda: True
     result = run_episode(env, policy, seed=0)
     assert result.success is True
+    assert all("success" not in metrics for metrics in result.metrics.values())  # the episode's, not a metric
+    env.episode_success = lambda: env.cycles == 2  # only the last step counts
+    assert run_episode(env, policy, seed=0).success is False
+
+
+def test_agents_disagreeing_on_success_is_an_error():
+    assert success_of({"a": {"success": True}, "b": {"success": True}}) is True
+    assert success_of({"a": {"x": 1}}) is False  # an env outside the contract
+    with pytest.raises(ValueError, match="disagree"):
+        success_of({"a": {"success": True}, "b": {"success": False}})
+
+
+def test_success_is_one_csv_column_not_a_metric(tmp_path):
+    # BoxPushing-v0 also reports "success" among its own metrics: it must not become a metric column.
+    args = ["--env", "BoxPushing-v0", "--policy", "sbs", "--set", "situation=S1", "--max-cycles", "5", "--episodes", "2"]
+    assert main([*args, "--out", str(tmp_path), "--quiet"]) == 0
+    with (tmp_path / "episodes.csv").open() as handle:
+        header = next(csv.reader(handle))
+    assert header.count("success") == 1
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert "mean_success" not in summary and "success" not in summary["metrics"]
+    assert summary["success_rate"] == 0.0
 
 
 def test_summarise_pools_robots_and_episodes():

@@ -38,7 +38,10 @@ def make_env():
 
 
 class StaggeredEnv:
-    """A minimal parallel env: agent ``i`` terminates after ``i + 1`` steps, the rest truncate at ``horizon``."""
+    """A minimal parallel env: agent ``i`` terminates after ``i + 1`` steps, the rest truncate at ``horizon``.
+
+    The episode succeeds when every agent has terminated (none truncated).
+    """
 
     metadata: dict[str, Any] = {"render_modes": []}
     render_mode = None
@@ -75,7 +78,8 @@ class StaggeredEnv:
         rewards = {a: 1.0 for a in self.agents}
         terms = {a: self.t >= self.finish[a] for a in self.agents}
         truncs = {a: self.t >= self.horizon and not terms[a] for a in self.agents}
-        infos = {a: {"arrived": terms[a]} for a in self.agents}
+        success = self.t >= max(self.finish.values())
+        infos = {a: {"success": success} for a in self.agents}
         self.agents = [a for a in self.agents if not (terms[a] or truncs[a])]
         return obs, rewards, terms, truncs, infos
 
@@ -127,7 +131,8 @@ def test_team_vec_env_padding_scheme():
     assert done.tolist() == [True, False, False]
     assert rew.tolist() == [1.0, 1.0, 1.0]
     assert np.array_equal(info[0]["terminal_observation"], [1.0, 2.0])
-    assert info[0]["TimeLimit.truncated"] is False and info[0]["is_success"] is True
+    assert info[0]["TimeLimit.truncated"] is False
+    assert "is_success" not in info[0]  # the team's success is known when the team's episode ends
     assert info[0]["episode"]["r"] == 1.0 and info[0]["episode"]["l"] == 1
     assert np.all(obs[0] == 0) and np.array_equal(obs[1], [2.0, 2.0])
     # step 2: a0 is padding, a1 terminates
@@ -142,6 +147,7 @@ def test_team_vec_env_padding_scheme():
     assert done.all()
     assert info[2]["episode"]["l"] == 3 and info[2]["is_success"] is True
     assert info[0]["padding"] and info[1]["padding"]
+    assert info[0]["is_success"] is True and info[1]["is_success"] is True  # once per slot and team episode
     assert np.all(info[0]["terminal_observation"] == 0) and info[0]["TimeLimit.truncated"] is False
     assert "episode" not in info[0]
     assert rew.tolist() == [0.0, 0.0, 1.0]
@@ -156,6 +162,34 @@ def test_team_vec_env_truncation_bootstraps():
     assert done.all()
     assert all(i["TimeLimit.truncated"] is True for i in info)
     assert all(i["is_success"] is False for i in info)
+
+
+def test_is_success_is_the_teams_success_on_any_env():
+    # Exploration-v0, one robot starting in its only goal sector: the episode succeeds in one step.
+    config = {"n_robots": 1, "goal_sectors": ("S4",), "start_sectors": ("S4",), "max_cycles": 5}
+    venv = TeamVecEnv(lambda: teamgym.make("Exploration-v0", **config), n_envs=1)
+    venv.reset()
+    _, _, done, info = venv.step(np.zeros((1, *venv.action_space.shape), dtype=np.float32))
+    assert done.tolist() == [True]
+    assert "arrived" not in info[0] and info[0]["is_success"] is True
+    # Two robots whose goal sector is elsewhere: truncated without success.
+    config = {"n_robots": 2, "goal_sectors": ("S1",), "start_sectors": ("S4", "S9"), "max_cycles": 2}
+    venv = TeamVecEnv(lambda: teamgym.make("Exploration-v0", **config), n_envs=1)
+    venv.reset()
+    for _ in range(2):
+        _, _, done, info = venv.step(np.zeros((2, *venv.action_space.shape), dtype=np.float32))
+    assert done.all() and [i["is_success"] for i in info] == [False, False]
+
+
+def test_is_success_reads_only_the_episode_contract(monkeypatch):
+    from teamgym.envs.box_pushing import BoxPushing
+
+    monkeypatch.setattr(BoxPushing, "episode_success", lambda self: True)
+    venv = TeamVecEnv(lambda: teamgym.make("BoxPushing-v0", situation="S2", max_cycles=3), n_envs=1)
+    venv.reset()
+    for _ in range(3):
+        _, _, done, info = venv.step(np.zeros(venv.num_envs, dtype=np.int64))
+    assert done.all() and all(i["is_success"] is True for i in info)
 
 
 def test_ppo_learns_saves_and_evaluates(tmp_path):

@@ -352,7 +352,7 @@ def test_a_line_of_two_robots_pushes_the_heavy_box_towards_the_lamp():
     for k, agent in enumerate(env.agents):  # in a line behind the box, facing the lamp
         env.robots[agent].teleport((0.5 - 0.08 - radius - 0.004 - k * (2 * radius + 0.012), 0.45), 0.0)
     env.world.read_states()
-    env._sense(env.agents)
+    env._read_sensors(env.agents)
     observations = env._collect_observations()
     policy = make_policy("sbs", env)
     policy.reset(seed=0)

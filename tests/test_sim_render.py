@@ -69,7 +69,7 @@ def test_overlay_is_drawn(scene):
     world, _ = scene
     renderer = Renderer(world)
     plain = renderer.draw()
-    overlay = Overlay(points=[((0.3, 0.3), (255, 0, 0))], paths=[([(0.1, 0.1), (0.9, 0.1)], (0, 0, 255))], lamp=(0.7, 0.2))
+    overlay = Overlay(points=[((0.3, 0.3), (255, 0, 0))], paths=[([(0.1, 0.1), (0.9, 0.1)], (0, 0, 255))])
     marked = renderer.draw(overlay)
     assert np.any(marked != plain)
     px, py = renderer.to_pixels(0.5, 0.1)

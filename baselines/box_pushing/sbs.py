@@ -46,6 +46,8 @@ class SituatedBehaviourSets(Policy):
     """
 
     name = "sbs"
+    env_ids = ("BoxPushing-v0",)
+    observation_fields = ("proximity", "light", "encoders", "busy")
     required_config = {"action_type": "primitives"}
 
     def __init__(self, env, fixed_sbs: int | None = None, recognition: str = "sensors", **recognizer: Any) -> None:

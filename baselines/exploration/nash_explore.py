@@ -54,7 +54,7 @@ from typing import Any
 
 import numpy as np
 
-from baselines.exploration.planning import TeamView, check_operator_env, team_view
+from baselines.exploration.planning import TEAM_VIEW_FIELDS, TeamView, check_operator_env, team_view
 from baselines.game import arbitrate
 from baselines.policy import Policy
 from teamgym.maps.topology import TopologicalModel
@@ -83,6 +83,8 @@ class NashExplore(Policy):
     """
 
     name = "nash-explore"
+    env_ids = ("Exploration-v0",)
+    observation_fields = TEAM_VIEW_FIELDS
     required_config = {"action_type": "operator"}
 
     def __init__(

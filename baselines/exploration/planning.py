@@ -17,6 +17,9 @@ import numpy as np
 from teamgym.envs.exploration.operators import OperatorSet
 from teamgym.maps.topology import TopologicalModel
 
+#: The observation fields :func:`team_view` decodes.
+TEAM_VIEW_FIELDS = ("place", "task", "task_status", "door_belief", "clutter", "visited", "goal")
+
 
 @dataclass
 class TeamView:

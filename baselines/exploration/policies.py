@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from baselines.exploration.planning import TeamView, check_operator_env, team_view
+from baselines.exploration.planning import TEAM_VIEW_FIELDS, TeamView, check_operator_env, team_view
 from baselines.policy import Policy
 from teamgym.maps.topology import TopologicalModel
 
@@ -23,6 +23,8 @@ class GreedyExplore(Policy):
     """Nearest-unexplored-sector exploration without coordination (see the module docstring)."""
 
     name = "greedy"
+    env_ids = ("Exploration-v0",)
+    observation_fields = TEAM_VIEW_FIELDS
     required_config = {"action_type": "operator"}
 
     def __init__(self, env: Any) -> None:
@@ -62,6 +64,7 @@ class RandomAdmissible(Policy):
     """A uniformly random admissible operator for every robot at every stage."""
 
     name = "random-admissible"
+    env_ids = ("Exploration-v0",)
     required_config = {"action_type": "operator"}
 
     def __init__(self, env: Any) -> None:

@@ -22,6 +22,8 @@ class GoToGoal(Policy):
     """
 
     name = "goto"
+    env_ids = ("Navigation-v0",)
+    observation_fields = ("pose", "goal_offset")
 
     def __init__(self, env, v_cruise: float = 0.25, k_omega: float = 4.0, slow_distance: float = 0.1) -> None:
         super().__init__(env)

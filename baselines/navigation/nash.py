@@ -48,6 +48,8 @@ class NashNavigation(Policy):
     """
 
     name = "nash"
+    env_ids = ("Navigation-v0",)
+    observation_fields = ("pose", "last_command", "radius", "goal_offset", "mates", "obstacles", "proximity")
     #: Env config this policy needs; the evaluation CLI applies it unless overridden.
     required_config = {"action_type": "heading"}
 

@@ -17,8 +17,7 @@ drop out of ``env.agents`` one by one. For each slot:
    ``done=True`` once, with ``info["terminal_observation"]`` (the agent's last
    observation), ``info["TimeLimit.truncated"]`` (truncated and not terminated, so SB3
    bootstraps the value), ``info["episode"] = {"r", "l", "t"}`` (for SB3's
-   ``ep_rew_mean`` logging, like ``Monitor``) and ``info["is_success"]`` (the agent's
-   ``arrived`` metric, when the env has it). The returned observation is all zeros.
+   ``ep_rew_mean`` logging, like ``Monitor``). The returned observation is all zeros.
 3. Until the whole env copy's episode ends, the slot is *padding*: zero observation,
    zero reward, ``done=False``, ``info["padding"] = True``; its actions are ignored.
 4. On the step the env copy's episode ends (the last live agents finish) the copy is
@@ -27,6 +26,14 @@ drop out of ``env.agents`` one by one. For each slot:
    their own zero-reward pseudo-episode that never bootstraps into the next real
    episode (the value of the all-zero observation is simply learned to be 0). Every slot
    of the copy returns the first observation of its agent's new episode.
+
+Success: success is the team's (the episode contract, ``infos[agent]["success"]``), known
+only when the team's episode ends. On that step every slot of the copy reports
+``info["is_success"]``, the ``success`` of that step's infos, with its ``done=True``: the
+``done`` of an agent that finishes then, the padding ``done`` of step 4 for one that
+finished earlier. So each slot reports success exactly once per team episode and SB3's
+``rollout/success_rate`` is the team's success rate. Envs whose infos hold no
+``success`` get no ``is_success``.
 
 Consequences: ``done`` counts are not episode counts (padding pseudo-episodes also end
 with ``done``); do not wrap this VecEnv in ``VecMonitor`` — episode statistics come from
@@ -51,6 +58,7 @@ from gymnasium import spaces
 from stable_baselines3.common.vec_env import VecEnv
 from stable_baselines3.common.vec_env.base_vec_env import VecEnvIndices, VecEnvObs, VecEnvStepReturn
 
+from baselines.episode import success_of
 from teamgym.envs.base import TeamEnv
 
 __all__ = ["TeamVecEnv"]
@@ -109,6 +117,13 @@ class TeamVecEnv(VecEnv):
             self.reset_infos[k] = dict(infos.get(agent, {}))
         self._started[e] = time.time()
 
+    @staticmethod
+    def _team_outcome(env: TeamEnv, infos: dict[str, dict[str, Any]]) -> bool | None:
+        """The team's success if this step ended the copy's episode and the env reports success, else ``None``."""
+        if env.agents or not any("success" in info for info in infos.values()):
+            return None
+        return success_of(infos)
+
     def _convert(self, action: Any) -> Any:
         space = self.action_space
         if isinstance(space, spaces.Discrete):
@@ -149,6 +164,7 @@ class TeamVecEnv(VecEnv):
             step_actions = {agent: self._convert(actions[base + self._slot[agent]]) for agent in live}
             observations, step_rewards, terminations, truncations, step_infos = env.step(step_actions)
             still_live = set(env.agents)
+            outcome = self._team_outcome(env, step_infos)
             for agent in live:
                 k = base + self._slot[agent]
                 reward = float(step_rewards.get(agent, 0.0))
@@ -170,8 +186,8 @@ class TeamVecEnv(VecEnv):
                         "l": int(self._lengths[k]),
                         "t": round(time.time() - self._started[e], 6),
                     }
-                    if "arrived" in info:
-                        info["is_success"] = bool(info["arrived"])
+                    if outcome is not None:
+                        info["is_success"] = outcome
                     self._live[k] = False
                     self._obs[k] = 0
                 else:
@@ -191,6 +207,8 @@ class TeamVecEnv(VecEnv):
                             "terminal_observation": np.zeros_like(self._obs[k]),
                             "TimeLimit.truncated": False,
                         }
+                        if outcome is not None:
+                            infos[k]["is_success"] = outcome
                 self._reset_copy(e, None, None)
         return self._obs.copy(), rewards, dones, infos
 

@@ -24,6 +24,9 @@ from teamgym.control.behaviour import BehaviourController, BehaviourParameters, 
 Point = tuple[float, float]
 
 
+#: Why a task ended: "" (completed, or none yet) and the failure reasons; infos carry the index.
+TASK_REASONS = ("", "door closed", "collision", "stalled", "timeout")
+
 class WatcherState(IntEnum):
     """The four states of Fig. 4."""
 

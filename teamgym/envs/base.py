@@ -1,16 +1,31 @@
 """``TeamEnv``: the PettingZoo parallel-env base every teamgym task derives from.
 
-The base owns the episode protocol (seeding, agent bookkeeping, action checking,
-truncation, rendering); a task fills in five hooks:
+The base owns the episode protocol (seeding, agent bookkeeping, action checking, the
+communication channel, truncation, the episode contract, rendering, copying). A task
+implements these hooks:
 
-* ``_build(rng)`` creates the :class:`~teamgym.sim.world.World` and its entities;
-* ``_command_context(agent)`` gives action types what they need (optional);
-* ``_observe(out)`` writes every live agent's observation into a preallocated array;
-* ``_evaluate()`` returns rewards and terminations after a step;
-* ``_metrics(agent)`` returns the per-agent metrics put into ``infos``.
+* ``_agent_names()`` (from the config alone);
+* ``_setup()`` once, after the config is parsed and the agents are named (build what depends
+  only on the config: robot specs, sensors, maps), then ``_make_action_type()`` and ``_make_layout()``;
+* ``_build(rng)``: a new episode's :class:`~teamgym.sim.world.World`, robots and initial readings;
+* ``_observe(out)``: every live agent's flat observation into a preallocated array;
+* ``episode_success()``: the episode contract;
 
-``_advance(actions)`` (one control step by default) may be overridden by envs whose actions
-last several control steps (macro actions).
+and may override the step phases, which :meth:`TeamEnv.step` runs in this order:
+
+1. **control**: ``action_type.start`` once, then per control step ``action_type.act`` for
+   every acting agent and ``_before_physics()``;
+2. **physics**: the world steps Δt, trails are recorded;
+3. **state**: ``_update_state()`` reads the world into the task's state (positions, contacts, progress);
+4. **events**: ``_apply_events()`` (scheduled run-time changes: robots or boxes added, removed);
+5. **goals**: ``_check_goals()`` (arrivals, deliveries, exploration complete);
+6. **rewards**: ``_accumulate_rewards(total)`` adds this control step's rewards (macro actions sum them);
+7. **sensing**: ``_sense()`` reads the robots' sensors;
+
+   phases 1–7 repeat while a macro action type says its stage goes on;
+8. **communication**: the channel delivers this step's messages;
+9. **agents**: robots admitted by events join; ``_terminations()`` decides who ends;
+   ``_metrics(agent)`` fills ``infos``; finished agents leave ``agents``.
 """
 
 from __future__ import annotations
@@ -22,9 +37,10 @@ import numpy as np
 from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
-from teamgym.envs.actions import ActionType, CommandContext
+from teamgym.envs.actions import ActionType, WithMessage
 from teamgym.envs.config import EnvConfig
-from teamgym.envs.spaces import ObservationLayout, check_action
+from teamgym.envs.spaces import ActionChecker, Field, ObservationLayout
+from teamgym.sim.channel import Channel, ChannelConfig
 from teamgym.sim.render import Overlay, Renderer, robot_colour
 from teamgym.sim.robot import DiffDriveRobot
 from teamgym.sim.world import World
@@ -55,10 +71,21 @@ class TeamEnv(ParallelEnv):
         self.config = self.config_class.from_kwargs(**config)
         self.possible_agents: list[str] = self._agent_names()
         self.agents: list[str] = []
-        self.action_type: ActionType = self._make_action_type()
+        self._row = {a: i for i, a in enumerate(self.possible_agents)}
+        self._setup()
+        c = self.config
+        action_type = self._make_action_type()
+        self.action_type: ActionType = WithMessage(action_type, c.comm_dim) if c.comm_dim else action_type
         self.layout: ObservationLayout = self._make_layout()
-        self._observation_spaces = {a: self.layout.space() for a in self.possible_agents}
+        if c.comm_dim:
+            self.layout = self.layout.extended(self._inbox_fields())
+        self.channel = Channel(self.possible_agents, self._channel_config())
+        self._observation_spaces = {a: self.layout.space(c.obs_format) for a in self.possible_agents}
         self._action_spaces = {a: self.action_type.space() for a in self.possible_agents}
+        self._checkers = {a: ActionChecker(space) for a, space in self._action_spaces.items()}
+        self._masks: dict[str, np.ndarray] = {}
+        self._reward_total = np.zeros(len(self.possible_agents))
+        self._joining: list[str] = []
         self.world: World | None = None
         self.robots: dict[str, DiffDriveRobot] = {}
         self.np_random = np.random.default_rng()
@@ -69,6 +96,9 @@ class TeamEnv(ParallelEnv):
         self._log: list[tuple] = []
 
     # -- hooks for subclasses --------------------------------------------------------
+    def _setup(self) -> None:
+        """Build once what depends only on ``self.config`` (robot specs, sensors, maps)."""
+
     def _agent_names(self) -> list[str]:
         raise NotImplementedError
 
@@ -82,19 +112,9 @@ class TeamEnv(ParallelEnv):
         """Create ``self.world`` and ``self.robots`` (agent name -> robot) for a new episode."""
         raise NotImplementedError
 
-    def _command_context(self, agent: str) -> CommandContext:
-        return CommandContext()
-
     def _observe(self, out: np.ndarray) -> None:
-        """Fill row ``i`` of ``out`` with the observation of ``self.agents[i]``."""
+        """Fill row ``i`` of ``out`` with the flat observation of ``self.agents[i]``."""
         raise NotImplementedError
-
-    def _evaluate(self) -> tuple[dict[str, float], dict[str, bool]]:
-        """Rewards and terminations of the live agents after a step."""
-        raise NotImplementedError
-
-    def _metrics(self, agent: str) -> dict[str, Any]:
-        return {}
 
     def episode_success(self) -> bool:
         """Whether the episode has reached the task's goal (the episode contract).
@@ -104,11 +124,39 @@ class TeamEnv(ParallelEnv):
         """
         raise NotImplementedError(f"{type(self).__name__} must define episode_success()")
 
+    def _metrics(self, agent: str) -> dict[str, Any]:
+        """Numbers and arrays only (no strings) for ``infos[agent]``."""
+        return {}
+
+    # Step phases (see the module docstring); the defaults do nothing.
     def _before_physics(self) -> None:
-        """Called after commands are set and before the world steps (e.g. to draw delays)."""
+        """Control phase, after the commands are set and before the world steps (e.g. actuation delays)."""
+
+    def _update_state(self) -> None:
+        """State phase: read the world into the task's state after a control step."""
+
+    def _apply_events(self) -> None:
+        """Events phase: scheduled run-time changes; robots added here join via :meth:`_admit`."""
+
+    def _check_goals(self) -> None:
+        """Goals phase: arrivals, deliveries, completion."""
+
+    def _accumulate_rewards(self, total: np.ndarray) -> None:
+        """Rewards phase: add this control step's reward of each agent to ``total[row]`` (rows: ``possible_agents``)."""
+
+    def _sense(self) -> None:
+        """Sensing phase: read the sensors of the robots that go on."""
+
+    def _terminations(self) -> dict[str, bool]:
+        """Agents phase: which live agents end now (every agent in ``self.agents``)."""
+        return dict.fromkeys(self.agents, False)
 
     def _overlay(self) -> Overlay:
         return Overlay()
+
+    def _admit(self, agent: str) -> None:
+        """Let ``agent`` (a new robot) join ``agents`` at the end of the current step."""
+        self._joining.append(agent)
 
     # -- spaces ----------------------------------------------------------------------
     def observation_space(self, agent: str) -> spaces.Space:
@@ -132,10 +180,13 @@ class TeamEnv(ParallelEnv):
             self.np_random = np.random.default_rng(seed)
         self.agents = list(self.possible_agents)
         self.cycles = 0
+        self._joining = []
+        self.channel.reset()
         self._build(self.np_random)
         self._trails = {a: [self.robots[a].position] for a in self.agents}
         self._object_trails = {}
         self._record_object_trails()
+        self._refresh_masks()
         observations = self._collect_observations()
         infos = self._collect_infos()
         if self.render_mode == "human":
@@ -151,10 +202,29 @@ class TeamEnv(ParallelEnv):
             )
         checked = self._check_actions(actions)
         self._log.append(("step", checked))
-        self._advance(checked)
-        rewards, terminations = self._evaluate()
+        total = self._reward_total
+        total[:] = 0.0
+        self.action_type.start(self, checked)
+        while True:
+            self._control_step(checked)
+            self._update_state()
+            self._apply_events()
+            self._check_goals()
+            self._accumulate_rewards(total)
+            self._sense()
+            if not self.action_type.is_macro or self.action_type.stage_over(self) or self.cycles >= self.config.max_cycles:
+                break
+        self._deliver_messages()
+        rewards = {a: float(total[self._row[a]]) for a in self.agents}
+        for agent in self._joining:
+            self.agents.append(agent)
+            self._trails[agent] = [self.robots[agent].position]
+            rewards[agent] = 0.0
+        self._joining = []
+        terminations = self._terminations()
         truncated = self.cycles >= self.config.max_cycles
         truncations = {a: truncated and not terminations[a] for a in self.agents}
+        self._refresh_masks()
         observations = self._collect_observations()
         infos = self._collect_infos()
         self.agents = [a for a in self.agents if not (terminations[a] or truncations[a])]
@@ -165,16 +235,11 @@ class TeamEnv(ParallelEnv):
             self.render()
         return observations, rewards, terminations, truncations, infos
 
-    def _advance(self, actions: dict) -> None:
-        """Apply checked joint actions and advance the world: one control step by default.
-
-        Macro-action envs override this to run several control steps per ``step()`` (their
-        ``_evaluate`` then covers the whole stretch); ``self.cycles`` counts control steps.
-        """
-        action_type, no_context = self.action_type, CommandContext()
+    def _control_step(self, actions: dict) -> None:
+        """Control and physics phases of one control step: commands, then the world steps Δt."""
+        act, robots = self.action_type.act, self.robots
         for agent, action in actions.items():
-            context = self._command_context(agent) if action_type.needs_context else no_context
-            self.robots[agent].set_command(*action_type.command(action, context))
+            robots[agent].set_command(*act(self, agent, action))
         self._before_physics()
         self.world.step()
         self.cycles += 1
@@ -215,18 +280,103 @@ class TeamEnv(ParallelEnv):
         missing = [a for a in self.agents if a not in actions]
         if missing:
             raise ValueError(f"no action for live agent(s) {missing}; every live agent must act each step")
-        return {a: check_action(a, actions[a], self._action_spaces[a]) for a in self.agents}
+        checkers = self._checkers
+        checked = {a: checkers[a].check(a, actions[a]) for a in self.agents}
+        if self._masks:
+            for agent, action in checked.items():
+                self._check_admissible(agent, action)
+        return checked
 
-    def _collect_observations(self) -> dict[str, np.ndarray]:
+    def _check_admissible(self, agent: str, action: Any) -> None:
+        mask = self._masks.get(agent)
+        index = self.action_type.mask_index(action)
+        if mask is not None and not mask[index]:
+            describe = self.action_type.describe
+            admissible = [describe(int(k)) for k in np.flatnonzero(mask)]
+            raise ValueError(f"action {describe(index)} for {agent!r} is masked now; admissible: {admissible}")
+
+    # -- masks and communication -------------------------------------------------------
+    def _refresh_masks(self) -> None:
+        """Ask the action type for every live agent's mask (kept for checks, infos and ``action_masks``)."""
+        masks = {}
+        for agent in self.agents:
+            mask = self.action_type.mask(self, agent)
+            if mask is not None:
+                masks[agent] = mask
+                live = getattr(self._action_spaces[agent], "live_mask", None)
+                if live is not None:
+                    live[:] = mask
+        self._masks = masks
+
+    def action_mask(self, agent: str) -> np.ndarray:
+        """``agent``'s current action mask (int8, 1 = admissible); raises if its action type has none."""
+        if agent not in self._row:
+            raise KeyError(f"unknown agent {agent!r}; possible agents are {self.possible_agents}")
+        if self.world is None:
+            raise EpisodeOverError("action_mask() called before reset()")
+        if agent not in self._masks:
+            raise ValueError(f"no action mask for {agent!r}: action type {self.action_type.name!r} has none or the agent is done")
+        return self._masks[agent].copy()
+
+    def action_masks(self) -> dict[str, np.ndarray]:
+        """Masks of the live agents (empty when the action type has none)."""
+        return {a: m.copy() for a, m in self._masks.items() if a in self.agents}
+
+    def _channel_config(self) -> ChannelConfig:
+        c = self.config
+        return ChannelConfig(
+            comm_range=np.inf if c.comm_range is None else c.comm_range,
+            throughput=c.comm_throughput,
+            latency=c.comm_latency,
+            byte_budget=np.inf if c.comm_byte_budget is None else c.comm_byte_budget,
+            inbox_size=max(64, 4 * len(self.possible_agents)),
+        )
+
+    def _inbox_fields(self) -> list[Field]:
+        """Observation fields of the learned-message inbox: one row per possible sender."""
+        capacity, n = max(1, len(self.possible_agents) - 1), len(self.possible_agents)
+        return [
+            Field("inbox", (capacity, self.config.comm_dim), -1.0, 1.0),
+            Field("inbox_sender", (capacity,), -1, n - 1, np.int32),
+            Field("inbox_mask", (capacity,), 0, 1, np.int8),
+        ]
+
+    def _deliver_messages(self) -> None:
+        """Communication phase: deliver what was sent this step to the robots in range."""
+        if not self.channel.busy:
+            return
+        positions = {a: robot.position for a, robot in self.robots.items() if robot.space is not None}
+        self.channel.deliver(positions, self.np_random, self.cycles)
+
+    def _observe_inbox(self, out: np.ndarray) -> None:
+        if not self.config.comm_dim:
+            return
+        layout, capacity = self.layout, self.layout.shapes["inbox_mask"][0]
+        for row, agent in enumerate(self.agents):
+            packed = self.channel.inbox_array(agent, self.config.comm_dim, capacity, kind="learned")
+            layout.view(out[row], "inbox")[:] = packed.payload
+            layout.view(out[row], "inbox_sender")[:] = packed.sender
+            layout.view(out[row], "inbox_mask")[:] = packed.mask
+
+    def _collect_observations(self) -> dict[str, np.ndarray | dict[str, np.ndarray]]:
         out = np.zeros((len(self.agents), self.layout.size), dtype=np.float32)
         self._observe(out)
+        self._observe_inbox(out)
+        if self.config.obs_format == "dict":
+            to_dict = self.layout.to_dict
+            return {a: to_dict(out[i]) for i, a in enumerate(self.agents)}
         return {a: out[i] for i, a in enumerate(self.agents)}
 
     def _collect_infos(self) -> dict[str, dict[str, Any]]:
         success = bool(self.episode_success())
         infos = {a: self._metrics(a) for a in self.agents}
-        for info in infos.values():
+        comm = bool(self.config.comm_dim) or self.channel.used
+        for agent, info in infos.items():
             info["success"] = success
+            if agent in self._masks:
+                info["action_mask"] = self._masks[agent].copy()
+            if comm:
+                info.update(self.channel.stats(agent))
         return infos
 
     # -- rendering -------------------------------------------------------------------
@@ -261,8 +411,8 @@ class TeamEnv(ParallelEnv):
         """Positions (m) of every moving obstacle and box at every step it was in the world."""
         return {name: list(points) for name, points in self._object_trails.items()}
 
-    def decode(self, observation: np.ndarray) -> dict[str, np.ndarray]:
-        """Named fields of a flat observation (see :class:`ObservationLayout`)."""
+    def decode(self, observation: np.ndarray | dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """Named fields of an observation, flat or dict (see :class:`ObservationLayout`)."""
         return self.layout.decode(observation)
 
     # -- copying and pickling ---------------------------------------------------------

@@ -1,9 +1,11 @@
 """Frozen, validated configuration dataclasses for environments.
 
-Every env has a config class derived from :class:`EnvConfig`. ``from_kwargs`` rejects
-unknown keys and values of the wrong type with an error naming the key, the value and the
-expected type; subclasses add range checks in :meth:`EnvConfig.check`. Values given as
-strings (from the command line, ``--set key=value``) are parsed with :func:`parse_value`.
+Every env has a config class derived from :class:`EnvConfig`. Validation runs in
+``__post_init__``, so it holds however a config is built (the constructor,
+``dataclasses.replace`` or ``from_kwargs``): values of the wrong type raise
+:class:`ConfigError` naming the key, the value and the expected type (choices are listed),
+and subclasses add range checks in :meth:`EnvConfig.check`. ``from_kwargs`` also rejects
+unknown keys and parses values given as strings (``--set key=value``) with :func:`parse_value`.
 """
 
 from __future__ import annotations
@@ -11,8 +13,11 @@ from __future__ import annotations
 import ast
 import dataclasses
 import math
+import types
 import typing
-from typing import Any, Literal, get_args, get_origin
+from typing import Any, ClassVar, Literal, get_args, get_origin
+
+import numpy as np
 
 
 class ConfigError(ValueError):
@@ -28,13 +33,18 @@ def parse_value(text: str) -> Any:
 
 
 def _matches(value: Any, expected: Any) -> tuple[bool, Any]:
-    """Whether ``value`` fits the annotation ``expected``; returns ``(ok, converted_value)``."""
+    """Whether ``value`` fits the annotation ``expected``; returns ``(ok, converted_value)``.
+
+    numpy scalars count as the Python number they hold (``np.int64(3)`` is an ``int``).
+    """
+    if isinstance(value, np.generic):
+        value = value.item()
     origin = get_origin(expected)
     if expected is Any:
         return True, value
     if origin is Literal:
         return value in get_args(expected), value
-    if origin in (typing.Union, getattr(__import__("types"), "UnionType", None)):
+    if origin in (typing.Union, types.UnionType):
         for option in get_args(expected):
             ok, converted = _matches(value, option)
             if ok:
@@ -68,6 +78,29 @@ def _matches(value: Any, expected: Any) -> tuple[bool, Any]:
     return isinstance(value, expected), value
 
 
+def _describe(expected: Any) -> str:
+    """A readable form of an annotation; choices are listed."""
+    if get_origin(expected) is Literal:
+        return "one of " + ", ".join(repr(c) for c in get_args(expected))
+    if get_origin(expected) in (typing.Union, types.UnionType):
+        return " or ".join(_describe(a) for a in get_args(expected))
+    return getattr(expected, "__name__", None) or str(expected).replace("typing.", "")
+
+
+def _has_non_finite(value: Any) -> bool:
+    if isinstance(value, float):
+        return not math.isfinite(value)
+    if isinstance(value, tuple):
+        return any(_has_non_finite(v) for v in value)
+    return False
+
+
+#: The farthest a body may move in one physics substep (m): max speed × dt / substeps.
+#: A fifth of a Khepera's radius; contacts are then resolved before bodies pass through each
+#: other (at the default 2 mm per substep the deepest penetration is under 2 mm).
+MAX_SUBSTEP_TRAVEL = 0.005
+
+
 @dataclasses.dataclass(frozen=True)
 class EnvConfig:
     """Settings shared by every environment.
@@ -80,12 +113,43 @@ class EnvConfig:
         Control step Δt in seconds (0.1 s in papers 001 and 004).
     substeps:
         Physics substeps per control step. 20 keeps the worst penetration of a robot driven
-        at full wheel speed (0.4 m/s) into a wall under 2 mm (0.4 m/s × 5 ms).
+        at full wheel speed (0.4 m/s) into a wall under 2 mm (0.4 m/s × 5 ms); no body may
+        move more than ``MAX_SUBSTEP_TRAVEL`` (5 mm) in one substep.
+    obs_format:
+        ``"flat"`` (one float32 vector per agent) or ``"dict"`` (named, typed fields).
+    comm_dim:
+        Length of a learned message vector in [-1, 1] added to every action (0: none); the
+        observation then gains the inbox fields ``inbox``, ``inbox_sender``, ``inbox_mask``.
+    comm_range, comm_throughput, comm_latency, comm_byte_budget:
+        The radio of :class:`teamgym.sim.channel.Channel`: range in m (None: unlimited),
+        delivery probability, latency in control steps, bytes per robot per step (None: no limit).
     """
 
     max_cycles: int = 400
     dt: float = 0.1
     substeps: int = 20
+    obs_format: Literal["flat", "dict"] = "flat"
+    comm_dim: int = 0
+    comm_range: float | None = None
+    comm_throughput: float = 1.0
+    comm_latency: int = 0
+    comm_byte_budget: int | None = None
+
+    #: Fastest speed (m/s) a body of the env can reach; bounds the substep length (see ``check``).
+    body_speed_keys: ClassVar[tuple[str, ...]] = ()
+    default_body_speed: ClassVar[float] = 0.4
+
+    def __post_init__(self) -> None:
+        """Validate types and ranges however the config is built (constructor, ``replace``, ``from_kwargs``)."""
+        hints = typing.get_type_hints(type(self))
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            ok, converted = _matches(value, hints[f.name])
+            if not ok or _has_non_finite(converted):
+                raise ConfigError(f"{type(self).__name__}: {f.name}={value!r} is invalid; expected {_describe(hints[f.name])}")
+            if converted is not value:
+                object.__setattr__(self, f.name, converted)
+        self.check()
 
     @classmethod
     def field_names(cls) -> list[str]:
@@ -93,7 +157,11 @@ class EnvConfig:
 
     @classmethod
     def from_kwargs(cls, **kwargs: Any) -> EnvConfig:
-        """Build a validated config; unknown keys or bad values raise :class:`ConfigError`."""
+        """Build a validated config; unknown keys or bad values raise :class:`ConfigError`.
+
+        String values (from ``--set key=value``) are parsed as Python literals unless the key
+        takes a string.
+        """
         known = cls.field_names()
         unknown = sorted(set(kwargs) - set(known))
         if unknown:
@@ -103,22 +171,31 @@ class EnvConfig:
         for key, value in kwargs.items():
             if isinstance(value, str) and hints[key] is not str and get_origin(hints[key]) is not Literal:
                 value = parse_value(value)
-            ok, converted = _matches(value, hints[key])
-            if ok and isinstance(converted, float) and not math.isfinite(converted):
-                ok = False
-            if not ok:
-                expected = getattr(hints[key], "__name__", None) or str(hints[key]).replace("typing.", "")
-                raise ConfigError(f"{cls.__name__}: {key}={value!r} is invalid; expected {expected}")
-            values[key] = converted
-        config = cls(**values)
-        config.check()
-        return config
+            values[key] = value
+        return cls(**values)
+
+    def body_speed(self) -> float:
+        """The fastest body speed (m/s) this config allows: the max of ``body_speed_keys`` values."""
+        return max([self.default_body_speed, *(float(getattr(self, k)) for k in self.body_speed_keys)])
 
     def check(self) -> None:
         """Range checks; subclasses extend with ``super().check()``."""
         require(self, "max_cycles", self.max_cycles >= 1, "must be >= 1")
-        require(self, "dt", self.dt > 0, "must be > 0")
+        require(self, "dt", 0 < self.dt <= 10, "must be in (0, 10] s")
         require(self, "substeps", 1 <= self.substeps <= 1000, "must be in [1, 1000]")
+        require(self, "comm_dim", 0 <= self.comm_dim <= 1024, "must be in [0, 1024] (0: no learned message)")
+        require(self, "comm_range", self.comm_range is None or self.comm_range >= 0, "must be >= 0 m or None (unlimited)")
+        require(self, "comm_throughput", 0 <= self.comm_throughput <= 1, "must be in [0, 1]")
+        require(self, "comm_latency", 0 <= self.comm_latency <= 1000, "must be in [0, 1000] steps")
+        require(self, "comm_byte_budget", self.comm_byte_budget is None or self.comm_byte_budget >= 0, "must be >= 0 or None")
+        travel = self.body_speed() * self.dt / self.substeps
+        require(
+            self,
+            "substeps",
+            travel <= MAX_SUBSTEP_TRAVEL + 1e-12,
+            f"is too few for dt={self.dt} s: a body at {self.body_speed()} m/s would move {travel * 1000:.1f} mm per "
+            f"substep, more than {MAX_SUBSTEP_TRAVEL * 1000:.0f} mm (raise substeps or lower dt)",
+        )
 
     def as_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)

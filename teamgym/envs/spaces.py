@@ -1,37 +1,121 @@
-"""Observation layouts with named fields, and strict checking of incoming actions."""
+"""Observation layouts with typed, bounded fields, and strict checking of incoming actions.
+
+An :class:`ObservationLayout` is a list of :class:`Field` (name, shape, dtype, bounds). Every env
+offers two observation formats built from it (``obs_format`` in the config):
+
+* ``"flat"``: one float32 vector, the fields concatenated in order (what SB3's ``MlpPolicy``
+  takes); :meth:`ObservationLayout.decode` splits it back into named fields;
+* ``"dict"``: a gymnasium ``Dict`` of the named fields, each a ``Box`` of its own dtype and
+  bounds (vectors, uint8 images, grids, a message inbox and its validity mask).
+
+:class:`ActionChecker` validates an action against its space before the env changes anything
+(``Discrete``, ``Box``, ``MultiDiscrete``, ``MultiBinary`` and nested ``Dict``/``Tuple``),
+with errors that name the agent, the field and the value.
+"""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any, Literal
 
 import numpy as np
 from gymnasium import spaces
 
+ObsFormat = Literal["flat", "dict"]
+
+
+@dataclass(frozen=True)
+class Field:
+    """One named observation field: ``shape``, element ``dtype`` and bounds ``[low, high]``."""
+
+    name: str
+    shape: tuple[int, ...] = ()
+    low: float = -np.inf
+    high: float = np.inf
+    dtype: type = np.float32
+
+    @property
+    def size(self) -> int:
+        return int(np.prod(self.shape)) if self.shape else 1
+
+    def space(self) -> spaces.Box:
+        """The field as a gymnasium ``Box`` of its own dtype (infinite bounds only for floats)."""
+        dtype = np.dtype(self.dtype)
+        low, high = self.low, self.high
+        if dtype.kind in "iu":
+            info = np.iinfo(dtype)
+            low = info.min if not np.isfinite(low) else low
+            high = info.max if not np.isfinite(high) else high
+        return spaces.Box(low=low, high=high, shape=self.shape, dtype=dtype)
+
+
+def _as_field(item: Field | tuple) -> Field:
+    if isinstance(item, Field):
+        return item
+    name, shape, *rest = item
+    return Field(name, tuple(shape), *rest)
+
 
 class ObservationLayout:
-    """A flat float32 observation made of named fields.
+    """Observation fields in order; see the module docstring for the two formats.
 
-    ``fields`` is a sequence of ``(name, shape)``; :meth:`space` is the flat ``Box`` SB3
-    trains on and :meth:`decode` turns a flat vector back into a dict of shaped arrays.
+    ``fields`` holds :class:`Field` objects or ``(name, shape)`` pairs (float32, unbounded).
     """
 
-    def __init__(self, fields: Sequence[tuple[str, tuple[int, ...]]]) -> None:
-        self.fields = [(name, tuple(shape)) for name, shape in fields]
+    def __init__(self, fields: Sequence[Field | tuple]) -> None:
+        self.fields: list[Field] = [_as_field(f) for f in fields]
+        names = [f.name for f in self.fields]
+        if len(set(names)) != len(names):
+            raise ValueError(f"observation field names must be unique, got {names}")
         self.slices: dict[str, slice] = {}
         self.shapes: dict[str, tuple[int, ...]] = {}
         start = 0
-        for name, shape in self.fields:
-            size = int(np.prod(shape)) if shape else 1
-            self.slices[name] = slice(start, start + size)
-            self.shapes[name] = shape
-            start += size
+        for f in self.fields:
+            self.slices[f.name] = slice(start, start + f.size)
+            self.shapes[f.name] = f.shape
+            start += f.size
         self.size = start
 
-    def space(self) -> spaces.Box:
-        return spaces.Box(-np.inf, np.inf, shape=(self.size,), dtype=np.float32)
+    def extended(self, fields: Sequence[Field | tuple]) -> ObservationLayout:
+        """A new layout with ``fields`` appended (e.g. a message inbox)."""
+        return ObservationLayout([*self.fields, *fields])
 
-    def decode(self, observation: np.ndarray) -> dict[str, np.ndarray]:
-        """Split a flat observation into its named fields (views, not copies)."""
+    # -- spaces ------------------------------------------------------------------------
+    def space(self, obs_format: ObsFormat = "flat") -> spaces.Space:
+        """The observation space in ``obs_format``."""
+        if obs_format == "flat":
+            return self.flat_space()
+        if obs_format == "dict":
+            return self.dict_space()
+        raise ValueError(f"obs_format must be 'flat' or 'dict', got {obs_format!r}")
+
+    def flat_space(self) -> spaces.Box:
+        """A float32 ``Box`` of ``size`` values with every field's bounds."""
+        low = np.concatenate([np.full(f.size, f.low, dtype=np.float32) for f in self.fields]) if self.fields else np.zeros(0)
+        high = np.concatenate([np.full(f.size, f.high, dtype=np.float32) for f in self.fields]) if self.fields else np.zeros(0)
+        return spaces.Box(low.astype(np.float32), high.astype(np.float32), dtype=np.float32)
+
+    def dict_space(self) -> spaces.Dict:
+        """A ``Dict`` of every field's ``Box`` (in field order)."""
+        return spaces.Dict({f.name: f.space() for f in self.fields})
+
+    # -- conversion --------------------------------------------------------------------
+    def to_dict(self, row: np.ndarray) -> dict[str, np.ndarray]:
+        """A flat observation as a dict of fields (copies, cast to each field's dtype)."""
+        out = {}
+        for f in self.fields:
+            value = row[self.slices[f.name]].reshape(f.shape)
+            out[f.name] = value.astype(f.dtype) if f.dtype is not np.float32 else value.copy()
+        return out
+
+    def decode(self, observation: np.ndarray | Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """Named fields of a flat observation (views, not copies), or of a dict one (as given)."""
+        if isinstance(observation, Mapping):
+            missing = [f.name for f in self.fields if f.name not in observation]
+            if missing:
+                raise ValueError(f"observation lacks field(s) {missing}")
+            return {f.name: np.asarray(observation[f.name]) for f in self.fields}
         observation = np.asarray(observation)
         if observation.shape[-1] != self.size:
             raise ValueError(f"observation has {observation.shape[-1]} values, the layout expects {self.size}")
@@ -43,59 +127,135 @@ class ObservationLayout:
         return buffer[self.slices[name]].reshape(self.shapes[name])
 
 
-def check_action(agent: str, action, space: spaces.Space):
-    """Return ``action`` converted for ``space`` or raise a clear error naming the agent.
+# -- actions ------------------------------------------------------------------------------
 
-    Rejects NaN and infinite values, wrong shapes and values outside the space.
+
+class ActionChecker:
+    """Validates actions for one space; built once per agent, called every step.
+
+    ``check(agent, action)`` returns the action converted for the env (``int`` for
+    ``Discrete``, a float64 array for ``Box``, dicts and tuples for composite spaces) or raises
+    ``TypeError``/``ValueError`` naming the agent, the field path and the value. Box bounds are
+    compared as the space's float32 values, exactly as ``space.contains`` does.
     """
+
+    def __init__(self, space: spaces.Space) -> None:
+        self.space = space
+        self._check = _checker(space)
+
+    def check(self, agent: str, action: Any) -> Any:
+        return self._check(agent, "", action)
+
+
+def check_action(agent: str, action: Any, space: spaces.Space) -> Any:
+    """One-off form of :class:`ActionChecker` (builds the checker each call)."""
+    return ActionChecker(space).check(agent, action)
+
+
+def _where(agent: str, path: str) -> str:
+    return f"action for {agent!r}" + (f" at {path}" if path else "")
+
+
+def _checker(space: spaces.Space):
     if isinstance(space, spaces.Discrete):
-        if isinstance(action, (bool, np.bool_)):
-            raise TypeError(f"action for {agent!r} must be an integer in [0, {space.n}), got {action!r}")
-        scalar = np.asarray(action)
-        if scalar.shape not in ((), (1,)) or not np.issubdtype(scalar.dtype, np.integer):
-            if scalar.shape in ((), (1,)) and np.issubdtype(scalar.dtype, np.floating):
-                value = float(scalar.reshape(()))
-                if np.isfinite(value) and value.is_integer():
-                    scalar = np.asarray(int(value))
-                else:
-                    raise ValueError(f"action for {agent!r} must be an integer in [0, {space.n}), got {action!r}")
-            else:
-                raise TypeError(f"action for {agent!r} must be an integer in [0, {space.n}), got {action!r}")
-        value = int(scalar.reshape(()))
-        if not space.start <= value < space.start + space.n:
-            raise ValueError(
-                f"action for {agent!r} is {value}, outside Discrete({space.n}) = [{space.start}, {space.start + space.n})"
-            )
-        return value
+        return _discrete_checker(space)
     if isinstance(space, spaces.Box):
+        return _box_checker(space)
+    if isinstance(space, spaces.MultiBinary):
+        return _box_checker(spaces.Box(0, 1, shape=space.shape, dtype=np.int8), integer=True)
+    if isinstance(space, spaces.MultiDiscrete):
+        return _box_checker(spaces.Box(space.start, space.start + space.nvec - 1, dtype=np.int64), integer=True)
+    if isinstance(space, spaces.Dict):
+        return _dict_checker(space)
+    if isinstance(space, spaces.Tuple):
+        return _tuple_checker(space)
+
+    def unsupported(agent, path, action):
+        raise TypeError(f"{_where(agent, path)}: unsupported action space {space!r}")
+
+    return unsupported
+
+
+def _discrete_checker(space: spaces.Discrete):
+    n, start = int(space.n), int(space.start)
+
+    def check(agent: str, path: str, action: Any) -> int:
+        if isinstance(action, (bool, np.bool_)):
+            raise TypeError(f"{_where(agent, path)} must be an integer in [{start}, {start + n}), got {action!r}")
+        if isinstance(action, int):
+            value = action
+        else:
+            scalar = np.asarray(action) if not isinstance(action, (str, bytes)) else np.asarray(None, dtype=object)
+            if scalar.shape not in ((), (1,)) or scalar.dtype.kind not in "iuf":
+                raise TypeError(f"{_where(agent, path)} must be an integer in [{start}, {start + n}), got {action!r}")
+            number = scalar.reshape(()).item()
+            if isinstance(number, float) and not (np.isfinite(number) and number.is_integer()):
+                raise ValueError(f"{_where(agent, path)} must be an integer in [{start}, {start + n}), got {action!r}")
+            value = int(number)
+        if not start <= value < start + n:
+            raise ValueError(f"{_where(agent, path)} is {value}, outside Discrete({n}) = [{start}, {start + n})")
+        return value
+
+    return check
+
+
+def _box_checker(space: spaces.Box, integer: bool = False):
+    shape = space.shape
+    low32, high32 = space.low.ravel(), space.high.ravel()
+    # The bounds as Python floats equal to the space's float32 values: a float64 value inside
+    # them is inside after the cast to float32, so most actions pass the fast test.
+    low, high = low32.astype(float).tolist(), high32.astype(float).tolist()
+    dtype = space.dtype
+
+    def check(agent: str, path: str, action: Any) -> np.ndarray:
         try:
             raw = np.asarray(action)
         except (TypeError, ValueError):
-            raise TypeError(f"action for {agent!r} must be numeric with shape {space.shape}, got {action!r}") from None
+            raise TypeError(f"{_where(agent, path)} must be numeric with shape {shape}, got {action!r}") from None
         if raw.dtype.kind not in "biuf":
-            raise TypeError(f"action for {agent!r} must be real numbers with shape {space.shape}, got {action!r}")
+            raise TypeError(f"{_where(agent, path)} must be real numbers with shape {shape}, got {action!r}")
         array = raw.astype(np.float64, copy=True)
-        if array.shape != space.shape:
-            raise ValueError(f"action for {agent!r} has shape {array.shape}, expected {space.shape} (space {space})")
+        if array.shape != shape:
+            raise ValueError(f"{_where(agent, path)} has shape {array.shape}, expected {shape} (space {space})")
         values = array.ravel().tolist()
         # One pass: NaN fails every comparison, so in-bounds implies finite.
-        if all(lo <= v <= hi for v, lo, hi in zip(values, _bounds(space)[0], _bounds(space)[1])):
-            return array
-        if not all(np.isfinite(values)):
-            raise ValueError(f"action for {agent!r} contains NaN or infinite values: {values}")
-        raise ValueError(
-            f"action for {agent!r} is {values}, outside the space bounds low={space.low.tolist()} high={space.high.tolist()}"
-        )
-    raise TypeError(f"unsupported action space {space!r} for {agent!r}")
+        inside = all(lo <= v <= hi for v, lo, hi in zip(values, low, high))
+        if not inside:
+            if not all(np.isfinite(values)):
+                raise ValueError(f"{_where(agent, path)} contains NaN or infinite values: {values}")
+            cast = array.ravel().astype(dtype)
+            if not (np.all(cast >= low32) and np.all(cast <= high32)):
+                raise ValueError(f"{_where(agent, path)} is {values}, outside the space bounds low={low} high={high}")
+        if integer:
+            if not all(float(v).is_integer() for v in values):
+                raise ValueError(f"{_where(agent, path)} must hold integers, got {values}")
+            return array.astype(np.int64)
+        return array
+
+    return check
 
 
-_BOUNDS_CACHE: dict[int, tuple[spaces.Box, list[float], list[float]]] = {}
+def _dict_checker(space: spaces.Dict):
+    children = {key: _checker(sub) for key, sub in space.spaces.items()}
+
+    def check(agent: str, path: str, action: Any) -> dict[str, Any]:
+        if not isinstance(action, Mapping):
+            raise TypeError(f"{_where(agent, path)} must be a dict with keys {list(children)}, got {type(action).__name__}")
+        missing = [k for k in children if k not in action]
+        extra = [k for k in action if k not in children]
+        if missing or extra:
+            raise ValueError(f"{_where(agent, path)} has keys {list(action)}; expected exactly {list(children)}")
+        return {key: child(agent, f"{path}.{key}" if path else repr(key), action[key]) for key, child in children.items()}
+
+    return check
 
 
-def _bounds(space: spaces.Box) -> tuple[list[float], list[float]]:
-    """Flat lower and upper bounds of a Box as Python floats (cached per space object)."""
-    cached = _BOUNDS_CACHE.get(id(space))
-    if cached is None or cached[0] is not space:
-        cached = (space, space.low.ravel().astype(float).tolist(), space.high.ravel().astype(float).tolist())
-        _BOUNDS_CACHE[id(space)] = cached
-    return cached[1], cached[2]
+def _tuple_checker(space: spaces.Tuple):
+    children = [_checker(sub) for sub in space.spaces]
+
+    def check(agent: str, path: str, action: Any) -> tuple:
+        if not isinstance(action, (tuple, list)) or len(action) != len(children):
+            raise ValueError(f"{_where(agent, path)} must be a tuple of {len(children)} parts, got {action!r}")
+        return tuple(child(agent, f"{path}[{i}]", part) for i, (child, part) in enumerate(zip(children, action)))
+
+    return check

@@ -1,12 +1,29 @@
-"""Office workspaces as data (paper 000, section 2.1): sectors, doors, furniture, topology.
+"""Workspaces as data: offices *and* graphs of places and ways.
 
->>> from teamgym.maps import load_map, TopologicalModel
+Office maps (paper 000, section 2.1): sectors, doors, furniture, topology. Graph maps
+(paper 003, section 2): places with coordinates joined by ways with lengths.
+
+>>> from teamgym.maps import load_map, TopologicalModel, load_graph_map
 >>> office = load_map("office12")
 >>> model = TopologicalModel(office)
+>>> load_graph_map("square4").shortest_path("A", "C", blocked=[("A", "C")])
+['A', 'D', 'C']
 """
 
 from teamgym.maps.geometry import Segment, wall_layout
+from teamgym.maps.graph import (
+    GraphMap,
+    NoPathError,
+    Place,
+    Way,
+    available_graph_maps,
+    graph_map_from_dict,
+    load_graph_map,
+    save_graph_map,
+    validate_graph_map,
+)
 from teamgym.maps.model import DoorObject, Furniture, MapError, OfficeMap, Sector, available_maps, load_map, map_from_dict
+from teamgym.maps.plot import plot_graph_map
 from teamgym.maps.topology import ClutterEstimate, TopologicalModel, characteristic_distance, door_cost, passage_cost
 from teamgym.maps.validate import validate
 
@@ -14,17 +31,27 @@ __all__ = [
     "ClutterEstimate",
     "DoorObject",
     "Furniture",
+    "GraphMap",
     "MapError",
+    "NoPathError",
     "OfficeMap",
+    "Place",
     "Sector",
     "Segment",
     "TopologicalModel",
+    "Way",
+    "available_graph_maps",
     "available_maps",
     "characteristic_distance",
     "door_cost",
+    "graph_map_from_dict",
+    "load_graph_map",
     "load_map",
     "map_from_dict",
     "passage_cost",
+    "plot_graph_map",
+    "save_graph_map",
     "validate",
+    "validate_graph_map",
     "wall_layout",
 ]

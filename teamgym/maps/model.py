@@ -314,7 +314,11 @@ def load_map(name_or_path: str | Path) -> OfficeMap:
     if not path.is_file():
         raise MapError(f"no map {str(name_or_path)!r}: not a shipped map ({available_maps()}) nor a file")
     try:
-        data = json.loads(path.read_text())
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except UnicodeDecodeError:
+        raise MapError(f"{path}: not a text (UTF-8 JSON) map file") from None
     except json.JSONDecodeError as error:
         raise MapError(f"{path}: not valid JSON ({error})") from None
+    except OSError as error:
+        raise MapError(f"{path}: cannot be read ({error.strerror})") from None
     return map_from_dict(data, source=str(path.name if path.parent == DATA_DIR else path))

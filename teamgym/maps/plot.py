@@ -6,10 +6,12 @@ trajectories over the plan. Coordinates are drawn in millimetres, as in the pape
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
 from teamgym.maps.geometry import wall_layout
+from teamgym.maps.graph import GraphMap, Way
 from teamgym.maps.model import OfficeMap
 
 
@@ -80,3 +82,45 @@ def save_map_figure(office: OfficeMap, path: str | Path, title: str | None = Non
     ax.figure.savefig(path, dpi=130)
     plt.close(ax.figure)
     return path
+
+
+def plot_graph_map(
+    graph_map: GraphMap,
+    ax: Any = None,
+    blocked: Iterable[Way | tuple[str, str]] = (),
+    path: Sequence[str] | None = None,
+    labels: bool = True,
+) -> Any:
+    """Draw a graph map (paper 003) on a matplotlib axes (created if None) and return the axes; metres.
+
+    ``ax.lines`` gains one line per way, in the order of ``graph_map.ways`` (ways in ``blocked``
+    dashed red), then one for ``path`` (place ids, each consecutive pair joined by a way) if
+    given; places are a scatter of dots labelled with their ids.
+    """
+    import matplotlib.pyplot as plt
+
+    cut = graph_map.resolve_ways(blocked)
+    points = [graph_map.place(pid).pos for pid in path] if path is not None else []
+    if path is not None:
+        for a, b in zip(path, path[1:]):
+            graph_map.way(a, b)
+    if ax is None:
+        w, h = graph_map.size
+        _, ax = plt.subplots(figsize=(1 + 6 * w / max(w, h), 1 + 6 * h / max(w, h)))
+    for way in graph_map.ways:
+        (xa, ya), (xb, yb) = graph_map.place(way.a).pos, graph_map.place(way.b).pos
+        shut = way.ends in cut
+        ax.plot([xa, xb], [ya, yb], color="#c62828" if shut else "#607d8b", ls="--" if shut else "-", lw=1.2, zorder=1)
+    if path is not None:
+        ax.plot([x for x, _ in points], [y for _, y in points], color="#ff9800", lw=3.5, alpha=0.8, zorder=2)
+    ax.scatter([p.x for p in graph_map.places], [p.y for p in graph_map.places], s=30, color="#263238", zorder=3)
+    if labels:
+        for p in graph_map.places:
+            ax.annotate(p.id, p.pos, xytext=(4, 4), textcoords="offset points", fontsize=8, color="#263238", zorder=4)
+    w, h = graph_map.size
+    ax.set_xlim(0, w)
+    ax.set_ylim(0, h)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    return ax

@@ -20,13 +20,14 @@ class Category(IntEnum):
     DOOR = 4
     FURNITURE = 5
     TARGET = 6
+    LAMP = 7
 
     @property
     def bit(self) -> int:
         return 1 << int(self)
 
 
-#: Kinds that physically collide with each other (targets are points, they collide with nothing).
+#: Kinds that physically collide with each other (targets and lamps are points, they collide with nothing).
 SOLID = (
     Category.WALL.bit | Category.ROBOT.bit | Category.OBSTACLE.bit | Category.BOX.bit | Category.DOOR.bit | Category.FURNITURE.bit
 )

@@ -5,7 +5,8 @@ an assert and the cffi call); driving five robots needs some fifty of them per c
 step. These helpers call the same Chipmunk functions through pymunk's cffi handles
 (``Body._body``, ``Constraint._constraint``, ``Space._space``), which are stable across
 pymunk 7.x (the version range pinned in ``pyproject.toml``). ``tests/test_sim_chipmunk.py``
-checks them against the public API.
+checks them against the public API; ``test_ring_skip_gives_same_readings_as_casting_every_ray``
+in ``tests/test_sim_sensors.py`` checks the proximity ring built on :class:`RayCaster`.
 """
 
 from __future__ import annotations

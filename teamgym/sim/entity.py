@@ -1,10 +1,30 @@
-"""Base class of everything that lives in a :class:`~teamgym.sim.world.World`."""
+"""Base class of everything that lives in a :class:`~teamgym.sim.world.World`.
+
+An entity describes itself to the world and the renderer, so neither keeps a list of
+entity types:
+
+* ``kind`` (a :class:`Category`): collision category; the world lists robots, moving
+  obstacles and boxes by it (``world.robots``, ``world.movers``, ``world.boxes``).
+* ``has_state_row``: the world reads ``state_body``'s ``(x, y, angle, vx, vy, ω)`` in its
+  batched state read and calls the step hooks :meth:`before_step`, :meth:`mid_step` and
+  :meth:`after_step` with it.
+* ``tracked``: whether the entity's path is worth recording (``world.tracked()``).
+* ``draw_layer`` and :meth:`draw`: how the renderer shows it.
+
+The world reads ``kind``, ``has_state_row`` and ``tracked`` when the entity is added.
+"""
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import pymunk
 
+from teamgym.sim.canvas import Canvas, Layer
 from teamgym.sim.categories import SOLID, Category
+
+if TYPE_CHECKING:
+    from teamgym.sim.world import World
 
 
 class Entity:
@@ -17,6 +37,9 @@ class Entity:
     """
 
     kind: Category = Category.WALL
+    draw_layer: int = Layer.STATIC
+    tracked: bool = False
+    has_state_row: bool = False
 
     def __init__(self, name: str) -> None:
         if not isinstance(name, str) or not name:
@@ -48,5 +71,45 @@ class Entity:
         x, y = self.bodies[0].position if self.bodies else self.shapes[0].body.position
         return (x, y)
 
+    # -- drawing ------------------------------------------------------------------------
+    def draw(self, canvas: Canvas) -> None:
+        """Draw the entity on ``canvas`` (default: nothing)."""
+
+    # -- control-step hooks (called only when ``has_state_row``) ------------------------
+    @property
+    def state_body(self) -> pymunk.Body:
+        """The body whose state row the world reads (default: the first body)."""
+        return self.bodies[0]
+
+    def before_step(self, world: World, state: list[float]) -> float | None:
+        """Prepare a control step from ``state`` = ``(x, y, angle, vx, vy, ω)`` of ``state_body``.
+
+        Return a time in ``(0, world.dt)`` at which the world must call :meth:`mid_step`
+        (it splits the step there), or ``None``.
+        """
+        return None
+
+    def mid_step(self) -> None:
+        """Called at the time :meth:`before_step` asked for."""
+
+    def after_step(self, world: World, start: list[float], end: list[float]) -> None:
+        """Finish a control step; ``start`` and ``end`` are the state rows before and after."""
+
     def __repr__(self) -> str:
         return f"{type(self).__name__}({self.name!r})"
+
+
+class PointEntity(Entity):
+    """An entity at a point, without bodies or shapes: it collides with nothing."""
+
+    def __init__(self, name: str, position: tuple[float, float]) -> None:
+        super().__init__(name)
+        self.position = position
+
+    @property
+    def position(self) -> tuple[float, float]:
+        return self._position
+
+    @position.setter
+    def position(self, value: tuple[float, float]) -> None:
+        self._position = (float(value[0]), float(value[1]))

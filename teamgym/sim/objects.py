@@ -1,15 +1,20 @@
-"""Passive objects: walls, doors, static and moving convex polygons, boxes, targets."""
+"""Passive objects: walls, doors, static and moving convex polygons, boxes, targets, lamps."""
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pymunk
 
+from teamgym.sim.canvas import Canvas, Layer
 from teamgym.sim.categories import SOLID, Category
-from teamgym.sim.entity import Entity
+from teamgym.sim.entity import Entity, PointEntity
+
+if TYPE_CHECKING:
+    from teamgym.sim.world import World
 
 GRAVITY = 9.81
 
@@ -42,6 +47,9 @@ class Wall(Entity):
     @property
     def position(self) -> Point:
         return ((self.a[0] + self.b[0]) / 2, (self.a[1] + self.b[1]) / 2)
+
+    def draw(self, canvas: Canvas) -> None:
+        canvas.line([self.a, self.b], (40, 40, 40), canvas.stroke(self.thickness))
 
 
 class Door(Wall):
@@ -79,6 +87,12 @@ class Door(Wall):
         self.is_open = False
         return True
 
+    def draw(self, canvas: Canvas) -> None:
+        if self.is_open:
+            canvas.line([self.a, self.b], (120, 200, 120), 1)
+        else:
+            canvas.line([self.a, self.b], (150, 60, 40), canvas.stroke(self.thickness))
+
 
 class StaticPolygon(Entity):
     """Furniture or a fixed obstacle: a static convex polygon (vertices in world metres)."""
@@ -98,6 +112,9 @@ class StaticPolygon(Entity):
         c = np.mean(np.asarray(self.vertices), axis=0)
         return (float(c[0]), float(c[1]))
 
+    def draw(self, canvas: Canvas) -> None:
+        canvas.polygon(self.vertices, (180, 180, 180), (90, 90, 90))
+
 
 def regular_polygon(n_sides: int, radius: float, rotation: float = 0.0) -> list[Point]:
     """Vertices of a regular convex polygon centred on the origin."""
@@ -111,6 +128,11 @@ class _DrivenBody(Entity):
     With the control body at rest and static this is ground friction (boxes); with the
     control body moving it is a scripted mover that still yields to large forces.
     """
+
+    draw_layer = Layer.MOVING
+    tracked = True
+    #: Fill colour of the drawn polygon.
+    fill: tuple[int, int, int]
 
     def __init__(
         self,
@@ -153,6 +175,10 @@ class _DrivenBody(Entity):
         vx, vy = self.body.velocity
         return vx, vy
 
+    def draw(self, canvas: Canvas) -> None:
+        to_world = self.body.local_to_world
+        canvas.polygon([to_world(v) for v in self.local_vertices], self.fill, (60, 30, 30))
+
 
 class MovingPolygon(_DrivenBody):
     """A convex polygon moving on a scripted velocity, bouncing inside the arena.
@@ -164,6 +190,8 @@ class MovingPolygon(_DrivenBody):
     """
 
     kind = Category.OBSTACLE
+    has_state_row = True
+    fill = (220, 80, 80)
 
     def __init__(
         self,
@@ -209,6 +237,10 @@ class MovingPolygon(_DrivenBody):
             self.target_velocity = (vx, vy)
             self.control.velocity = self.target_velocity
 
+    def before_step(self, world: World, state: list[float]) -> None:
+        """Plan the bounce off the arena ``[0, w] x [0, h]`` (see :meth:`plan_bounce`)."""
+        self.plan_bounce((0.0, 0.0, world.size[0], world.size[1]), world.dt, state)
+
 
 class Box(_DrivenBody):
     """A box with mass and Coulomb ground friction ``μ m g``.
@@ -220,6 +252,7 @@ class Box(_DrivenBody):
     """
 
     kind = Category.BOX
+    fill = (205, 170, 110)
 
     def __init__(
         self,
@@ -250,20 +283,33 @@ class Box(_DrivenBody):
         return self.ground_friction * self.mass * GRAVITY
 
 
-class Target(Entity):
+class Target(PointEntity):
     """A point of interest (goal, food item); it has no body and collides with nothing."""
 
     kind = Category.TARGET
+    draw_layer = Layer.MARKS
 
     def __init__(self, name: str, position: Point, radius: float = 0.02) -> None:
-        super().__init__(name)
-        self._position = (float(position[0]), float(position[1]))
+        super().__init__(name, position)
         self.radius = float(radius)
 
-    @property
-    def position(self) -> Point:
-        return self._position
+    def draw(self, canvas: Canvas) -> None:
+        canvas.cross(self.position, (200, 0, 0), self.radius)
 
-    @position.setter
-    def position(self, value: Point) -> None:
-        self._position = (float(value[0]), float(value[1]))
+
+class Lamp(PointEntity):
+    """A point light source (paper 004's lamp); no body, collides with nothing.
+
+    A :class:`~teamgym.sim.sensors.LightSensor` made with a lamp follows it when it moves.
+    Drawn as a yellow disc of ``radius_px`` pixels.
+    """
+
+    kind = Category.LAMP
+    draw_layer = Layer.LAMPS
+
+    def __init__(self, name: str, position: Point, radius_px: float = 8.0) -> None:
+        super().__init__(name, position)
+        self.radius_px = float(radius_px)
+
+    def draw(self, canvas: Canvas) -> None:
+        canvas.disc(self.position, self.radius_px, (255, 220, 0), (120, 100, 0))

@@ -8,43 +8,25 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from operator import attrgetter
 from pathlib import Path
 
 import numpy as np
 from PIL import Image, ImageDraw
 
-from teamgym.sim.objects import Box, Door, MovingPolygon, StaticPolygon, Target, Wall
-from teamgym.sim.robot import DiffDriveRobot
+from teamgym.sim.canvas import ROBOT_COLOURS, Canvas, Drawable, robot_colour
+from teamgym.sim.overlay import Overlay
 from teamgym.sim.world import World
 
-ROBOT_COLOURS = [
-    (31, 119, 180),
-    (255, 127, 14),
-    (44, 160, 44),
-    (148, 103, 189),
-    (140, 86, 75),
-    (227, 119, 194),
-    (23, 190, 207),
-    (188, 189, 34),
-]
-
-
-def robot_colour(index: int) -> tuple[int, int, int]:
-    return ROBOT_COLOURS[index % len(ROBOT_COLOURS)]
-
-
-@dataclass
-class Overlay:
-    """Extra marks drawn on top of the world: goal points and trajectories (world metres)."""
-
-    points: list[tuple[tuple[float, float], tuple[int, int, int]]] = field(default_factory=list)
-    paths: list[tuple[Sequence[tuple[float, float]], tuple[int, int, int]]] = field(default_factory=list)
-    lamp: tuple[float, float] | None = None
+__all__ = ["ROBOT_COLOURS", "Overlay", "Renderer", "robot_colour", "save_gif"]
 
 
 class Renderer:
-    """Draws a :class:`World` top-down with ``pixels_per_metre`` resolution."""
+    """Draws a :class:`World` top-down with ``pixels_per_metre`` resolution.
+
+    Every entity draws itself (:meth:`~teamgym.sim.entity.Entity.draw`), layer by layer
+    (:class:`~teamgym.sim.canvas.Layer`), in the order added within a layer.
+    """
 
     def __init__(self, world: World, pixels_per_metre: float = 200.0, margin: float = 0.05) -> None:
         self.world = world
@@ -61,52 +43,13 @@ class Renderer:
         return ((x + self.margin) * self.scale, self.height - (y + self.margin) * self.scale)
 
     def draw(self, overlay: Overlay | None = None) -> np.ndarray:
-        """Return an ``(height, width, 3)`` uint8 image of the world."""
+        """Return an ``(height, width, 3)`` uint8 image of the world (and ``overlay``)."""
         image = Image.new("RGB", (self.width, self.height), (250, 250, 247))
-        pen = ImageDraw.Draw(image)
-        px = self.to_pixels
-        robot_index = 0
-        for entity in self.world.entities.values():
-            if isinstance(entity, Door):
-                colour = (120, 200, 120) if entity.is_open else (150, 60, 40)
-                width = 1 if entity.is_open else max(1, int(entity.thickness * self.scale))
-                pen.line([px(*entity.a), px(*entity.b)], fill=colour, width=width)
-            elif isinstance(entity, Wall):
-                pen.line([px(*entity.a), px(*entity.b)], fill=(40, 40, 40), width=max(1, int(entity.thickness * self.scale)))
-            elif isinstance(entity, StaticPolygon):
-                pen.polygon([px(*v) for v in entity.vertices], fill=(180, 180, 180), outline=(90, 90, 90))
-            elif isinstance(entity, (MovingPolygon, Box)):
-                body = entity.body
-                verts = [px(*body.local_to_world(v)) for v in entity.local_vertices]
-                fill = (220, 80, 80) if isinstance(entity, MovingPolygon) else (205, 170, 110)
-                pen.polygon(verts, fill=fill, outline=(60, 30, 30))
-            elif isinstance(entity, Target):
-                self._cross(pen, entity.position, (200, 0, 0), entity.radius)
-        if overlay is not None:
-            for points, colour in overlay.paths:
-                if len(points) > 1:
-                    pen.line([px(*p) for p in points], fill=colour, width=2)
-            for point, colour in overlay.points:
-                self._cross(pen, point, colour, 0.03)
-            if overlay.lamp is not None:
-                lx, ly = px(*overlay.lamp)
-                pen.ellipse([lx - 8, ly - 8, lx + 8, ly + 8], fill=(255, 220, 0), outline=(120, 100, 0))
-        for entity in self.world.entities.values():
-            if isinstance(entity, DiffDriveRobot):
-                x, y, theta = entity.pose
-                r = entity.spec.radius * self.scale
-                cx, cy = px(x, y)
-                colour = robot_colour(robot_index) if entity.enabled else (120, 120, 120)
-                pen.ellipse([cx - r, cy - r, cx + r, cy + r], fill=colour, outline=(0, 0, 0))
-                pen.line([(cx, cy), (cx + r * math.cos(theta), cy - r * math.sin(theta))], fill=(255, 255, 255), width=2)
-                robot_index += 1
+        canvas = Canvas(ImageDraw.Draw(image), self.to_pixels, self.scale)
+        items: list[Drawable] = [*self.world.entities.values(), *(overlay.drawables() if overlay is not None else ())]
+        for item in sorted(items, key=attrgetter("draw_layer")):
+            item.draw(canvas)
         return np.asarray(image)
-
-    def _cross(self, pen: ImageDraw.ImageDraw, point: tuple[float, float], colour, size: float) -> None:
-        cx, cy = self.to_pixels(*point)
-        s = max(3.0, size * self.scale)
-        pen.line([(cx - s, cy - s), (cx + s, cy + s)], fill=colour, width=2)
-        pen.line([(cx - s, cy + s), (cx + s, cy - s)], fill=colour, width=2)
 
     def show(self, frame: np.ndarray, fps: int) -> None:
         """Show a frame in a pygame window (``human`` render mode)."""

@@ -29,13 +29,18 @@ from __future__ import annotations
 import itertools
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pymunk
 
+from teamgym.sim.canvas import Canvas, Layer, robot_colour
 from teamgym.sim.categories import RAY_HITS, Category
 from teamgym.sim.chipmunk import set_kinematic_motion, set_pivot_anchor_a
 from teamgym.sim.entity import Entity
+
+if TYPE_CHECKING:
+    from teamgym.sim.world import World
 
 _group_ids = itertools.count(1)
 
@@ -132,9 +137,16 @@ class EncoderReading:
 
 
 class DiffDriveRobot(Entity):
-    """A disc-shaped differential-drive robot with force-limited motors and wheel encoders."""
+    """A disc-shaped differential-drive robot with force-limited motors and wheel encoders.
+
+    Drawn in the colour of its index among the robots drawn in the same frame (grey once
+    disabled), with a white line showing its heading.
+    """
 
     kind = Category.ROBOT
+    draw_layer = Layer.ROBOTS
+    tracked = True
+    has_state_row = True
 
     def __init__(
         self,
@@ -256,6 +268,30 @@ class DiffDriveRobot(Entity):
             actual_right=(ds + half_base * da) / r,
         )
         self.odometer += math.hypot(dx, dy)
+
+    # -- world hooks ------------------------------------------------------------------------
+    def before_step(self, world: World, state: list[float]) -> float | None:
+        """:meth:`begin_step`; asks to switch commands after ``actuation_delay`` if it changed."""
+        self.begin_step(state)
+        delay = self.actuation_delay
+        if 0.0 < delay < world.dt and self.applied_command != self.command:
+            return delay
+        return None
+
+    def mid_step(self) -> None:
+        """The actuation delay is over: start the new command."""
+        self.apply_command(self.command)
+
+    def after_step(self, world: World, start: list[float], end: list[float]) -> None:
+        self.end_step(world.dt, start, end)
+
+    def draw(self, canvas: Canvas) -> None:
+        index = canvas.take_index("robot")
+        x, y, theta = self.pose
+        r = self.spec.radius * canvas.scale
+        colour = robot_colour(index) if self.enabled else (120, 120, 120)
+        cx, cy = canvas.disc((x, y), r, colour, (0, 0, 0))
+        canvas.pen.line([(cx, cy), (cx + r * math.cos(theta), cy - r * math.sin(theta))], fill=(255, 255, 255), width=2)
 
     # -- state ----------------------------------------------------------------------
     @property

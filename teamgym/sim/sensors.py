@@ -1,15 +1,20 @@
-"""Robot sensors: proximity ring, light sensor, field-of-view camera.
+"""Robot sensors: proximity ring, light sensor, field-of-view camera, wheel encoders.
 
-All sensors read a :class:`~teamgym.sim.robot.DiffDriveRobot` in a pymunk space and
-return numpy arrays or small records; noise comes from a caller-supplied
-``np.random.Generator`` so that seeded runs repeat exactly.
+Every sensor follows the :class:`Sensor` protocol: ``read_rows`` writes ``width`` values per
+robot into a preallocated ``(k, width)`` array, for ``k`` robots at given poses. Noise comes
+from a caller-supplied ``np.random.Generator`` and is drawn robot after robot, in the same
+order as reading the robots one at a time, so seeded runs repeat exactly.
+:class:`SensorSuite` reads several sensors robot by robot into one row per robot.
+
+The older per-robot ``read`` methods remain and share the code of ``read_rows``.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 import numpy as np
 import pymunk
@@ -19,10 +24,50 @@ from teamgym.sim.chipmunk import RayCaster
 from teamgym.sim.entity import Entity
 from teamgym.sim.robot import DiffDriveRobot
 
+if TYPE_CHECKING:
+    from teamgym.sim.world import World
+
+Point = tuple[float, float]
+
 #: Directions of the Khepera's eight infrared sensors relative to the heading (radians,
 #: counter-clockwise), numbered as in paper 004, Fig. 3: 0 left, 1–4 front, 5 right,
 #: 6–7 back. The angles are those of the Khepera I body (±90°, ±45°, ±10°, ±170°).
 KHEPERA_RING = np.deg2rad([90.0, 45.0, 10.0, -10.0, -45.0, -90.0, -170.0, 170.0])
+
+
+@runtime_checkable
+class Sensor(Protocol):
+    """A sensor that reads ``width`` values per robot."""
+
+    @property
+    def width(self) -> int:
+        """Values per robot."""
+        ...
+
+    def read_rows(
+        self,
+        world: World,
+        robots: Sequence[DiffDriveRobot],
+        poses: np.ndarray,
+        rng: np.random.Generator | None,
+        out: np.ndarray,
+    ) -> None:
+        """Write the readings of ``robots`` into ``out`` (shape ``(k, width)``), one row per robot.
+
+        ``poses`` holds ``(x, y, θ)`` of each robot in its first three columns (e.g. rows of
+        ``world.robot_states``). ``rng`` draws the noise (``None``: no noise).
+        """
+        ...
+
+
+def _check_rows(sensor: Sensor, robots: Sequence[DiffDriveRobot], poses: np.ndarray, out: np.ndarray) -> list[list[float]]:
+    """The poses as lists ``[x, y, θ]``, after checking the shapes of ``poses`` and ``out``."""
+    k = len(robots)
+    if out.shape != (k, sensor.width):
+        raise ValueError(f"{type(sensor).__name__}.read_rows: out must have shape {(k, sensor.width)}, got {out.shape}")
+    if poses.ndim != 2 or poses.shape[0] != k or poses.shape[1] < 3:
+        raise ValueError(f"{type(sensor).__name__}.read_rows: poses must have shape ({k}, 3), got {poses.shape}")
+    return poses[:, :3].tolist()
 
 
 class ProximityRing:
@@ -52,6 +97,10 @@ class ProximityRing:
     def n_rays(self) -> int:
         return len(self.angles)
 
+    @property
+    def width(self) -> int:
+        return len(self.angles)
+
     def read(
         self,
         robot: DiffDriveRobot,
@@ -66,8 +115,32 @@ class ProximityRing:
         """
         if out is None:
             out = np.empty(self.n_rays, dtype=np.float32)
-        out.fill(self.max_range)
         x, y, theta = pose if pose is not None else (*robot.body.position, robot.body.angle)
+        self._cast(robot, space, x, y, theta, out)
+        self._add_noise(rng, out)
+        return out
+
+    def read_rows(
+        self,
+        world: World,
+        robots: Sequence[DiffDriveRobot],
+        poses: np.ndarray,
+        rng: np.random.Generator | None,
+        out: np.ndarray,
+    ) -> None:
+        space = world.space
+        for robot, (x, y, theta), row in zip(robots, _check_rows(self, robots, poses, out), out):
+            self._cast(robot, space, x, y, theta, row)
+        self._add_noise(rng, out)
+
+    def _add_noise(self, rng: np.random.Generator | None, out: np.ndarray) -> None:
+        if self.noise_std > 0 and rng is not None:
+            out += rng.normal(0.0, self.noise_std, size=out.shape)
+            np.clip(out, 0.0, self.max_range, out=out)
+
+    def _cast(self, robot: DiffDriveRobot, space: pymunk.Space, x: float, y: float, theta: float, out: np.ndarray) -> None:
+        """Noise-free distances of one robot into ``out``."""
+        out.fill(self.max_range)
         r = robot.spec.radius
         query_filter = robot.sensor_filter
         caster = self._caster
@@ -81,10 +154,6 @@ class ProximityRing:
                 alpha = cast(space, start, (start[0] + span * dx, start[1] + span * dy), query_filter)
                 if alpha is not None:
                     out[i] = alpha * span
-        if self.noise_std > 0 and rng is not None:
-            out += rng.normal(0.0, self.noise_std, size=self.n_rays)
-            np.clip(out, 0.0, self.max_range, out=out)
-        return out
 
 
 class LightSensor:
@@ -95,23 +164,44 @@ class LightSensor:
     blocks the line of sight. Boxes are clear plastic (paper 004) and do not block light.
     ``blockers`` is the category mask of what casts shadows (default :data:`OPAQUE`; 0 for a
     lamp that every robot sees from anywhere, as in paper 004, section 2.1).
+
+    ``lamp`` is a point or an entity (a :class:`~teamgym.sim.objects.Lamp`), which the sensor
+    then follows when it moves.
     """
 
     def __init__(
         self,
-        lamp: tuple[float, float],
+        lamp: Point | Entity,
         intensity: float = 1.0,
         angles: Iterable[float] = KHEPERA_RING,
         min_distance: float = 0.05,
         noise_std: float = 0.0,
         blockers: int = OPAQUE,
     ) -> None:
-        self.lamp = (float(lamp[0]), float(lamp[1]))
+        self.lamp = lamp
         self.intensity = float(intensity)
         self.angles = np.asarray(list(angles), dtype=float)
         self.min_distance = float(min_distance)
         self.noise_std = float(noise_std)
         self.blockers = int(blockers)
+
+    @property
+    def lamp(self) -> Point:
+        """The lamp's position now."""
+        return self._lamp_entity.position if self._lamp_entity is not None else self._lamp_point
+
+    @lamp.setter
+    def lamp(self, lamp: Point | Entity) -> None:
+        if isinstance(lamp, Entity):
+            self._lamp_entity: Entity | None = lamp
+            self._lamp_point = lamp.position
+        else:
+            self._lamp_entity = None
+            self._lamp_point = (float(lamp[0]), float(lamp[1]))
+
+    @property
+    def width(self) -> int:
+        return len(self.angles)
 
     def read(
         self,
@@ -125,22 +215,44 @@ class LightSensor:
         if out is None:
             out = np.empty(len(self.angles), dtype=np.float32)
         x, y, theta = pose if pose is not None else robot.pose
-        lx, ly = self.lamp
+        self._shine(robot, space, self.lamp, x, y, theta, out)
+        self._add_noise(rng, out)
+        return out
+
+    def read_rows(
+        self,
+        world: World,
+        robots: Sequence[DiffDriveRobot],
+        poses: np.ndarray,
+        rng: np.random.Generator | None,
+        out: np.ndarray,
+    ) -> None:
+        space, lamp = world.space, self.lamp
+        for robot, (x, y, theta), row in zip(robots, _check_rows(self, robots, poses, out), out):
+            self._shine(robot, space, lamp, x, y, theta, row)
+        self._add_noise(rng, out)
+
+    def _add_noise(self, rng: np.random.Generator | None, out: np.ndarray) -> None:
+        if self.noise_std > 0 and rng is not None:
+            out += rng.normal(0.0, self.noise_std, size=out.shape)
+            np.maximum(out, 0.0, out=out)
+
+    def _shine(
+        self, robot: DiffDriveRobot, space: pymunk.Space, lamp: Point, x: float, y: float, theta: float, out: np.ndarray
+    ) -> None:
+        """Noise-free intensities of one robot into ``out``."""
+        lx, ly = lamp
         d = math.hypot(lx - x, ly - y)
         blocked = False
         if self.blockers and d > 1e-9:
             query_filter = pymunk.ShapeFilter(group=robot.group, mask=self.blockers)
-            blocked = space.segment_query_first((x, y), self.lamp, 0.0, query_filter) is not None
+            blocked = space.segment_query_first((x, y), lamp, 0.0, query_filter) is not None
         if blocked:
             out.fill(0.0)
         else:
             bearing = math.atan2(ly - y, lx - x) - theta
             gain = self.intensity / max(d, self.min_distance) ** 2
             np.maximum(np.cos(bearing - self.angles) * gain, 0.0, out=out, casting="unsafe")
-        if self.noise_std > 0 and rng is not None:
-            out += rng.normal(0.0, self.noise_std, size=len(out))
-            np.maximum(out, 0.0, out=out)
-        return out
 
 
 @dataclass(frozen=True)
@@ -170,6 +282,10 @@ class Camera:
 
     An object is seen when its centre is within ``max_range`` and within ``fov / 2`` of the
     heading and, with ``occlusion``, no other opaque solid lies between.
+
+    As rows (:meth:`read_rows`), the camera reports, for each kind in the order given by
+    ``kinds``, its ``slots`` nearest sightings as ``(1, distance, bearing)``, nearest
+    first, and ``(0, 0, 0)`` for every slot left empty: ``width = 3 · slots · len(kinds)``.
     """
 
     def __init__(
@@ -178,18 +294,61 @@ class Camera:
         max_range: float = 0.5,
         kinds: Iterable[Category] = (Category.ROBOT, Category.BOX, Category.TARGET, Category.OBSTACLE),
         occlusion: bool = True,
+        slots: int = 1,
     ) -> None:
         if not 0 < fov <= 2 * math.pi:
             raise ValueError(f"Camera.fov must be in (0, 2π], got {fov!r}")
         if not max_range > 0:
             raise ValueError(f"Camera.max_range must be > 0, got {max_range!r}")
+        if not (isinstance(slots, int) and slots >= 1):
+            raise ValueError(f"Camera.slots must be an int >= 1, got {slots!r}")
         self.fov = float(fov)
         self.max_range = float(max_range)
-        self.kinds = frozenset(kinds)
+        #: The kinds seen, in row order.
+        self.kind_order = tuple(dict.fromkeys(Category(k) for k in kinds))
+        self.kinds = frozenset(self.kind_order)
         self.occlusion = occlusion
+        self.slots = slots
 
-    def read(self, robot: DiffDriveRobot, entities: Iterable[Entity], space: pymunk.Space) -> list[Sighting]:
-        x, y, theta = robot.pose
+    @property
+    def width(self) -> int:
+        return 3 * self.slots * len(self.kind_order)
+
+    def read(
+        self,
+        robot: DiffDriveRobot,
+        entities: Iterable[Entity],
+        space: pymunk.Space,
+        pose: tuple[float, float, float] | None = None,
+    ) -> list[Sighting]:
+        """What ``robot`` sees of ``entities``; ``pose`` may give its ``(x, y, θ)`` if already read."""
+        x, y, theta = pose if pose is not None else robot.pose
+        return self._see(robot, entities, space, x, y, theta)
+
+    def read_rows(
+        self,
+        world: World,
+        robots: Sequence[DiffDriveRobot],
+        poses: np.ndarray,
+        rng: np.random.Generator | None,
+        out: np.ndarray,
+    ) -> None:
+        """Nearest sightings per kind (see the class docstring); the camera has no noise."""
+        entities, space = list(world.entities.values()), world.space
+        column = {kind: 3 * self.slots * i for i, kind in enumerate(self.kind_order)}
+        for robot, (x, y, theta), row in zip(robots, _check_rows(self, robots, poses, out), out):
+            row.fill(0.0)
+            filled = dict.fromkeys(self.kind_order, 0)
+            for sighting in sorted(self._see(robot, entities, space, x, y, theta), key=lambda s: s.distance):
+                slot = filled[sighting.kind]
+                if slot < self.slots:
+                    start = column[sighting.kind] + 3 * slot
+                    row[start : start + 3] = (1.0, sighting.distance, sighting.bearing)
+                    filled[sighting.kind] = slot + 1
+
+    def _see(
+        self, robot: DiffDriveRobot, entities: Iterable[Entity], space: pymunk.Space, x: float, y: float, theta: float
+    ) -> list[Sighting]:
         seen = []
         query_filter = pymunk.ShapeFilter(group=robot.group, mask=OPAQUE)
         for entity in entities:
@@ -208,3 +367,59 @@ class Camera:
                     continue
             seen.append(Sighting(entity.name, entity.kind, d, bearing))
         return seen
+
+
+class WheelEncoders:
+    """The wheel encoders' last control step: commanded left, commanded right, actual left,
+    actual right wheel rotation (rad), from :attr:`DiffDriveRobot.encoders`; no noise."""
+
+    width = 4
+
+    def read_rows(
+        self,
+        world: World,
+        robots: Sequence[DiffDriveRobot],
+        poses: np.ndarray,
+        rng: np.random.Generator | None,
+        out: np.ndarray,
+    ) -> None:
+        if out.shape != (len(robots), self.width):
+            raise ValueError(f"WheelEncoders.read_rows: out must have shape {(len(robots), self.width)}, got {out.shape}")
+        for robot, row in zip(robots, out):
+            e = robot.encoders
+            row[:] = (e.commanded_left, e.commanded_right, e.actual_left, e.actual_right)
+
+
+class SensorSuite:
+    """Several named sensors read into one row per robot, side by side in the order given.
+
+    :meth:`read_rows` reads robot after robot and, for each robot, sensor after sensor: the
+    noise draws come in that order (as in an env that reads every sensor of a robot before
+    the next robot). ``slices[name]`` are the columns of sensor ``name``.
+    """
+
+    def __init__(self, sensors: Mapping[str, Sensor]) -> None:
+        if not sensors:
+            raise ValueError("SensorSuite needs at least one sensor")
+        self.sensors = dict(sensors)
+        self.slices: dict[str, slice] = {}
+        start = 0
+        for name, sensor in self.sensors.items():
+            self.slices[name] = slice(start, start + sensor.width)
+            start += sensor.width
+        self.width = start
+        self._parts = [(sensor, self.slices[name]) for name, sensor in self.sensors.items()]
+
+    def read_rows(
+        self,
+        world: World,
+        robots: Sequence[DiffDriveRobot],
+        poses: np.ndarray,
+        rng: np.random.Generator | None,
+        out: np.ndarray,
+    ) -> None:
+        _check_rows(self, robots, poses, out)
+        for j, robot in enumerate(robots):
+            one, pose, row = [robot], poses[j : j + 1], out[j : j + 1]
+            for sensor, columns in self._parts:
+                sensor.read_rows(world, one, pose, rng, row[:, columns])

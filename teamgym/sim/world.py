@@ -4,30 +4,25 @@ Units are SI (metres, seconds, radians, kilograms, newtons). Gravity is zero: th
 is a top-down view of a table or floor; ground friction is modelled per body by joints
 to the static body (pymunk's top-down friction technique), see :mod:`teamgym.sim.robot`
 and :class:`teamgym.sim.objects.Box`.
+
+The world keeps no list of entity types: it groups entities by what they declare
+(``kind``, ``has_state_row``, ``tracked``; see :mod:`teamgym.sim.entity`).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Sequence
 
 import numpy as np
 import pymunk
 
 from teamgym.sim.categories import Category
 from teamgym.sim.chipmunk import BodyReader, space_step
+from teamgym.sim.contacts import Contact, ContactCounter
 from teamgym.sim.entity import Entity
-from teamgym.sim.objects import Box, MovingPolygon, Wall
-from teamgym.sim.robot import DiffDriveRobot
+from teamgym.sim.objects import Wall
 
-
-@dataclass(frozen=True)
-class Contact:
-    """A contact that began during the last control step, between two entities."""
-
-    a: str
-    b: str
-    kind_a: Category
-    kind_b: Category
+__all__ = ["Contact", "World"]
 
 
 class World:
@@ -44,6 +39,12 @@ class World:
     collision_slop:
         Allowed penetration in metres. pymunk's default (0.1) assumes pixels; in metres we
         allow 0.2 mm.
+
+    Entities of kind ``ROBOT``, ``OBSTACLE`` and ``BOX`` are listed, in the order they were
+    added, in ``robots``, ``movers`` and ``boxes``. Entities with ``has_state_row`` are read
+    in one batch before and after every step, grouped by kind (ascending ``Category``
+    value), in the order added within a kind; ``states`` holds those rows, and
+    ``robot_states`` / ``mover_states`` the rows of the robots / moving obstacles.
     """
 
     def __init__(
@@ -65,13 +66,18 @@ class World:
         self.space.iterations = iterations
         self.time = 0.0
         self.entities: dict[str, Entity] = {}
-        self.contacts: list[Contact] = []
+        self._contacts = ContactCounter()
         self.space.on_collision(begin=self._on_contact_begin)
-        self.robots: list[DiffDriveRobot] = []
-        self.movers: list[MovingPolygon] = []
-        self.boxes: list[Box] = []
+        self.robots: list[Entity] = []
+        self.movers: list[Entity] = []
+        self.boxes: list[Entity] = []
+        self._stepped: list[Entity] = []
+        self._rows_of: dict[Category, slice] = {}
+        self._tracked: list[Entity] = []
         self._reader: BodyReader | None = None
-        #: ``(x, y, angle, vx, vy, ω)`` of every robot / moving obstacle after the last step.
+        #: ``(x, y, angle, vx, vy, ω)`` of every entity with a state row after the last step.
+        self.states = np.zeros((0, 6))
+        #: The rows of ``states`` that belong to robots / moving obstacles.
         self.robot_states = np.zeros((0, 6))
         self.mover_states = np.zeros((0, 6))
 
@@ -82,13 +88,7 @@ class World:
             raise ValueError(f"an entity named {entity.name!r} is already in the world")
         entity.attach(self.space)
         self.entities[entity.name] = entity
-        if isinstance(entity, DiffDriveRobot):
-            self.robots.append(entity)
-        elif isinstance(entity, MovingPolygon):
-            self.movers.append(entity)
-        elif isinstance(entity, Box):
-            self.boxes.append(entity)
-        self._reader = None
+        self._regroup()
         return entity
 
     def add_boundary(self, thickness: float = 0.02) -> list[Wall]:
@@ -108,17 +108,29 @@ class World:
         except KeyError:
             raise KeyError(f"no entity named {name!r} in the world") from None
         entity.detach(self.space)
-        if entity in self.robots:
-            self.robots.remove(entity)
-        if entity in self.movers:
-            self.movers.remove(entity)
-        if entity in self.boxes:
-            self.boxes.remove(entity)
-        self._reader = None
+        self._regroup()
         return entity
+
+    def _regroup(self) -> None:
+        """Rebuild the lists derived from the entities' declarations (in place, so references stay valid)."""
+        entities = list(self.entities.values())
+        self.robots[:] = [e for e in entities if e.kind == Category.ROBOT]
+        self.movers[:] = [e for e in entities if e.kind == Category.OBSTACLE]
+        self.boxes[:] = [e for e in entities if e.kind == Category.BOX]
+        self._tracked = [e for e in entities if e.tracked]
+        self._stepped = sorted((e for e in entities if e.has_state_row), key=lambda e: int(e.kind))
+        self._rows_of = {}
+        for row, entity in enumerate(self._stepped):
+            first = self._rows_of.get(entity.kind, slice(row, row)).start
+            self._rows_of[entity.kind] = slice(first, row + 1)
+        self._reader = None
 
     def of_kind(self, kind: Category) -> list[Entity]:
         return [e for e in self.entities.values() if e.kind == kind]
+
+    def tracked(self) -> list[Entity]:
+        """Entities whose path is worth recording (robots, moving obstacles, boxes, ...), in the order added."""
+        return list(self._tracked)
 
     def __getitem__(self, name: str) -> Entity:
         try:
@@ -130,25 +142,23 @@ class World:
     def step(self) -> None:
         """Advance one control step Δt.
 
-        Moving obstacles plan their bounce, then every robot starts its command. A robot
-        with ``actuation_delay`` d > 0 keeps its previous command for the first d seconds
-        of the step and switches at d (the delay T0 of paper 001, section 6.1); the step is
-        split at every such switching time. Each part is integrated with substeps no
-        longer than Δt / ``substeps``.
+        Every entity with a state row gets :meth:`~teamgym.sim.entity.Entity.before_step`
+        (moving obstacles plan their bounce, robots start their command), in state-row
+        order. An entity may ask to be called back at a time within the step (a robot with
+        ``actuation_delay`` d > 0 keeps its previous command for the first d seconds and
+        switches at d, the delay T0 of paper 001, section 6.1); the step is split at every
+        such time. Each part is integrated with substeps no longer than Δt / ``substeps``.
+        Then every such entity gets ``after_step`` (robots update encoders and odometer).
         """
         dt = self.dt
-        self.contacts = []
-        before, movers = self.read_states()
-        if self.movers:
-            bounds = (0.0, 0.0, self.size[0], self.size[1])
-            for mover, state in zip(self.movers, movers.tolist()):
-                mover.plan_bounce(bounds, dt, state)
-        switches: dict[float, list[DiffDriveRobot]] = {}
-        for robot, row in zip(self.robots, before.tolist()):
-            robot.begin_step(row)
-            delay = robot.actuation_delay
-            if 0.0 < delay < dt and robot.applied_command != robot.command:
-                switches.setdefault(delay, []).append(robot)
+        self._contacts.new_step()
+        before = self._read().tolist()
+        stepped = self._stepped
+        switches: dict[float, list[Entity]] = {}
+        for entity, row in zip(stepped, before):
+            at = entity.before_step(self, row)
+            if at is not None:
+                switches.setdefault(at, []).append(entity)
         h = dt / self.substeps
         if not switches:
             self._integrate(h, self.substeps)
@@ -159,21 +169,27 @@ class World:
                 n = max(1, int(np.ceil(duration / h - 1e-9)))
                 self._integrate(duration / n, n)
                 elapsed = boundary
-                for robot in switches.get(boundary, ()):
-                    robot.apply_command(robot.command)
-        after = self.read_states()[0]
-        for robot, start, end in zip(self.robots, before.tolist(), after.tolist()):
-            robot.end_step(dt, start, end)
+                for entity in switches.get(boundary, ()):
+                    entity.mid_step()
+        after = self._read().tolist()
+        for entity, start, end in zip(stepped, before, after):
+            entity.after_step(self, start, end)
         self.time += dt
 
     def read_states(self) -> tuple[np.ndarray, np.ndarray]:
-        """Refresh and return ``(robot_states, mover_states)``, rows ``(x, y, angle, vx, vy, ω)``."""
-        if self._reader is None:
-            self._reader = BodyReader([r.body for r in self.robots] + [m.body for m in self.movers])
-        states = self._reader.read(self.space) if self._reader.bodies else np.zeros((0, 6))
-        n = len(self.robots)
-        self.robot_states, self.mover_states = states[:n], states[n:]
+        """Refresh ``states`` and return ``(robot_states, mover_states)``, rows ``(x, y, angle, vx, vy, ω)``."""
+        self._read()
         return self.robot_states, self.mover_states
+
+    def _read(self) -> np.ndarray:
+        if self._reader is None:
+            self._reader = BodyReader([e.state_body for e in self._stepped])
+        states = self._reader.read(self.space) if self._reader.bodies else np.zeros((0, 6))
+        empty = slice(0, 0)
+        self.states = states
+        self.robot_states = states[self._rows_of.get(Category.ROBOT, empty)]
+        self.mover_states = states[self._rows_of.get(Category.OBSTACLE, empty)]
+        return states
 
     def _integrate(self, h: float, n: int) -> None:
         """``n`` physics steps of length ``h``.
@@ -195,9 +211,31 @@ class World:
         ea = getattr(sa, "entity", None)
         eb = getattr(sb, "entity", None)
         if ea is not None and eb is not None:
-            self.contacts.append(Contact(ea.name, eb.name, ea.kind, eb.kind))
+            self._contacts.record(Contact(ea.name, eb.name, ea.kind, eb.kind))
 
-    # -- queries --------------------------------------------------------------------
+    # -- contacts -------------------------------------------------------------------
+    @property
+    def contacts(self) -> list[Contact]:
+        """Contacts that began during the last control step, in the order they began."""
+        return self._contacts.last_step
+
     def contacts_of(self, name: str) -> list[Contact]:
         """Contacts of entity ``name`` that began in the last control step."""
         return [c for c in self.contacts if c.a == name or c.b == name]
+
+    def new_contacts(self, name: str) -> int:
+        """How many contacts of ``name`` began during the last control step (see :class:`ContactCounter`)."""
+        return self._contacts.new.get(name, 0)
+
+    def total_contacts(self, name: str) -> int:
+        """How many contacts of ``name`` began since the world was built."""
+        return self._contacts.total.get(name, 0)
+
+    def contact_counts(self, total: bool = False) -> dict[str, int]:
+        """``{name: count}`` for the last control step (with ``total``: since the world was built), nonzero counts only."""
+        return dict(self._contacts.total if total else self._contacts.new)
+
+    def contacts_per(self, names: Sequence[str], total: bool = False) -> np.ndarray:
+        """Counts of :meth:`new_contacts` (or :meth:`total_contacts`) for ``names``, as an int64 array."""
+        counts = self._contacts.total if total else self._contacts.new
+        return np.array([counts.get(name, 0) for name in names], dtype=np.int64)

@@ -1,26 +1,15 @@
 """The discrete primitive-action type of ``BoxPushing-v0`` (paper 004, sections 3.1 and 3.4).
 
-Each robot has a :class:`~teamgym.control.primitives.PrimitiveExecutor`; the env passes it
-in the command context, so the action type itself stays stateless.
+Each robot has a :class:`~teamgym.control.primitives.PrimitiveExecutor` (``env.executors``);
+the action type itself stays stateless.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
-import numpy as np
 from gymnasium import spaces
 
-from teamgym.control.primitives import Primitive, PrimitiveExecutor
-from teamgym.envs.actions import ActionType, CommandContext
-
-
-@dataclass(frozen=True)
-class PrimitiveContext(CommandContext):
-    """The robot's executor and the env's random stream (direction-change jitter)."""
-
-    executor: PrimitiveExecutor | None = None
-    rng: np.random.Generator | None = field(default=None, compare=False)
+from teamgym.control.primitives import Primitive
+from teamgym.envs.actions import ActionType
 
 
 class PrimitiveAction(ActionType):
@@ -32,12 +21,13 @@ class PrimitiveAction(ActionType):
     """
 
     name = "primitives"
-    needs_context = True
 
     def space(self) -> spaces.Discrete:
         return spaces.Discrete(len(Primitive))
 
-    def command(self, action, context: CommandContext) -> tuple[float, float]:
-        if not isinstance(context, PrimitiveContext) or context.executor is None:
-            raise TypeError("PrimitiveAction needs a PrimitiveContext with the robot's executor")
-        return context.executor.command(int(action), context.rng)
+    def act(self, env, agent: str, action) -> tuple[float, float]:
+        """The command of ``agent``'s primitive executor (``env.executors``); jitter from ``env.np_random``."""
+        return env.executors[agent].command(int(action), env.np_random)
+
+    def describe(self, action) -> str:
+        return Primitive(int(action)).name

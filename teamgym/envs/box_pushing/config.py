@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import Any, ClassVar, Literal
 
 from teamgym.envs.config import ConfigError, EnvConfig, require
 from teamgym.sim.objects import GRAVITY
@@ -46,6 +46,9 @@ class Event:
 @dataclass(frozen=True)
 class BoxPushingConfig(EnvConfig):
     """Configuration of ``BoxPushing-v0`` (SI units; the few angles in config are radians)."""
+
+    body_speed_keys: ClassVar[tuple[str, ...]] = ("max_wheel_speed",)
+    default_body_speed: ClassVar[float] = 0.0
 
     max_cycles: int = 6000
     situation: Literal["custom", "S1", "S2", "S3", "S4"] = "custom"
@@ -104,6 +107,9 @@ class BoxPushingConfig(EnvConfig):
 
     def check(self) -> None:
         super().check()
+        if self.situation in SITUATIONS:
+            for key, value in zip(("n_robots", "n_light_boxes", "n_heavy_boxes"), SITUATIONS[self.situation]):
+                require(self, key, getattr(self, key) == value, f"contradicts situation={self.situation!r} (which sets {value})")
         require(self, "n_robots", 1 <= self.n_robots <= 16, "must be in [1, 16]")
         require(self, "n_light_boxes", 0 <= self.n_light_boxes <= 8, "must be in [0, 8]")
         require(self, "n_heavy_boxes", 0 <= self.n_heavy_boxes <= 8, "must be in [0, 8]")

@@ -55,9 +55,9 @@ import numpy as np
 from gymnasium import spaces
 
 from teamgym.control.primitives import PrimitiveExecutor, PrimitiveParams
-from teamgym.envs.actions import ActionType, CommandContext, WheelSpeedAction
+from teamgym.envs.actions import ActionType, WheelSpeedAction
 from teamgym.envs.base import EpisodeOverError, TeamEnv
-from teamgym.envs.box_pushing.actions import PrimitiveAction, PrimitiveContext
+from teamgym.envs.box_pushing.actions import PrimitiveAction
 from teamgym.envs.box_pushing.config import SITUATIONS, BoxPushingConfig, Event
 from teamgym.envs.box_pushing.scene import GoalWall, Placer
 from teamgym.envs.spaces import ObservationLayout
@@ -84,8 +84,7 @@ class BoxPushing(TeamEnv):
     config: BoxPushingConfig
     pixels_per_metre = 400.0
 
-    def __init__(self, render_mode: str | None = None, **config: Any) -> None:
-        super().__init__(render_mode, **config)
+    def _setup(self) -> None:
         c = self.config
         self.spec_robot = RobotSpec(max_wheel_speed=c.max_wheel_speed, max_motor_force=c.max_motor_force)
         self.ring = ProximityRing(KHEPERA_RING, c.sensor_range, c.sensor_noise)
@@ -114,7 +113,12 @@ class BoxPushing(TeamEnv):
         n = len(self.possible_agents)
         self.state_space = spaces.Box(-np.inf, np.inf, shape=(5 * n + 6 * self.box_capacity,), dtype=np.float32)
         self._index = {a: i for i, a in enumerate(self.possible_agents)}
-        self._sample_initial(np.random.default_rng(0))  # an infeasible config fails at make()
+        self._check_feasible()
+
+    def _check_feasible(self) -> None:
+        """Refuse at ``make()`` a config whose initial scene cannot be placed (tried on several seeds)."""
+        for seed in range(8):
+            self._sample_initial(np.random.default_rng(seed))
 
     # -- TeamEnv hooks ----------------------------------------------------------------------
     def _agent_names(self) -> list[str]:
@@ -122,7 +126,7 @@ class BoxPushing(TeamEnv):
 
     def _make_action_type(self) -> ActionType:
         if self.config.action_type == "wheels":
-            return WheelSpeedAction(RobotSpec(max_wheel_speed=self.config.max_wheel_speed))
+            return WheelSpeedAction(self.spec_robot)
         return PrimitiveAction()
 
     def _make_layout(self) -> ObservationLayout:
@@ -166,10 +170,7 @@ class BoxPushing(TeamEnv):
         self.agents = [a for a in self.possible_agents if a in self.robots]
         self._joining = []
         self.world.read_states()
-        self._sense(self.agents)
-
-    def _command_context(self, agent: str) -> CommandContext:
-        return PrimitiveContext(executor=self.executors[agent], rng=self.np_random)
+        self._read_sensors(self.agents)
 
     def _before_physics(self) -> None:
         """Motor noise: each wheel's commanded speed is scaled by 1 + N(0, ``motor_noise``²)."""
@@ -183,33 +184,43 @@ class BoxPushing(TeamEnv):
             left, right = wheel_speeds(*robot.command, base)
             robot.set_command(*body_command(left * a, right * b, base))
 
-    def _evaluate(self) -> tuple[dict[str, float], dict[str, bool]]:
-        c = self.config
+    def _update_state(self) -> None:
+        """Contacts, and the boxes' gaps to the goal wall (this step's progress)."""
         self._count_contacts()
-        progress = self._update_boxes()
-        self._progress += progress
+        self._step_progress = self._update_boxes()
+        self._progress += self._step_progress
+
+    def _apply_events(self) -> None:
+        """Scheduled events (``events`` in the config) due at this control step."""
         while self._next_event < len(self.events) and self.events[self._next_event].cycle <= self.cycles:
             self._apply_event(self.events[self._next_event])
             self._next_event += 1
-        newly_successful = not self._success and self._goal_reached()
-        if newly_successful:
+
+    def _check_goals(self) -> None:
+        self._newly_successful = not self._success and self._goal_reached()
+        if self._newly_successful:
             self._success = True
-            self._success_time = self.cycles * c.dt
-        reward = c.progress_reward * progress - c.time_penalty + (c.success_bonus if newly_successful else 0.0)
-        rewards = {a: float(reward) for a in self.agents}
+            self._success_time = self.cycles * self.config.dt
+
+    def _accumulate_rewards(self, total: np.ndarray) -> None:
+        """The team's shared reward: progress of the boxes, time penalty, success bonus."""
+        c = self.config
+        reward = c.progress_reward * self._step_progress - c.time_penalty + (c.success_bonus if self._newly_successful else 0.0)
+        total[[self._index[a] for a in self.agents]] += reward
+
+    def _sense(self) -> None:
+        """Sensors of the robots that go on, including robots added by events in this step."""
+        going_on = [a for a in [*self.agents, *self._joining] if not (self._success or a in self._leaving)]
+        self._read_sensors(going_on)
+
+    def _terminations(self) -> dict[str, bool]:
+        """Every robot on success; removed and broken robots (their status is recorded)."""
         terminations = {a: self._success or a in self._leaving for a in self.agents}
-        for agent in self._joining:
-            self.agents.append(agent)
-            self._trails[agent] = [self.robots[agent].position]
-            rewards[agent], terminations[agent] = 0.0, self._success
-        self._joining = []
-        for agent in self._leaving:
-            self._status[agent] = self._leaving[agent]
+        for agent, status in self._leaving.items():
+            self._status[agent] = status
             self.executors[agent].cancel()
         self._leaving = {}
-        live = [a for a in self.agents if not terminations[a]]
-        self._sense(live)
-        return rewards, terminations
+        return terminations
 
     def _observe(self, out: np.ndarray) -> None:
         if not self.agents:
@@ -330,7 +341,7 @@ class BoxPushing(TeamEnv):
         self._n_robots_used += 1
         self.robots[name] = self.world.add(DiffDriveRobot(name, (x, y), heading, self.spec_robot))
         self._rows = None
-        self._joining.append(name)
+        self._admit(name)
         return name
 
     def _remove_robot(self, agent: str) -> None:
@@ -459,7 +470,7 @@ class BoxPushing(TeamEnv):
             self._rows = {r.name: i for i, r in enumerate(self.world.robots)}
         return self._rows
 
-    def _sense(self, agents: list[str]) -> None:
+    def _read_sensors(self, agents: list[str]) -> None:
         """Proximity, light and encoder readings of ``agents``; executors see them too."""
         rows, states = self._robot_rows(), self.world.robot_states
         space, rng = self.world.space, self.np_random

@@ -60,7 +60,7 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
-from teamgym.control.watcher import TaskWatcher, WatcherState
+from teamgym.control.watcher import TASK_REASONS, TaskWatcher, WatcherState
 from teamgym.envs.actions import ActionType, VelocityAction
 from teamgym.envs.base import EpisodeOverError, TeamEnv
 from teamgym.envs.config import ConfigError
@@ -89,8 +89,9 @@ class Exploration(TeamEnv):
     config: ExplorationConfig
     pixels_per_metre = 400.0
 
-    def __init__(self, render_mode: str | None = None, **config: Any) -> None:
-        super().__init__(render_mode, **config)
+    def _setup(self) -> None:
+        self.operator_set = OperatorSet(self.map)
+        self.operators = self.operator_set.operators
         c = self.config
         self.spec_robot = RobotSpec()
         self.ring = ProximityRing(KHEPERA_RING, c.sensor_range, c.sensor_noise)
@@ -122,10 +123,8 @@ class Exploration(TeamEnv):
         return [f"robot_{i}" for i in range(self.config.n_robots)]
 
     def _make_action_type(self) -> ActionType:
-        self.operator_set = OperatorSet(self.map)
-        self.operators = self.operator_set.operators
         if self.config.action_type == "velocity":
-            return VelocityAction(RobotSpec())
+            return VelocityAction(self.spec_robot)
         return OperatorAction(self.operator_set)
 
     def _make_layout(self) -> ObservationLayout:
@@ -165,7 +164,6 @@ class Exploration(TeamEnv):
         self._place = np.zeros(n, dtype=int)
         self._collisions = np.zeros(n, dtype=int)
         self._collided = np.zeros(n, dtype=bool)
-        self._reward = np.zeros(n)
         self._explore_time = math.nan
         self._stages = 0
         self._completed = np.zeros(n, dtype=int)
@@ -181,11 +179,12 @@ class Exploration(TeamEnv):
             self.spec_robot.radius,
             c.max_speed,
         )
-        self._masks = np.zeros((n, len(self.operators)), dtype=np.int8)
+        self._hits: list[int] = []
+        self._newly_explored = 0
         self.world.read_states()
+        self._update_state()
+        self._check_goals()
         self._sense()
-        self._reward[:] = 0.0
-        self._update_masks()
 
     def _sample_doors(self, rng: np.random.Generator) -> dict[str, bool]:
         """Door states for an episode: o_j draws unless ``door_states="open"`` or forced by the config."""
@@ -261,32 +260,11 @@ class Exploration(TeamEnv):
             for door_id, is_open in self._sample_doors(self.np_random).items():
                 self._apply_door(door_id, is_open)
 
-    # -- stepping ----------------------------------------------------------------------
-    def _check_actions(self, actions: dict) -> dict:
-        checked = super()._check_actions(actions)
-        if self.config.action_type == "operator":
-            for agent, op in checked.items():
-                i = self._index[agent]
-                if not self._masks[i, op]:
-                    admissible = [self.operators[k].name for k in np.flatnonzero(self._masks[i])]
-                    raise ValueError(
-                        f"action {op} = {self.operators[op].name} for {agent!r} is masked: its preconditions "
-                        f"(paper 000, section 3.1) do not hold at place {self.map.vertex_ids[self._place[i]]}; "
-                        f"admissible now: {admissible}"
-                    )
-        return checked
-
-    def _advance(self, actions: dict) -> None:
-        self._reward[:] = 0.0
-        if self.config.action_type == "velocity":
-            super()._advance(actions)
-            self._sense()
-        else:
-            self._run_stage(actions)
-        self._update_masks()
-
-    def _assign(self, actions: dict) -> None:
-        """Start the operators of this stage; an operator a robot is still executing continues."""
+    # -- operators as macro actions (OperatorAction calls these) --------------------------
+    def start_stage(self, actions: dict) -> None:
+        """Begin a planning stage (Fig. 5): start the operators; one a robot still executes continues."""
+        if not self._all_explored():
+            self._stages += 1
         time, states = self.world.time, self.world.robot_states
         for agent, op in actions.items():
             i = self._index[agent]
@@ -297,36 +275,40 @@ class Exploration(TeamEnv):
             sector = self.map.sector_ids[self._sector[i]]
             watcher.assign(self._tasks.make(self.operators[op], sector), time, states[i, :2], self.robot_list[i].odometer)
             self._task_sector[i] = self._sector[i]
+        self._stage_robots = [self._index[a] for a in self.agents]
+        self._stage_start = self.cycles
+        self._stage_ended = False
 
-    def _run_stage(self, actions: dict) -> None:
-        """One planning stage (Fig. 5): control steps until a task ends (see ``stage_end``)."""
-        c = self.config
-        if not self._all_explored():
-            self._stages += 1
-        self._assign(actions)
-        live = [self._index[a] for a in self.agents]
-        start, ended = self.cycles, False
-        while True:
-            states = self.world.robot_states
-            for i in live:
-                pose = tuple(states[i, :3].tolist())
-                self.robot_list[i].set_command(*self._watchers[i].control(pose, self._proximity[i], bool(self._collided[i])))
-            self._before_physics()
-            self.world.step()
-            self.cycles += 1
-            self._record_trails()
-            self._sense()
-            for i in live:
-                if self._watch(i):
-                    ended = True
-            if self._all_explored() or self.cycles >= c.max_cycles:
-                break
-            busy = any(self._watchers[i].executing and not self._watchers[i].task.is_wait for i in live)
-            waited = self.cycles - start >= c.wait_steps
-            if c.stage_end == "any" and (ended or (not busy and waited)):
-                break
-            if c.stage_end == "all" and not busy and (ended or waited):
-                break
+    def operator_command(self, agent: str) -> tuple[float, float]:
+        """The behaviour-based controller's command for ``agent``'s current task."""
+        i = self._index[agent]
+        pose = tuple(self.world.robot_states[i, :3].tolist())
+        return self._watchers[i].control(pose, self._proximity[i], bool(self._collided[i]))
+
+    def stage_over(self) -> bool:
+        """After a control step: watch the tasks; the stage ends as ``stage_end`` says."""
+        c, robots = self.config, self._stage_robots
+        for i in robots:
+            if self._watch(i):
+                self._stage_ended = True
+        if self._all_explored():
+            return True
+        if self.cycles >= c.max_cycles:
+            return True
+        busy = any(self._watchers[i].executing and not self._watchers[i].task.is_wait for i in robots)
+        waited = self.cycles - self._stage_start >= c.wait_steps
+        if c.stage_end == "any":
+            return self._stage_ended or (not busy and waited)
+        return not busy and (self._stage_ended or waited)
+
+    def operator_mask(self, agent: str) -> np.ndarray:
+        """Preconditions of section 3.1 at the robot's place; the operator it executes stays allowed."""
+        i = self._index[agent]
+        mask = self.operator_set.admissible(int(self._place[i]), self.model.cost)
+        watcher = self._watchers[i]
+        if watcher.executing and watcher.task is not None:
+            mask[watcher.task.key] = 1
+        return mask
 
     def _watch(self, i: int) -> bool:
         """Update robot i's watcher after a control step; True if its task just ended."""
@@ -349,9 +331,8 @@ class Exploration(TeamEnv):
             return True
         return False
 
-    def _sense(self) -> None:
-        """After a control step: sectors, places, door sightings, explored set, contacts, proximity."""
-        c = self.config
+    def _update_state(self) -> None:
+        """After a control step: sectors, places, door sightings, the explored set and contacts."""
         states = self.world.robot_states
         pos = states[:, :2]
         eps = 1e-3
@@ -380,19 +361,31 @@ class Exploration(TeamEnv):
         newly[self._place[self._place < self.n_sectors]] = True
         newly &= ~self.visited
         self.visited |= newly
-        explored = int(np.count_nonzero(newly & self.goal))
-        self._reward += c.explore_reward * explored - c.time_penalty
-        if explored and self._all_explored() and math.isnan(self._explore_time):
-            self._explore_time = self.cycles * c.dt
+        self._newly_explored = int(np.count_nonzero(newly & self.goal))
         self._collided[:] = False
+        self._hits = []
         for contact in self.world.contacts:
             for name in (contact.a, contact.b):
                 i = self._index.get(name)
                 if i is not None:
                     self._collisions[i] += 1
                     self._collided[i] = True
-                    self._reward[i] -= c.collision_penalty
-        space, rng, read = self.world.space, self.np_random, self.ring.read
+                    self._hits.append(i)
+
+    def _check_goals(self) -> None:
+        if self._newly_explored and self._all_explored() and math.isnan(self._explore_time):
+            self._explore_time = self.cycles * self.config.dt
+
+    def _accumulate_rewards(self, total: np.ndarray) -> None:
+        """``explore_reward`` per newly explored goal sector − ``time_penalty``, shared; − ``collision_penalty`` per contact."""
+        c = self.config
+        total += c.explore_reward * self._newly_explored - c.time_penalty
+        for i in self._hits:
+            total[i] -= c.collision_penalty
+
+    def _sense(self) -> None:
+        """Proximity rings of every robot (the behaviour-based controller reads them)."""
+        space, rng, read, states = self.world.space, self.np_random, self.ring.read, self.world.robot_states
         for i, robot in enumerate(self.robot_list):
             x, y, theta = states[i, :3].tolist()
             read(robot, space, rng, out=self._proximity[i], pose=(x, y, theta))
@@ -400,21 +393,8 @@ class Exploration(TeamEnv):
     def _all_explored(self) -> bool:
         return bool(np.all(self.visited[self.goal]))
 
-    def _update_masks(self) -> None:
-        if self.config.action_type != "operator":
-            return
-        for i, agent in enumerate(self.possible_agents):
-            mask = self.operator_set.admissible(int(self._place[i]), self.model.cost)
-            watcher = self._watchers[i]
-            if watcher.executing and watcher.task is not None:
-                mask[watcher.task.key] = 1
-            self._masks[i] = mask
-            self._action_spaces[agent].live_mask[:] = mask
-
-    def _evaluate(self) -> tuple[dict[str, float], dict[str, bool]]:
-        done = self._all_explored()
-        rewards = {a: float(self._reward[self._index[a]]) for a in self.agents}
-        return rewards, {a: done for a in self.agents}
+    def _terminations(self) -> dict[str, bool]:
+        return dict.fromkeys(self.agents, self._all_explored())
 
     # -- observations, metrics -------------------------------------------------------
     def _observe(self, out: np.ndarray) -> None:
@@ -445,7 +425,6 @@ class Exploration(TeamEnv):
 
     def _metrics(self, agent: str) -> dict[str, Any]:
         i = self._index[agent]
-        office = self.map
         explored = int(np.count_nonzero(self.visited & self.goal))
         metrics: dict[str, Any] = {
             "explored": explored,
@@ -454,8 +433,8 @@ class Exploration(TeamEnv):
             "path_length": float(self.robot_list[i].odometer),
             "team_path_length": float(sum(r.odometer for r in self.robot_list)),
             "collisions": int(self._collisions[i]),
-            "sector": office.sector_ids[self._sector[i]],
-            "place": office.vertex_ids[self._place[i]],
+            "sector": int(self._sector[i]),
+            "place": int(self._place[i]),
         }
         if not math.isnan(self._explore_time):
             metrics["explore_time"] = float(self._explore_time)
@@ -465,28 +444,28 @@ class Exploration(TeamEnv):
                 stages=int(self._stages),
                 tasks_completed=int(self._completed[i]),
                 tasks_failed=int(self._failed[i]),
-                task=watcher.task.name if watcher.task is not None else "",
-                task_status=WATCHER_STATES[int(watcher.state)],
-                task_reason=watcher.report.reason if watcher.report is not None else "",
-                action_mask=self._masks[i].copy(),
+                task=watcher.task.key if watcher.task is not None else -1,
+                task_status=int(watcher.state),
+                task_reason=TASK_REASONS.index(watcher.report.reason) if watcher.report is not None else 0,
             )
         return metrics
 
-    def action_mask(self, agent: str) -> np.ndarray:
-        """The agent's current operator mask (int8, 1 = admissible); all ones for ``velocity``."""
-        if agent not in self._index:
-            raise KeyError(f"unknown agent {agent!r}; possible agents are {self.possible_agents}")
-        if self.world is None:
-            raise EpisodeOverError("action_mask() called before reset()")
-        if self.config.action_type != "operator":
-            raise ValueError("action masks exist for action_type='operator' only")
-        return self._masks[self._index[agent]].copy()
-
-    def action_masks(self) -> dict[str, np.ndarray]:
-        """Masks of the live agents (empty for the ``velocity`` action type)."""
-        if self.world is None or self.config.action_type != "operator":
-            return {}
-        return {a: self.action_mask(a) for a in self.agents}
+    def decode_info(self, info: dict[str, Any]) -> dict[str, Any]:
+        """``info`` with its indices named: ``sector``/``place`` as map ids, ``task`` as the operator,
+        ``task_status`` as the watcher state, ``task_reason`` as the reason (infos hold numbers only)."""
+        named = dict(info)
+        office = self.map
+        if "sector" in info:
+            named["sector"] = office.sector_ids[int(info["sector"])]
+        if "place" in info:
+            named["place"] = office.vertex_ids[int(info["place"])]
+        if "task" in info:
+            named["task"] = self.operators[int(info["task"])].name if int(info["task"]) >= 0 else ""
+        if "task_status" in info:
+            named["task_status"] = WATCHER_STATES[int(info["task_status"])]
+        if "task_reason" in info:
+            named["task_reason"] = TASK_REASONS[int(info["task_reason"])]
+        return named
 
     def episode_success(self) -> bool:
         """Every goal sector explored (M_G ⊆ M_V)."""

@@ -26,7 +26,7 @@ from gymnasium import spaces
 
 from teamgym.control.behaviour import DEFAULT_PRIORITIES, NARROW_PASSAGE, BehaviourParameters
 from teamgym.control.watcher import Task
-from teamgym.envs.actions import ActionType, CommandContext
+from teamgym.envs.actions import ActionType
 from teamgym.maps.geometry import door_opening, shared_edge
 from teamgym.maps.model import OfficeMap, Point
 
@@ -139,9 +139,15 @@ class OperatorSpace(spaces.Discrete):
 
 
 class OperatorAction(ActionType):
-    """The paper's operators as macro actions; the env's controller executes them."""
+    """The paper's operators as macro actions: one ``step`` is one planning stage (Fig. 5).
+
+    The env executes them: ``start_stage(actions)`` assigns the tasks, ``operator_command(agent)``
+    is the behaviour-based controller's command, ``stage_over()`` watches the tasks and
+    ``operator_mask(agent)`` gives the preconditions of section 3.1 as a mask.
+    """
 
     name = "operator"
+    is_macro = True
 
     def __init__(self, operators: OperatorSet) -> None:
         self.operators = operators
@@ -149,8 +155,20 @@ class OperatorAction(ActionType):
     def space(self) -> OperatorSpace:
         return OperatorSpace(len(self.operators))
 
-    def command(self, action, context: CommandContext) -> tuple[float, float]:
-        raise RuntimeError("operators are macro actions: Exploration-v0 runs them through its behaviour-based controller")
+    def start(self, env, actions: dict) -> None:
+        env.start_stage(actions)
+
+    def act(self, env, agent: str, action) -> tuple[float, float]:
+        return env.operator_command(agent)
+
+    def stage_over(self, env) -> bool:
+        return env.stage_over()
+
+    def mask(self, env, agent: str) -> np.ndarray:
+        return env.operator_mask(agent)
+
+    def describe(self, action) -> str:
+        return self.operators.operators[int(action)].name
 
 
 class TaskFactory:

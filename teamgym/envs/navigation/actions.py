@@ -1,4 +1,8 @@
-"""Paper 001's discrete heading set as an action type of Navigation-v0."""
+"""Paper 001's discrete heading set as an action type of Navigation-v0.
+
+The speed rule reads the env's ``speed_inputs(agent)``: the distance to the robot's goal and
+L_min of eq. (12), the gap to the nearest object that the speed rule considers.
+"""
 
 from __future__ import annotations
 
@@ -6,7 +10,7 @@ import numpy as np
 from gymnasium import spaces
 
 from teamgym.control.heading import HeadingHeuristic
-from teamgym.envs.actions import ActionType, CommandContext
+from teamgym.envs.actions import ActionType
 
 
 class HeadingAction(ActionType):
@@ -17,7 +21,6 @@ class HeadingAction(ActionType):
     """
 
     name = "heading"
-    needs_context = True
 
     def __init__(self, levels: int, max_rate_deg: float, heuristic: HeadingHeuristic) -> None:
         if levels < 2:
@@ -28,6 +31,8 @@ class HeadingAction(ActionType):
     def space(self) -> spaces.Discrete:
         return spaces.Discrete(len(self.rates))
 
-    def command(self, action, context: CommandContext) -> tuple[float, float]:
-        v = float(self.heuristic.speed(context.target_distance, context.nearest_distance))
+    def act(self, env, agent: str, action) -> tuple[float, float]:
+        """ω of the chosen level; v from eqs. (12)–(13) with the env's ``speed_inputs(agent)``."""
+        target_distance, nearest_distance = env.speed_inputs(agent)
+        v = float(self.heuristic.speed(target_distance, nearest_distance))
         return v, float(self.rates[int(action)])

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal
+from typing import ClassVar, Literal
 
 from teamgym.envs.config import EnvConfig, require
 
@@ -11,6 +11,9 @@ from teamgym.envs.config import EnvConfig, require
 @dataclass(frozen=True)
 class NavigationConfig(EnvConfig):
     """Configuration of ``Navigation-v0`` (SI units; angles of the heading set in deg/s)."""
+
+    body_speed_keys: ClassVar[tuple[str, ...]] = ("max_wheel_speed", "obstacle_speed")
+    default_body_speed: ClassVar[float] = 0.0
 
     n_robots: int = 3
     n_obstacles: int = 2

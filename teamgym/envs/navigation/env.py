@@ -62,7 +62,7 @@ import numpy as np
 from gymnasium import spaces
 
 from teamgym.control.heading import HeadingHeuristic, nearest_gap
-from teamgym.envs.actions import ActionType, CommandContext, VelocityAction, WheelSpeedAction
+from teamgym.envs.actions import ActionType, VelocityAction, WheelSpeedAction
 from teamgym.envs.base import TeamEnv
 from teamgym.envs.config import ConfigError
 from teamgym.envs.navigation.actions import HeadingAction
@@ -86,8 +86,7 @@ class Navigation(TeamEnv):
     config_class = NavigationConfig
     config: NavigationConfig
 
-    def __init__(self, render_mode: str | None = None, **config: Any) -> None:
-        super().__init__(render_mode, **config)
+    def _setup(self) -> None:
         c = self.config
         self.spec_robot = RobotSpec(
             radius=c.robot_radius,
@@ -99,11 +98,16 @@ class Navigation(TeamEnv):
         self.ring = ProximityRing(KHEPERA_RING, c.sensor_range, c.sensor_noise)
         n, m = c.n_robots, c.n_obstacles
         self.state_space = spaces.Box(-np.inf, np.inf, shape=(7 * n + 4 * m,), dtype=np.float32)
-        try:
-            self._sample_scene(np.random.default_rng(0))
-        except PlacementError as error:
-            raise ConfigError(f"NavigationConfig: {error}") from None
         self._others = np.array([[j for j in range(n) if j != i] for i in range(n)], dtype=int).reshape(n, n - 1)
+        self._check_feasible()
+
+    def _check_feasible(self) -> None:
+        """Refuse at ``make()`` a config whose scenes cannot be sampled (tried on several seeds)."""
+        for seed in range(8):
+            try:
+                self._sample_scene(np.random.default_rng(seed))
+            except PlacementError as error:
+                raise ConfigError(f"NavigationConfig: {error} (seed {seed})") from None
 
     # -- construction ----------------------------------------------------------------
     def _agent_names(self) -> list[str]:
@@ -111,15 +115,11 @@ class Navigation(TeamEnv):
 
     def _make_action_type(self) -> ActionType:
         c = self.config
-        spec = RobotSpec(
-            radius=c.robot_radius, max_wheel_speed=c.max_wheel_speed, wheel_base=min(RobotSpec.wheel_base, 2 * c.robot_radius)
-        )
         if c.action_type == "velocity":
-            return VelocityAction(spec)
+            return VelocityAction(self.spec_robot)
         if c.action_type == "wheels":
-            return WheelSpeedAction(spec)
-        heuristic = HeadingHeuristic(c.v_opt, c.alpha, c.beta, c.target_threshold, c.object_threshold)
-        return HeadingAction(c.heading_levels, c.heading_max_rate, heuristic)
+            return WheelSpeedAction(self.spec_robot)
+        return HeadingAction(c.heading_levels, c.heading_max_rate, self.heuristic)
 
     def _make_layout(self) -> ObservationLayout:
         n, m = self.config.n_robots, self.config.n_obstacles
@@ -182,10 +182,20 @@ class Navigation(TeamEnv):
         self._proximity = np.full((n, self.ring.n_rays), c.sensor_range, dtype=np.float32)
         self._read_proximity(np.arange(n))
 
-    def _sample_scene(self, rng: np.random.Generator) -> NavigationScene:
-        """Random starts, headings, goals and obstacles; raises PlacementError if they do not fit."""
-        starts, headings, goals = self._sample_starts_and_goals(rng)
-        return NavigationScene(starts, headings, goals, self._sample_obstacles(rng, starts))
+    def _sample_scene(self, rng: np.random.Generator, attempts: int = 20) -> NavigationScene:
+        """Random starts, headings, goals and obstacles.
+
+        Placement is sequential rejection sampling; when it gets stuck the whole scene is drawn
+        again from the same stream (up to ``attempts`` times) before PlacementError is raised.
+        """
+        for attempt in range(attempts):
+            try:
+                starts, headings, goals = self._sample_starts_and_goals(rng)
+                return NavigationScene(starts, headings, goals, self._sample_obstacles(rng, starts))
+            except PlacementError:
+                if attempt == attempts - 1:
+                    raise
+        raise AssertionError("unreachable")
 
     def _sample_starts_and_goals(self, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         c = self.config
@@ -284,9 +294,10 @@ class Navigation(TeamEnv):
         np.minimum(self._min_clearance, exact, out=self._min_clearance)
         np.minimum(self._min_center, d.min(axis=1), out=self._min_center)
 
-    def _command_context(self, agent: str) -> CommandContext:
+    def speed_inputs(self, agent: str) -> tuple[float, float]:
+        """Inputs of the speed rule, eqs. (12)–(13): distance to the goal and L_min (m)."""
         i = self._index[agent]
-        return CommandContext(float(self._goal_distance[i]), self._nearest_for_speed(i))
+        return float(self._goal_distance[i]), self._nearest_for_speed(i)
 
     def _nearest_for_speed(self, i: int) -> float:
         """L_min,i of eq. (12), by :func:`teamgym.control.heading.nearest_gap` (``speed_rule``)."""
@@ -311,11 +322,12 @@ class Navigation(TeamEnv):
             for robot, d in zip(self.robot_list, delta.tolist()):
                 robot.actuation_delay = 0.5 * c.actuation_delay * (1.0 + d)
 
-    def _evaluate(self) -> tuple[dict[str, float], dict[str, bool]]:
-        c = self.config
+    def _update_state(self) -> None:
+        """Poses, distances, contacts, progress towards the goals and smoothness (section 6.2)."""
         self._read_state()
         self._update_distances()
         live = np.array([self._index[a] for a in self.agents], dtype=int)
+        self._live = live
         for contact in self.world.contacts:
             for name in (contact.a, contact.b):
                 i = self._index.get(name)
@@ -324,22 +336,33 @@ class Navigation(TeamEnv):
                     self._new_collisions[i] += 1
         offset = self.goals - self._pos
         distance = np.sqrt(np.einsum("ij,ij->i", offset, offset))
-        progress = self._goal_distance - distance
+        self._progress = self._goal_distance - distance
         self._goal_distance = distance
         du = self._last_command[live] - self._prev_command[live]
         self._smooth_sum[live] += np.einsum("ij,ij->i", du, du)
         self._smooth_steps[live] += 1
-        arrived = distance[live] < c.goal_tolerance
-        reward = c.progress_reward * progress[live] - c.time_penalty - c.collision_penalty * self._new_collisions[live]
-        reward += c.arrival_bonus * arrived
-        self._new_collisions[live] = 0
-        newly = live[arrived]
+
+    def _check_goals(self) -> None:
+        live = self._live
+        self._arriving = self._goal_distance[live] < self.config.goal_tolerance
+        newly = live[self._arriving]
         self._arrived[newly] = True
-        self._arrival_time[newly] = self.cycles * c.dt
-        rewards = dict(zip(self.agents, reward.tolist()))
-        terminations = dict(zip(self.agents, arrived.tolist()))
-        self._read_proximity(live[~arrived])
-        return rewards, terminations
+        self._arrival_time[newly] = self.cycles * self.config.dt
+
+    def _accumulate_rewards(self, total: np.ndarray) -> None:
+        c, live = self.config, self._live
+        reward = c.progress_reward * self._progress[live] - c.time_penalty - c.collision_penalty * self._new_collisions[live]
+        reward += c.arrival_bonus * self._arriving
+        self._new_collisions[live] = 0
+        total[live] += reward
+
+    def _sense(self) -> None:
+        """Proximity rings of the robots that go on (arrived robots stop sensing)."""
+        self._read_proximity(self._live[~self._arriving])
+
+    def _terminations(self) -> dict[str, bool]:
+        """A robot that arrives terminates, stops and stays in the world."""
+        return dict(zip(self.agents, self._arrived[[self._index[a] for a in self.agents]].tolist()))
 
     def _read_proximity(self, indices: np.ndarray) -> None:
         space, rng, read, states = self.world.space, self.np_random, self.ring.read, self.world.robot_states

@@ -1,0 +1,418 @@
+"""A lossy radio between robots: range, throughput, latency and a per-step byte budget.
+
+Model
+-----
+Robots exchange :class:`Message` records through a :class:`Channel`. Messages can be
+env-generated (e.g. shared perception tuples) or agent-chosen (a learned ``comm_dim`` float
+vector). Per control step, the environment
+
+1. calls :meth:`Channel.send` any number of times (the message is queued for this step),
+2. calls :meth:`Channel.deliver` once with the robots' positions, its own
+   ``np.random.Generator`` and the step number, then reads :meth:`Channel.inbox` or
+   :meth:`Channel.inbox_array` to build observations.
+
+A message reaches a receiver (every *other* present robot for a broadcast, the recipient
+otherwise) only if
+
+* the receiver is within ``comm_range`` metres of the sender at send time (Euclidean
+  distance ``<= comm_range``, positions as passed to the ``deliver`` of the sending step);
+* an independent delivery draw succeeds with probability ``throughput``;
+* the receiver is still present when the message arrives, ``latency`` control steps later;
+* the receiver's inbox has room (``inbox_size`` messages per step; arrivals are ordered by
+  sender index, then send order, and the ones past the limit are dropped).
+
+A sender may queue at most ``byte_budget`` bytes per step; a send that would exceed it is
+refused (``send`` returns ``False``). The budget starts afresh after each ``deliver``.
+
+Units: distances in metres, sizes in bytes, latency in control steps.
+
+Order of random draws
+---------------------
+``deliver`` takes the messages sent this step sorted by sender index (the order of
+``agents``), then by send order; for each, the receivers in agent-index order. One
+``rng.random()`` is drawn per (message, receiver) pair that passed the presence and range
+checks, and the copy is delivered iff the draw is ``< throughput``. Nothing is drawn when
+``throughput`` is exactly 0 or 1, so a perfect channel leaves the environment's random
+stream untouched. The same generator state therefore gives the same deliveries.
+
+Counters (per agent, for the episode)
+-------------------------------------
+Sender side: ``bytes_sent`` and ``messages_sent`` count accepted sends (one per message,
+however many receivers); ``dropped[reason]`` counts lost copies of the agent's messages, one
+per (message, receiver) pair, with reasons ``"range"``, ``"loss"``, ``"inbox"`` and
+``"absent"`` (the sender, or an addressed recipient, was missing from the positions at
+send time, or the receiver was missing at arrival), plus ``"budget"`` for refused sends.
+Receiver side: ``messages_delivered`` and ``bytes_delivered`` count the copies that reached
+the agent's inbox and their sizes.
+
+All state is plain Python and numpy, so ``copy.deepcopy`` and ``pickle`` give a channel
+that continues identically when fed the same generator state.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import operator
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any, NamedTuple
+
+import numpy as np
+
+#: Reasons a message copy (or, for ``"budget"``, a send) is dropped.
+DROP_REASONS = ("budget", "range", "loss", "inbox", "absent")
+
+_TRAFFIC = ("bytes_sent", "bytes_delivered", "messages_sent", "messages_delivered")
+
+
+def _as_int(value: Any, what: str) -> int:
+    """``value`` as a Python int; ``TypeError`` naming ``what`` for bools, floats, strings."""
+    if isinstance(value, bool):
+        raise TypeError(f"{what} must be an integer, got {value!r}")
+    try:
+        return operator.index(value)
+    except TypeError:
+        raise TypeError(f"{what} must be an integer, got {value!r}") from None
+
+
+@dataclass(frozen=True)
+class ChannelConfig:
+    """Parameters of the radio. Call :meth:`check` (``Channel`` does) to validate them."""
+
+    comm_range: float = math.inf  #: m; receivers farther than this from the sender get nothing
+    throughput: float = 1.0  #: delivery probability per message per receiver, in [0, 1]
+    latency: int = 0  #: control steps between send and arrival (0: same step)
+    byte_budget: float = math.inf  #: bytes a robot may send per step
+    inbox_size: int = 64  #: messages kept per receiver per step
+
+    def check(self) -> None:
+        """Raise ``ValueError`` naming the first invalid field and its value."""
+        self._require("comm_range", _is_number(self.comm_range) and self.comm_range >= 0, "must be a number >= 0")
+        self._require("throughput", _is_number(self.throughput) and 0 <= self.throughput <= 1, "must be in [0, 1]")
+        self._require("latency", _is_count(self.latency) and self.latency >= 0, "must be an integer >= 0")
+        self._require("byte_budget", _is_number(self.byte_budget) and self.byte_budget >= 0, "must be a number >= 0")
+        self._require("inbox_size", _is_count(self.inbox_size) and self.inbox_size >= 1, "must be an integer >= 1")
+
+    def _require(self, key: str, condition: bool, message: str) -> None:
+        if not condition:
+            raise ValueError(f"ChannelConfig: {key}={getattr(self, key)!r} is invalid; it {message}")
+
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool) and not math.isnan(value)
+
+
+def _is_count(value: Any) -> bool:
+    return isinstance(value, (int, np.integer)) and not isinstance(value, bool)
+
+
+def _payload_vector(payload: Any, sender: str) -> np.ndarray:
+    """A read-only float32 copy of ``payload``; errors name the sender."""
+    if np.iscomplexobj(payload):
+        raise TypeError(f"Message payload from {sender!r} must be real, got complex values")
+    try:
+        with np.errstate(all="ignore"):
+            vector = np.array(payload, dtype=np.float32)
+    except (TypeError, ValueError):
+        raise TypeError(f"Message payload from {sender!r} must be a numeric vector, got {payload!r}") from None
+    if vector.ndim != 1:
+        raise ValueError(f"Message payload from {sender!r} must be 1-D, got shape {vector.shape}")
+    if not np.all(np.isfinite(vector)):
+        i = int(np.flatnonzero(~np.isfinite(vector))[0])
+        raise ValueError(f"Message payload from {sender!r} has non-finite values (as float32), first at [{i}]: {vector[i]}")
+    vector.setflags(write=False)
+    return vector
+
+
+@dataclass(frozen=True, eq=False)
+class Message:
+    """One radio message. ``recipient=None`` is a broadcast; ``size`` defaults to ``payload.nbytes``.
+
+    ``payload`` is stored as a read-only float32 copy. Equality compares all fields, the
+    payload by value.
+    """
+
+    sender: str
+    recipient: str | None
+    payload: np.ndarray
+    size: int = None  # type: ignore[assignment]  # resolved to payload.nbytes
+    kind: str = "data"
+    sent_step: int = 0
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.sender, str) or not (self.recipient is None or isinstance(self.recipient, str)):
+            raise TypeError(f"Message sender/recipient must be str (recipient: or None), got {self.sender!r}/{self.recipient!r}")
+        payload = _payload_vector(self.payload, self.sender)
+        size = payload.nbytes if self.size is None else _as_int(self.size, f"Message size from {self.sender!r}")
+        if size < 0:
+            raise ValueError(f"Message size from {self.sender!r} must be >= 0, got {size}")
+        if not isinstance(self.kind, str):
+            raise TypeError(f"Message kind from {self.sender!r} must be a str, got {self.kind!r}")
+        object.__setattr__(self, "payload", payload)
+        object.__setattr__(self, "size", size)
+        object.__setattr__(self, "sent_step", _as_int(self.sent_step, "Message sent_step"))
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Message):
+            return NotImplemented
+        fields = ("sender", "recipient", "size", "kind", "sent_step")
+        same = all(getattr(self, f) == getattr(other, f) for f in fields)
+        return same and np.array_equal(self.payload, other.payload)
+
+    def __reduce__(self) -> tuple[Any, tuple[Any, ...]]:
+        # Rebuild through __init__ so that copies and unpickled messages keep a read-only payload.
+        return (Message, (self.sender, self.recipient, self.payload, self.size, self.kind, self.sent_step))
+
+
+class PackedInbox(NamedTuple):
+    """An inbox as fixed-size arrays; rows past the arrivals are padding (mask 0)."""
+
+    payload: np.ndarray  #: (capacity, width) float32; payloads left-aligned, zero-padded
+    mask: np.ndarray  #: (capacity,) int8; 1 for a message, 0 for padding
+    sender: np.ndarray  #: (capacity,) int32; sender's index in ``Channel.agents``, -1 for padding
+
+
+class Channel:
+    """Radio between the named agents; see the module docstring for the model."""
+
+    def __init__(self, agents: Sequence[str], config: ChannelConfig | None = None) -> None:
+        config = ChannelConfig() if config is None else config
+        config.check()
+        names = tuple(agents)
+        if not names:
+            raise ValueError("Channel needs at least one agent")
+        for name in names:
+            if not isinstance(name, str):
+                raise TypeError(f"Channel agent names must be str, got {name!r}")
+        if len(set(names)) != len(names):
+            raise ValueError(f"Channel agent names must be unique, got {list(names)!r}")
+        self.agents: tuple[str, ...] = names
+        self.config = config
+        self._index = {name: i for i, name in enumerate(names)}
+        self.reset()
+
+    # ------------------------------------------------------------------ state
+
+    def reset(self) -> None:
+        """Forget queued, in-flight and received messages and zero the episode counters."""
+        n = len(self.agents)
+        self._outbox: list[tuple[int, int, Message]] = []  # (sender index, seq, message) sent this step
+        self._in_flight: dict[int, list[tuple[int, int, int, Message]]] = {}  # due step -> (sender, seq, receiver, msg)
+        self._inboxes: list[list[Message]] = [[] for _ in range(n)]
+        self._spent = [0] * n  # bytes queued this step, per sender
+        self._seq = 0
+        self._last_step: int | None = None
+        self._counts = {key: np.zeros(n, dtype=np.int64) for key in _TRAFFIC}
+        self._dropped = {reason: np.zeros(n, dtype=np.int64) for reason in DROP_REASONS}
+
+    @property
+    def busy(self) -> bool:
+        """Whether :meth:`deliver` has anything to do: messages queued or in flight, or inboxes to clear."""
+        return bool(self._outbox or self._in_flight or any(self._inboxes))
+
+    @property
+    def used(self) -> bool:
+        """Whether any message was sent (or refused) since the last :meth:`reset`."""
+        return bool(self._counts["messages_sent"].any() or self._dropped["budget"].any())
+
+    # ------------------------------------------------------------------ sending
+
+    def send(self, sender: str, payload: Any, recipient: str | None = None, size: int | None = None, kind: str = "data") -> bool:
+        """Queue a message for this step's :meth:`deliver`; ``False`` if the byte budget refuses it.
+
+        Raises ``KeyError`` for unknown names, ``ValueError``/``TypeError`` for a bad payload,
+        size or kind, before changing anything.
+        """
+        s = self._agent_index(sender, "sender")
+        if recipient is not None:
+            self._agent_index(recipient, "recipient")
+            if recipient == sender:
+                raise ValueError(f"Channel.send: {sender!r} cannot address a message to itself")
+        message = Message(sender, recipient, payload, size, kind)
+        if self._spent[s] + message.size > self.config.byte_budget:
+            self._dropped["budget"][s] += 1
+            return False
+        self._spent[s] += message.size
+        self._counts["bytes_sent"][s] += message.size
+        self._counts["messages_sent"][s] += 1
+        self._outbox.append((s, self._seq, message))
+        self._seq += 1
+        return True
+
+    # ------------------------------------------------------------------ delivering
+
+    def deliver(self, positions: Mapping[str, tuple[float, float]] | np.ndarray, rng: np.random.Generator, step: int) -> None:
+        """Dispatch this step's messages and fill the inboxes with those due at ``step``.
+
+        ``positions`` maps present agents to ``(x, y)`` (m), or is an ``(n_agents, 2)`` array in
+        agent order whose non-finite rows mark absent agents. ``step`` must increase from
+        call to call. Inboxes are cleared first; the byte budget starts afresh afterwards.
+        """
+        step = self._check_step(step)
+        if not isinstance(rng, np.random.Generator):
+            raise TypeError(f"Channel.deliver: rng must be a numpy Generator, got {type(rng).__name__}")
+        where = self._parse_positions(positions)
+        for inbox in self._inboxes:
+            inbox.clear()
+        self._dispatch(where, rng, step)
+        self._arrive(where, step)
+        self._outbox.clear()
+        self._spent = [0] * len(self.agents)
+        self._last_step = step
+
+    def _check_step(self, step: Any) -> int:
+        step = _as_int(step, "Channel.deliver step")
+        if self._last_step is not None and step <= self._last_step:
+            raise ValueError(f"Channel.deliver: step={step} must be greater than the previous step {self._last_step}")
+        return step
+
+    def _parse_positions(self, positions: Any) -> list[tuple[float, float] | None]:
+        """Position of every agent by index; ``None`` for absent agents."""
+        n = len(self.agents)
+        if isinstance(positions, np.ndarray):
+            if positions.shape != (n, 2):
+                raise ValueError(f"Channel.deliver: positions array must have shape ({n}, 2), got {positions.shape}")
+            rows = positions.astype(float).tolist()
+            return [(x, y) if math.isfinite(x) and math.isfinite(y) else None for x, y in rows]
+        where: list[tuple[float, float] | None] = [None] * n
+        for name, xy in positions.items():
+            i = self._agent_index(name, "agent in positions")
+            try:
+                x, y = (float(v) for v in xy)
+            except (TypeError, ValueError):
+                raise ValueError(f"Channel.deliver: position of {name!r} must be (x, y), got {xy!r}") from None
+            if not (math.isfinite(x) and math.isfinite(y)):
+                raise ValueError(f"Channel.deliver: position of {name!r} must be finite, got {xy!r}")
+            where[i] = (x, y)
+        return where
+
+    def _dispatch(self, where: list[tuple[float, float] | None], rng: np.random.Generator, step: int) -> None:
+        """Check presence, range and loss of every copy sent this step; schedule the survivors."""
+        due = step + self.config.latency
+        for s, seq, message in sorted(self._outbox, key=lambda entry: entry[:2]):
+            origin = where[s]
+            if origin is None:
+                self._dropped["absent"][s] += 1
+                continue
+            stamped = dataclasses.replace(message, sent_step=step)
+            for r in self._receivers(message, s, where):
+                if not self._in_range(origin, where[r]):  # type: ignore[arg-type]  # receivers are present
+                    self._dropped["range"][s] += 1
+                elif not self._survives(rng):
+                    self._dropped["loss"][s] += 1
+                else:
+                    self._in_flight.setdefault(due, []).append((s, seq, r, stamped))
+
+    def _receivers(self, message: Message, s: int, where: list[tuple[float, float] | None]) -> list[int]:
+        """Indices of present receivers; an absent addressed recipient counts as an ``absent`` drop."""
+        if message.recipient is None:
+            return [r for r in range(len(self.agents)) if r != s and where[r] is not None]
+        r = self._index[message.recipient]
+        if where[r] is None:
+            self._dropped["absent"][s] += 1
+            return []
+        return [r]
+
+    def _in_range(self, a: tuple[float, float], b: tuple[float, float]) -> bool:
+        limit = self.config.comm_range
+        return math.isinf(limit) or math.hypot(a[0] - b[0], a[1] - b[1]) <= limit
+
+    def _survives(self, rng: np.random.Generator) -> bool:
+        p = self.config.throughput
+        if p >= 1:
+            return True
+        if p <= 0:
+            return False
+        return bool(rng.random() < p)
+
+    def _arrive(self, where: list[tuple[float, float] | None], step: int) -> None:
+        """Move copies due at or before ``step`` into the receivers' inboxes, up to ``inbox_size`` each."""
+        arrivals: list[tuple[int, int, int, Message]] = []
+        for due in sorted(d for d in self._in_flight if d <= step):
+            arrivals.extend(self._in_flight.pop(due))
+        arrivals.sort(key=lambda entry: entry[:2])
+        for s, _seq, r, message in arrivals:
+            inbox = self._inboxes[r]
+            if where[r] is None:
+                self._dropped["absent"][s] += 1
+            elif len(inbox) >= self.config.inbox_size:
+                self._dropped["inbox"][s] += 1
+            else:
+                inbox.append(message)
+                self._counts["messages_delivered"][r] += 1
+                self._counts["bytes_delivered"][r] += message.size
+
+    # ------------------------------------------------------------------ reading
+
+    def inbox(self, agent: str) -> list[Message]:
+        """Messages that arrived at ``agent`` in the last :meth:`deliver`, by sender index then send order."""
+        return list(self._inboxes[self._agent_index(agent, "agent")])
+
+    def inbox_array(self, agent: str, width: int, capacity: int, kind: str | None = None) -> PackedInbox:
+        """The first ``capacity`` messages of :meth:`inbox` (only ``kind`` ones if given) as arrays.
+
+        Payloads longer than ``width`` raise ``ValueError``; shorter ones are zero-padded.
+        """
+        width, capacity = _as_int(width, "inbox_array width"), _as_int(capacity, "inbox_array capacity")
+        if width < 0 or capacity < 0:
+            raise ValueError(f"Channel.inbox_array: width={width} and capacity={capacity} must be >= 0")
+        messages = [m for m in self.inbox(agent) if kind is None or m.kind == kind][:capacity]
+        packed = PackedInbox(
+            payload=np.zeros((capacity, width), dtype=np.float32),
+            mask=np.zeros(capacity, dtype=np.int8),
+            sender=np.full(capacity, -1, dtype=np.int32),
+        )
+        for row, message in enumerate(messages):
+            if len(message.payload) > width:
+                raise ValueError(
+                    f"Channel.inbox_array: payload of length {len(message.payload)} from {message.sender!r} exceeds width={width}"
+                )
+            packed.payload[row, : len(message.payload)] = message.payload
+            packed.mask[row] = 1
+            packed.sender[row] = self._index[message.sender]
+        return packed
+
+    @property
+    def bytes_sent(self) -> np.ndarray:
+        """Bytes of accepted sends per agent (index order of ``agents``), this episode."""
+        return self._counts["bytes_sent"].copy()
+
+    @property
+    def bytes_delivered(self) -> np.ndarray:
+        """Bytes received into each agent's inbox, this episode."""
+        return self._counts["bytes_delivered"].copy()
+
+    @property
+    def messages_sent(self) -> np.ndarray:
+        """Accepted sends per agent, this episode (one per message, whatever the receivers)."""
+        return self._counts["messages_sent"].copy()
+
+    @property
+    def messages_delivered(self) -> np.ndarray:
+        """Messages received into each agent's inbox, this episode."""
+        return self._counts["messages_delivered"].copy()
+
+    @property
+    def dropped(self) -> dict[str, np.ndarray]:
+        """Dropped copies (refused sends for ``"budget"``) per reason, counted on the sender."""
+        return {reason: counts.copy() for reason, counts in self._dropped.items()}
+
+    @property
+    def messages_dropped(self) -> np.ndarray:
+        """All drops per sender, summed over the reasons."""
+        return sum(self._dropped.values(), np.zeros(len(self.agents), dtype=np.int64))
+
+    def stats(self, agent: str) -> dict[str, int]:
+        """The agent's episode counters as plain ints, for env infos."""
+        i = self._agent_index(agent, "agent")
+        out = {key: int(counts[i]) for key, counts in self._counts.items()}
+        out["messages_dropped"] = int(self.messages_dropped[i])
+        out.update({f"dropped_{reason}": int(counts[i]) for reason, counts in self._dropped.items()})
+        return out
+
+    def _agent_index(self, name: Any, role: str) -> int:
+        try:
+            return self._index[name]
+        except (KeyError, TypeError):
+            raise KeyError(f"Channel: unknown {role} {name!r}; agents are {list(self.agents)!r}") from None
