@@ -48,6 +48,12 @@ EVERY_KEY = dict(
     explore_reward=2.0,
     collision_penalty=0.5,
     time_penalty=0.01,
+    obs_format="dict",
+    comm_dim=1,
+    comm_range=2.0,
+    comm_throughput=0.9,
+    comm_latency=2,
+    comm_byte_budget=100,
 )
 
 
@@ -170,8 +176,8 @@ def test_spaces_and_layout():
 def test_start_sectors_are_explored_and_places_set():
     env = operator_env(start_sectors=("S4", "S9", "S2"), start_positions="centre")
     observations, infos = env.reset(seed=0)
-    assert [infos[a]["sector"] for a in env.agents] == ["S4", "S9", "S2"]
-    assert [infos[a]["place"] for a in env.agents] == ["S4", "S9", "S2"]
+    assert [env.decode_info(infos[a])["sector"] for a in env.agents] == ["S4", "S9", "S2"]
+    assert [env.decode_info(infos[a])["place"] for a in env.agents] == ["S4", "S9", "S2"]
     assert infos["robot_0"]["explored"] == 3 and not infos["robot_0"]["explored_all"]
     assert env.robots["robot_0"].position == pytest.approx(OFFICE.sector("S4").centre)
     visited = env.decode(observations["robot_1"])["visited"]
@@ -234,9 +240,9 @@ def test_masks_match_the_preconditions_along_an_episode():
     for _ in range(30):
         for agent in env.agents:
             info = infos[agent]
-            mask = expected_mask(env, info["place"])
-            if info["task_status"] == "executing":
-                mask[env.operator_set.by_name[info["task"]]] = 1  # continuing is always allowed
+            mask = expected_mask(env, env.decode_info(info)["place"])
+            if env.decode_info(info)["task_status"] == "executing":
+                mask[env.operator_set.by_name[env.decode_info(info)["task"]]] = 1  # continuing is always allowed
             np.testing.assert_array_equal(info["action_mask"], mask)
             np.testing.assert_array_equal(env.action_mask(agent), mask)
             np.testing.assert_array_equal(env.action_space(agent).live_mask, mask)
@@ -335,7 +341,7 @@ def test_finished_episode_and_bad_calls():
         env.action_mask("robot_7")
     velocity = teamgym.make("Exploration-v0")
     velocity.reset(seed=0)
-    with pytest.raises(ValueError, match="operator"):
+    with pytest.raises(ValueError, match="has none"):
         velocity.action_mask("robot_0")
     assert velocity.action_masks() == {}
 
@@ -367,7 +373,7 @@ def test_stage_ends_when_a_task_ends(stage_end):
     for _, _, _, infos, terminations, _ in run_greedy(env, seed=1, max_steps=25):
         if all(terminations.values()):
             break
-        statuses = [i["task_status"] for i in infos.values()]
+        statuses = [env.decode_info(i)["task_status"] for i in infos.values()]
         assert "completed" in statuses or "failed" in statuses
         if stage_end == "all":
             assert "executing" not in statuses
@@ -379,8 +385,8 @@ def test_continuing_an_operator_does_not_restart_it():
     goto = env.operator_set.by_name["GoTo(S5,S6)"]
     find = env.operator_set.by_name["FindDoor(D11,12)"]
     _, _, _, _, infos = env.step({"robot_0": goto, "robot_1": find, "robot_2": 0})
-    assert infos["robot_1"]["task_status"] == "completed"  # the short task ended the stage
-    assert infos["robot_0"]["task_status"] == "executing"
+    assert env.decode_info(infos["robot_1"])["task_status"] == "completed"  # the short task ended the stage
+    assert env.decode_info(infos["robot_0"])["task_status"] == "executing"
     task, started = env._watchers[0].task, env._watchers[0]._start_time
     env.step({"robot_0": goto, "robot_1": 0, "robot_2": 0})
     assert env._watchers[0].task is task and env._watchers[0]._start_time == started
@@ -394,12 +400,12 @@ def test_robot_half_way_through_a_door_has_not_explored_the_room():
     robot = env.robots["robot_0"]
     robot.teleport((0.375 + 0.03, 0.7))  # inside the circle of D1,2_1, on S2's side
     env.world.read_states()
-    env._sense()
-    assert env._metrics("robot_0")["place"] == "D1,2_1" and not env.visited[1]
+    env._update_state()
+    assert env.decode_info(env._metrics("robot_0"))["place"] == "D1,2_1" and not env.visited[1]
     robot.teleport((0.375 + 0.1, 0.7))  # out of the circle: in S2
     env.world.read_states()
-    env._sense()
-    assert env._metrics("robot_0")["place"] == "S2" and env.visited[1]
+    env._update_state()
+    assert env.decode_info(env._metrics("robot_0"))["place"] == "S2" and env.visited[1]
 
 
 def test_closed_door_fails_the_task_and_becomes_known():
@@ -410,9 +416,10 @@ def test_closed_door_fails_the_task_and_becomes_known():
     find = env.operator_set.by_name["FindDoor(D3,6)"]
     for _ in range(10):
         _, _, _, _, infos = env.step({"robot_0": find, "robot_1": 0, "robot_2": 0})
-        if infos["robot_0"]["task_status"] != "executing":
+        if env.decode_info(infos["robot_0"])["task_status"] != "executing":
             break
-    assert infos["robot_0"]["task_status"] == "failed" and infos["robot_0"]["task_reason"] == "door closed"
+    named = env.decode_info(infos["robot_0"])
+    assert named["task_status"] == "failed" and named["task_reason"] == "door closed"
     assert env.model.door_open[j] == 0.0
     assert infos["robot_0"]["action_mask"][find] == 0
     assert env.decode(env._collect_observations()["robot_0"])["door_belief"][j] == 0.0
@@ -448,7 +455,7 @@ def test_robots_never_cross_walls_or_closed_doors(doors):
     walls, door_segments = wall_layout(OFFICE)
     solid = walls + (door_segments if doors == "closed" else [])
     rng = np.random.default_rng(0)
-    start_sector = {a: env._metrics(a)["sector"] for a in env.agents}
+    start_sector = {a: env.decode_info(env._metrics(a))["sector"] for a in env.agents}
     command = {a: np.array([0.4, 0.0], dtype=np.float32) for a in env.agents}
     for t in range(400):
         if t % 15 == 0:

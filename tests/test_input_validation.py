@@ -5,7 +5,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 import teamgym
@@ -313,6 +313,8 @@ def test_out_of_bounds_or_non_finite_is_rejected_and_harmless(shared_velocity_en
     space = env.action_space(agent)
     action = np.zeros(2)
     action[dim] = data.draw(bad_value(float(space.low[dim]), float(space.high[dim])))
+    # Bounds are the space's float32 values, as in space.contains: a value that rounds onto a bound is inside.
+    assume(not (space.low[dim] <= np.float32(action[dim]) <= space.high[dim]))
     action[1 - dim] = data.draw(in_bounds(space))[1 - dim]
     assert_rejected(env, with_action(env, agent, action), ValueError, repr(agent))
 
@@ -339,3 +341,12 @@ def test_discrete_out_of_range_is_rejected(shared_heading_env, seed, value, agen
     agent = env.agents[agent_index]
     # Python ints beyond int64 cannot even become a numpy integer: TypeError is fine there.
     assert_rejected(env, with_action(env, agent, value), (ValueError, TypeError), repr(agent), str(value))
+
+
+def test_action_at_float32_bounds_is_accepted_as_contains_says():
+    env = teamgym.make("Navigation-v0")
+    env.reset(seed=0)
+    space = env.action_space("robot_0")
+    edge = [0.4, env.robots["robot_0"].spec.max_turn_rate]  # float64 values that round onto the float32 bounds
+    assert space.contains(np.asarray(edge, dtype=np.float32))
+    env.step({a: edge if a == "robot_0" else np.zeros(2) for a in env.agents})

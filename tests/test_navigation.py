@@ -47,6 +47,12 @@ EVERY_KEY = dict(
     collision_penalty=2.0,
     arrival_bonus=20.0,
     time_penalty=0.02,
+    obs_format="dict",
+    comm_dim=2,
+    comm_range=1.0,
+    comm_throughput=0.5,
+    comm_latency=1,
+    comm_byte_budget=64,
 )
 
 
@@ -65,7 +71,9 @@ def test_make_with_every_key():
     assert len(env.obstacles) == 3
     assert env.world.size == (1.5, 1.5) and env.world.dt == 0.05 and env.world.substeps == 10
     assert all(r.spec.radius == 0.03 and r.spec.max_motor_force == 0.8 for r in env.robots.values())
-    assert env.action_space("robot_0") == spaces.Discrete(7)
+    assert env.action_space("robot_0")["motion"] == spaces.Discrete(7)
+    assert env.action_space("robot_0")["message"].shape == (2,)
+    assert env.observation_space("robot_0")["inbox"].shape == (3, 2)
     assert all(o.bounding_radius == pytest.approx(0.07) for o in env.obstacles)
     assert all(math.hypot(*o.velocity) == pytest.approx(0.15) for o in env.obstacles)
     # circle layout: goals are the antipodes of the starts about the arena centre
@@ -73,9 +81,13 @@ def test_make_with_every_key():
     np.testing.assert_allclose(starts + env.goals, 1.5, atol=1e-9)
     assert env.decode(observations["robot_0"])["radius"] == pytest.approx(0.03)
     assert np.all(env.decode(observations["robot_0"])["proximity"] <= np.float32(0.08))
+    received = 0
     for _ in range(50):
-        *_, truncations, _ = env.step({a: 3 for a in env.agents})
+        message = np.full(2, 0.5, dtype=np.float32)
+        observations, _, _, truncations, infos = env.step({a: {"motion": 3, "message": message} for a in env.agents})
+        received += sum(int(o["inbox_mask"].sum()) for o in observations.values())
     assert env.agents == [] and all(truncations.values())
+    assert received > 0 and all(info["bytes_sent"] == 8 * 50 for info in infos.values())
 
 
 def test_string_values_are_parsed():
@@ -137,13 +149,24 @@ def test_invalid_config_fails_at_make(config, fragments):
     "config",
     [
         dict(arena_size=0.5, min_goal_distance=0.3),
-        dict(n_robots=10, arena_size=0.8, n_obstacles=2, min_goal_distance=0.2),
+        dict(n_robots=40, arena_size=0.8, n_obstacles=6, min_goal_distance=0.2),
+        dict(arena_size=0.8, n_robots=6),
     ],
-    ids=["small-arena", "crowded-arena"],
+    ids=["small-arena", "crowded-arena", "goals-too-far"],
 )
 def test_config_that_cannot_be_placed_fails_at_make(config):
-    with pytest.raises(teamgym.ConfigError, match="could not place"):
+    with pytest.raises(teamgym.ConfigError, match="could not place|too little room"):
         teamgym.make("Navigation-v0", **config)
+
+
+@pytest.mark.parametrize(
+    "config",
+    [dict(arena_size=0.8, n_robots=4, min_goal_distance=0.3), dict(n_robots=10, arena_size=0.8, n_obstacles=2, min_goal_distance=0.2)],
+)
+def test_tight_config_accepted_at_make_resets_on_every_seed(config):
+    env = teamgym.make("Navigation-v0", **config)
+    for seed in range(40):
+        env.reset(seed=seed)
 
 
 def test_config_is_frozen():

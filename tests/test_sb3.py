@@ -192,17 +192,65 @@ def test_is_success_reads_only_the_episode_contract(monkeypatch):
     assert done.all() and all(i["is_success"] is True for i in info)
 
 
+#: A small, easy task for the learning test: two robots, no obstacles, a 1 m arena, goals
+#: 0.3 m or more away, 4 s episodes, wheel-speed actions.
+LEARN_CONFIG = {
+    "n_robots": 2,
+    "n_obstacles": 0,
+    "arena_size": 1.0,
+    "min_goal_distance": 0.3,
+    "max_cycles": 40,
+    "action_type": "wheels",
+}
+#: Evaluation seeds 1000..1009, never used to reset a training env (those start at seeds 0 and 2).
+HELD_OUT_SEED, HELD_OUT_EPISODES = 1000, 10
+
+
+def held_out_scores(path):
+    """Mean team return and mean final distance to goal (m) of a saved model on the held-out seeds."""
+    results = evaluate("Navigation-v0", f"sb3:{path}", episodes=HELD_OUT_EPISODES, seed=HELD_OUT_SEED, config=LEARN_CONFIG)
+    assert len(results) == HELD_OUT_EPISODES
+    assert all(set(r.metrics) == {"robot_0", "robot_1"} and 1 <= r.length <= LEARN_CONFIG["max_cycles"] for r in results)
+    distance = np.mean([m["distance_to_goal"] for r in results for m in r.metrics.values()])
+    return float(np.mean([r.mean_return for r in results])), float(distance)
+
+
 def test_ppo_learns_saves_and_evaluates(tmp_path):
-    venv = TeamVecEnv(make_env, n_envs=1)
-    model = PPO("MlpPolicy", venv, n_steps=64, batch_size=64, n_epochs=1, seed=0, device="cpu")
-    model.learn(total_timesteps=256)
-    assert model.num_timesteps >= 256
+    """PPO improves on its own initial policy on held-out seeds; the saved model loads and evaluates.
+
+    About 8k agent transitions (a few seconds on one thread). Measured with these seeds:
+    mean return -0.39 -> 0.88, final distance to goal 0.53 m -> 0.41 m; with
+    ``learning_rate=0`` both stay at the untrained values and the test fails.
+    """
+    venv = TeamVecEnv(lambda: teamgym.make("Navigation-v0", **LEARN_CONFIG), n_envs=2)
+    model = PPO(
+        "MlpPolicy",
+        venv,
+        n_steps=128,
+        batch_size=128,
+        n_epochs=5,
+        learning_rate=3e-3,
+        gamma=0.9,
+        clip_range=0.3,
+        policy_kwargs={"log_std_init": -1.5},
+        seed=0,
+        device="cpu",
+    )
+    untrained = tmp_path / "untrained.zip"
+    model.save(str(untrained))
+    model.learn(total_timesteps=8192)
+    assert model.num_timesteps >= 8192
     path = tmp_path / "ppo_model.zip"
     model.save(str(path))
     venv.close()
     assert detect_algorithm(path) == "ppo"
 
-    env = make_env()
+    before_return, before_distance = held_out_scores(untrained)
+    after_return, after_distance = held_out_scores(path)
+    assert after_return > before_return + 0.5, (before_return, after_return)
+    assert after_distance < before_distance - 0.05, (before_distance, after_distance)
+
+    env = teamgym.make("Navigation-v0", **LEARN_CONFIG)
     policy = SB3Policy.load(path, env)
     calls = []
     predict = policy.model.predict
@@ -219,10 +267,6 @@ def test_ppo_learns_saves_and_evaluates(tmp_path):
         assert env.action_space(agent).contains(action)
     repeat = policy.act(observations)  # deterministic
     assert all(np.array_equal(actions[a], repeat[a]) for a in actions)
-
-    results = evaluate("Navigation-v0", f"sb3:{path}", episodes=1, seed=0, config=CONFIG)
-    assert len(results) == 1 and 1 <= results[0].length <= CONFIG["max_cycles"]
-    assert set(results[0].metrics) == {"robot_0", "robot_1"}
 
 
 def test_sb3_policy_rejects_mismatched_env(tmp_path):

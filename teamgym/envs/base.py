@@ -38,12 +38,15 @@ from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
 from teamgym.envs.actions import ActionType, WithMessage
-from teamgym.envs.config import EnvConfig
+from teamgym.envs.config import ConfigError, EnvConfig
 from teamgym.envs.spaces import ActionChecker, Field, ObservationLayout
 from teamgym.sim.channel import Channel, ChannelConfig
 from teamgym.sim.render import Overlay, Renderer, robot_colour
 from teamgym.sim.robot import DiffDriveRobot
 from teamgym.sim.world import World
+
+#: Outcome of ``_check_feasible`` per (env class, config): None or the error message.
+_FEASIBILITY: dict[tuple[type, EnvConfig], str | None] = {}
 
 
 class EpisodeOverError(RuntimeError):
@@ -73,6 +76,7 @@ class TeamEnv(ParallelEnv):
         self.agents: list[str] = []
         self._row = {a: i for i, a in enumerate(self.possible_agents)}
         self._setup()
+        self._ensure_feasible()
         c = self.config
         action_type = self._make_action_type()
         self.action_type: ActionType = WithMessage(action_type, c.comm_dim) if c.comm_dim else action_type
@@ -98,6 +102,28 @@ class TeamEnv(ParallelEnv):
     # -- hooks for subclasses --------------------------------------------------------
     def _setup(self) -> None:
         """Build once what depends only on ``self.config`` (robot specs, sensors, maps)."""
+
+    def _check_feasible(self) -> None:
+        """Raise :class:`ConfigError` if episodes of this config cannot be built (e.g. sample scenes)."""
+
+    def _ensure_feasible(self) -> None:
+        """:meth:`_check_feasible` once per config and process (``make()`` fails fast on unbuildable configs)."""
+        key = (type(self), self.config)
+        try:
+            hash(key)
+        except TypeError:  # a config holding a list: check without the cache
+            self._check_feasible()
+            return
+        if key not in _FEASIBILITY:
+            if len(_FEASIBILITY) > 256:
+                _FEASIBILITY.clear()
+            try:
+                self._check_feasible()
+                _FEASIBILITY[key] = None
+            except ConfigError as error:
+                _FEASIBILITY[key] = str(error)
+        if _FEASIBILITY[key] is not None:
+            raise ConfigError(_FEASIBILITY[key])
 
     def _agent_names(self) -> list[str]:
         raise NotImplementedError
@@ -293,7 +319,9 @@ class TeamEnv(ParallelEnv):
         if mask is not None and not mask[index]:
             describe = self.action_type.describe
             admissible = [describe(int(k)) for k in np.flatnonzero(mask)]
-            raise ValueError(f"action {describe(index)} for {agent!r} is masked now; admissible: {admissible}")
+            raise ValueError(
+                f"action {describe(index)} for {agent!r} is masked (not admissible in this state); admissible now: {admissible}"
+            )
 
     # -- masks and communication -------------------------------------------------------
     def _refresh_masks(self) -> None:
