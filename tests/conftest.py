@@ -42,16 +42,18 @@ def penetration_probe():
     return PenetrationProbe
 
 
+def sample_space(space, rng):
+    """A value of ``space`` drawn with ``rng`` (Discrete, Box and nested Dict spaces)."""
+    if hasattr(space, "n"):
+        return int(rng.integers(space.start, space.start + space.n))
+    if hasattr(space, "spaces") and isinstance(space.spaces, dict):
+        return {key: sample_space(sub, rng) for key, sub in space.spaces.items()}
+    return rng.uniform(space.low, space.high).astype(space.dtype)
+
+
 def random_actions(env, rng):
     """One action per live agent, drawn from the agent's action space with ``rng``."""
-    actions = {}
-    for agent in env.agents:
-        space = env.action_space(agent)
-        if hasattr(space, "n"):
-            actions[agent] = int(rng.integers(space.start, space.start + space.n))
-        else:
-            actions[agent] = rng.uniform(space.low, space.high).astype(space.dtype)
-    return actions
+    return {agent: sample_space(env.action_space(agent), rng) for agent in env.agents}
 
 
 @pytest.fixture

@@ -13,17 +13,22 @@ import teamgym
 
 
 def env_cases():
-    """(env id, config) pairs: every registered id, once per ``action_type`` it offers."""
+    """(env id, config) pairs: every registered id, once per ``action_type`` it offers and per
+    observation format, plus one case per id with a learned message (``comm_dim``) through the channel."""
     cases = []
     for env_id in teamgym.envs():
         config_class = teamgym.env_class(env_id).config_class
         hint = typing.get_type_hints(config_class).get("action_type")
         kinds = typing.get_args(hint) if typing.get_origin(hint) is typing.Literal else (None,)
         for kind in kinds:
-            config = {"max_cycles": 25}
-            if kind is not None:
-                config["action_type"] = kind
-            cases.append(pytest.param(env_id, config, id=f"{env_id}-{kind or 'default'}"))
+            for obs_format in ("flat", "dict"):
+                config = {"max_cycles": 25, "obs_format": obs_format}
+                if kind is not None:
+                    config["action_type"] = kind
+                suffix = "" if obs_format == "flat" else "-dict"
+                cases.append(pytest.param(env_id, config, id=f"{env_id}-{kind or 'default'}{suffix}"))
+        comm = {"max_cycles": 25, "obs_format": "dict", "comm_dim": 2, "comm_throughput": 0.5, "comm_latency": 1}
+        cases.append(pytest.param(env_id, comm, id=f"{env_id}-comm"))
     return cases
 
 
@@ -56,7 +61,11 @@ def random_policy(random_policy):
     def act(env, rng):
         actions = random_policy(env, rng)
         for agent, mask in getattr(env, "action_masks", dict)().items():
-            actions[agent] = int(rng.choice(np.flatnonzero(mask)))
+            choice = int(rng.choice(np.flatnonzero(mask)))
+            if isinstance(actions[agent], dict):  # motion + message: the mask is the motion's
+                actions[agent]["motion"] = choice
+            else:
+                actions[agent] = choice
         return actions
 
     return act

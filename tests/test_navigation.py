@@ -161,7 +161,10 @@ def test_config_that_cannot_be_placed_fails_at_make(config):
 
 @pytest.mark.parametrize(
     "config",
-    [dict(arena_size=0.8, n_robots=4, min_goal_distance=0.3), dict(n_robots=10, arena_size=0.8, n_obstacles=2, min_goal_distance=0.2)],
+    [
+        dict(arena_size=0.8, n_robots=4, min_goal_distance=0.3),
+        dict(n_robots=10, arena_size=0.8, n_obstacles=2, min_goal_distance=0.2),
+    ],
 )
 def test_tight_config_accepted_at_make_resets_on_every_seed(config):
     env = teamgym.make("Navigation-v0", **config)

@@ -79,8 +79,9 @@ def legacy_draw(world, scale, margin, overlay=None):
                 pen.line([px(*p) for p in points], fill=colour, width=2)
         for point, colour in overlay.points:
             cross(point, colour, 0.03)
-        if overlay.lamp is not None:
-            lx, ly = px(*overlay.lamp)
+        # The old Overlay carried the lamp; it is a Lamp entity now, drawn where the overlay's was.
+        for lamp in (e for e in world.entities.values() if isinstance(e, Lamp)):
+            lx, ly = px(*lamp.position)
             pen.ellipse([lx - 8, ly - 8, lx + 8, ly + 8], fill=(255, 220, 0), outline=(120, 100, 0))
     index = 0
     for e in world.entities.values():
@@ -143,7 +144,7 @@ def frame(case, draw):
     if with_overlay:
         overlay = Overlay(**OVERLAY)
         if with_lamp:
-            overlay.lamp = (1.15, 0.4)
+            world.add(Lamp("lamp", (1.15, 0.4)))
     return world, draw(world, scale, margin, overlay)
 
 
@@ -164,23 +165,3 @@ def test_frame_matches_recorded_digest(case):
         pytest.skip(f"digests recorded with Pillow {RECORDED_WITH}, running {PIL.__version__}")
     _, image = frame(case, renderer_draw)
     assert hashlib.sha256(image.tobytes()).hexdigest() == CASES[case]
-
-
-@pytest.mark.parametrize("steps", [0, 5])
-def test_lamp_entity_draws_like_the_overlay_lamp(steps):
-    world = mixed_world(steps)
-    world.add(Lamp("lamp", (1.15, 0.4)))
-    actual = Renderer(world, pixels_per_metre=200.0, margin=0.05).draw(Overlay(**OVERLAY))
-    legacy_overlay = Overlay(**OVERLAY)
-    legacy_overlay.lamp = (1.15, 0.4)
-    expected = legacy_draw(mixed_world(steps), 200.0, 0.05, legacy_overlay)
-    np.testing.assert_array_equal(actual, expected)
-
-
-def test_overlay_lamp_is_deprecated_but_still_drawn():
-    with pytest.warns(DeprecationWarning, match="Lamp"):
-        overlay = Overlay(lamp=(1.15, 0.4))
-    world = mixed_world()
-    legacy = Overlay()
-    legacy.lamp = (1.15, 0.4)
-    np.testing.assert_array_equal(Renderer(world).draw(overlay), legacy_draw(world, 200.0, 0.05, legacy))

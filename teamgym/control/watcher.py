@@ -27,6 +27,7 @@ Point = tuple[float, float]
 #: Why a task ended: "" (completed, or none yet) and the failure reasons; infos carry the index.
 TASK_REASONS = ("", "door closed", "collision", "stalled", "timeout")
 
+
 class WatcherState(IntEnum):
     """The four states of Fig. 4."""
 

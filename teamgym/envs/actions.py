@@ -58,6 +58,10 @@ class ActionType(ABC):
         """The index into :meth:`mask` that ``action`` selects."""
         return int(action)
 
+    def masked_space(self, space: spaces.Space) -> spaces.Space:
+        """The part of this type's ``space`` that :meth:`mask` applies to."""
+        return space
+
     def describe(self, action: Any) -> str:
         """A readable name of ``action`` for error messages."""
         return repr(action)
@@ -130,6 +134,9 @@ class WithMessage(ActionType):
 
     def mask_index(self, action: Any) -> int:
         return self.motion.mask_index(action["motion"])
+
+    def masked_space(self, space: spaces.Space) -> spaces.Space:
+        return self.motion.masked_space(space["motion"])
 
     def describe(self, action: Any) -> str:
         return self.motion.describe(action["motion"]) if isinstance(action, dict) else self.motion.describe(action)

@@ -281,17 +281,11 @@ class TeamEnv(ParallelEnv):
         self._record_object_trails()
 
     def _record_object_trails(self) -> None:
-        """Append the position of every moving obstacle and box (added ones start a new trail)."""
-        world, trails = self.world, self._object_trails
-        states = world.mover_states
-        if len(states) == len(world.movers):  # batch read after the last step (or at reset)
-            points = [tuple(p) for p in states[:, :2].tolist()]
-        else:
-            points = [m.position for m in world.movers]
-        for mover, point in zip(world.movers, points):
-            trails.setdefault(mover.name, []).append(point)
-        for box in world.boxes:
-            trails.setdefault(box.name, []).append(box.position)
+        """Append the position of every tracked entity that is not an agent's robot (added ones start a new trail)."""
+        trails, agents = self._object_trails, self._row
+        for entity in self.world.tracked():
+            if entity.name not in agents:
+                trails.setdefault(entity.name, []).append(entity.position)
 
     def _check_actions(self, actions: dict) -> dict:
         """Validate every action before anything changes; raise naming the culprit."""
@@ -331,7 +325,7 @@ class TeamEnv(ParallelEnv):
             mask = self.action_type.mask(self, agent)
             if mask is not None:
                 masks[agent] = mask
-                live = getattr(self._action_spaces[agent], "live_mask", None)
+                live = getattr(self.action_type.masked_space(self._action_spaces[agent]), "live_mask", None)
                 if live is not None:
                     live[:] = mask
         self._masks = masks

@@ -62,10 +62,10 @@ from teamgym.envs.box_pushing.config import SITUATIONS, BoxPushingConfig, Event
 from teamgym.envs.box_pushing.scene import GoalWall, Placer
 from teamgym.envs.spaces import ObservationLayout
 from teamgym.sim.categories import OPAQUE, Category
-from teamgym.sim.objects import Box
+from teamgym.sim.objects import Box, Lamp
 from teamgym.sim.render import Overlay
 from teamgym.sim.robot import DiffDriveRobot, RobotSpec, body_command, wheel_speeds
-from teamgym.sim.sensors import KHEPERA_RING, LightSensor, ProximityRing
+from teamgym.sim.sensors import KHEPERA_RING, LightSensor, ProximityRing, SensorSuite, WheelEncoders
 from teamgym.sim.world import World
 
 __all__ = ["SITUATIONS", "BoxPushing", "BoxPushingConfig", "env", "parallel_env"]
@@ -90,6 +90,7 @@ class BoxPushing(TeamEnv):
         self.ring = ProximityRing(KHEPERA_RING, c.sensor_range, c.sensor_noise)
         blockers = OPAQUE & ~Category.WALL.bit if c.light_shadows else 0
         self.light = LightSensor(c.lamp, 1.0, KHEPERA_RING, noise_std=c.light_noise, blockers=blockers)
+        self.sensors = SensorSuite({"proximity": self.ring, "light": self.light, "encoders": WheelEncoders()})
         self.goal = GoalWall(c.goal_side(), c.table_width, c.table_height)
         self.object_threshold = c.object_threshold
         self.primitive_params = PrimitiveParams(
@@ -136,6 +137,7 @@ class BoxPushing(TeamEnv):
         c = self.config
         self.world = World((c.table_width, c.table_height), dt=c.dt, substeps=c.substeps)
         self.world.add_boundary()
+        self.world.add(Lamp("lamp", c.lamp))
         n = len(self.possible_agents)
         self.robots = {}
         self.executors = {a: PrimitiveExecutor(self.primitive_params) for a in self.possible_agents}
@@ -149,9 +151,11 @@ class BoxPushing(TeamEnv):
         self._joining: list[str] = []
         self._leaving: dict[str, str] = {}
         self._status = {a: "" for a in self.possible_agents}
-        self._prox = np.full((n, len(KHEPERA_RING)), c.sensor_range, dtype=np.float32)
-        self._light = np.zeros((n, len(KHEPERA_RING)), dtype=np.float32)
-        self._enc = np.zeros((n, 4), dtype=np.float32)
+        # One row of readings per possible robot, in the suite's (and the observation's) order.
+        self._readings = np.zeros((n, self.sensors.width), dtype=np.float32)
+        self._readings[:, self.sensors.slices["proximity"]] = c.sensor_range
+        self._prox = self._readings[:, self.sensors.slices["proximity"]]
+        self._enc = self._readings[:, self.sensors.slices["encoders"]]
         self._collisions = np.zeros(n, dtype=int)
         self._stalled = np.zeros(n, dtype=int)
         self._progress = 0.0
@@ -226,9 +230,7 @@ class BoxPushing(TeamEnv):
             return
         rows = [self._index[a] for a in self.agents]
         s = self.layout.slices
-        out[:, s["proximity"]] = self._prox[rows]
-        out[:, s["light"]] = self._light[rows]
-        out[:, s["encoders"]] = self._enc[rows]
+        out[:, : self.sensors.width] = self._readings[rows]
         out[:, s["busy"].start] = [float(self.executors[a].busy) for a in self.agents]
 
     def _metrics(self, agent: str) -> dict[str, Any]:
@@ -470,27 +472,22 @@ class BoxPushing(TeamEnv):
         return self._rows
 
     def _read_sensors(self, agents: list[str]) -> None:
-        """Proximity, light and encoder readings of ``agents``; executors see them too."""
+        """Proximity, light and encoder readings of ``agents`` (one sensor suite); executors see them too."""
+        if not agents:
+            return
         rows, states = self._robot_rows(), self.world.robot_states
-        space, rng = self.world.space, self.np_random
-        for agent in agents:
-            i, robot = self._index[agent], self.robots[agent]
-            pose = tuple(states[rows[agent], :3].tolist())
-            self.ring.read(robot, space, rng, out=self._prox[i], pose=pose)
-            self.light.read(robot, space, rng, out=self._light[i], pose=pose)
-            e = robot.encoders
-            self._enc[i] = (e.commanded_left, e.commanded_right, e.actual_left, e.actual_right)
-            if e.slip > _STALL_SLIP:
+        robots = [self.robots[a] for a in agents]
+        block = np.empty((len(agents), self.sensors.width), dtype=np.float32)
+        self.sensors.read_rows(self.world, robots, states[[rows[a] for a in agents]], self.np_random, block)
+        index = [self._index[a] for a in agents]
+        self._readings[index] = block
+        for agent, i, robot in zip(agents, index, robots):
+            if robot.encoders.slip > _STALL_SLIP:
                 self._stalled[i] += 1
             self.executors[agent].observe(self._prox[i], self._enc[i])
 
     def _count_contacts(self) -> None:
-        index = self._index
-        for contact in self.world.contacts:
-            for name in (contact.a, contact.b):
-                i = index.get(name)
-                if i is not None:
-                    self._collisions[i] += 1
+        self._collisions += self.world.contacts_per(self.possible_agents)
 
     def _box_poses(self) -> tuple[np.ndarray, np.ndarray]:
         slots = [k for k, b in enumerate(self.boxes) if b is not None]
@@ -529,7 +526,7 @@ class BoxPushing(TeamEnv):
         return np.concatenate([robots.ravel(), boxes.ravel()]).astype(np.float32)
 
     def _overlay(self) -> Overlay:
-        overlay = Overlay(lamp=self.config.lamp)
+        overlay = Overlay()
         overlay.paths.append((list(self.goal.segment(self.config.table_width, self.config.table_height)), (40, 170, 40)))
         for k, box in enumerate(self.boxes):
             if box is not None and self._heavy[k]:

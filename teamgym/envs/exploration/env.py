@@ -179,7 +179,7 @@ class Exploration(TeamEnv):
             self.spec_robot.radius,
             c.max_speed,
         )
-        self._hits: list[int] = []
+        self._hits = np.zeros(n, dtype=np.int64)
         self._newly_explored = 0
         self.world.read_states()
         self._update_state()
@@ -362,15 +362,9 @@ class Exploration(TeamEnv):
         newly &= ~self.visited
         self.visited |= newly
         self._newly_explored = int(np.count_nonzero(newly & self.goal))
-        self._collided[:] = False
-        self._hits = []
-        for contact in self.world.contacts:
-            for name in (contact.a, contact.b):
-                i = self._index.get(name)
-                if i is not None:
-                    self._collisions[i] += 1
-                    self._collided[i] = True
-                    self._hits.append(i)
+        self._hits = self.world.contacts_per(self.possible_agents)
+        self._collisions += self._hits
+        self._collided[:] = self._hits > 0
 
     def _check_goals(self) -> None:
         if self._newly_explored and self._all_explored() and math.isnan(self._explore_time):
@@ -380,15 +374,13 @@ class Exploration(TeamEnv):
         """``explore_reward`` per newly explored goal sector − ``time_penalty``, shared; − ``collision_penalty`` per contact."""
         c = self.config
         total += c.explore_reward * self._newly_explored - c.time_penalty
-        for i in self._hits:
-            total[i] -= c.collision_penalty
+        for i in np.flatnonzero(self._hits).tolist():
+            for _ in range(int(self._hits[i])):  # once per contact, as a running sum
+                total[i] -= c.collision_penalty
 
     def _sense(self) -> None:
         """Proximity rings of every robot (the behaviour-based controller reads them)."""
-        space, rng, read, states = self.world.space, self.np_random, self.ring.read, self.world.robot_states
-        for i, robot in enumerate(self.robot_list):
-            x, y, theta = states[i, :3].tolist()
-            read(robot, space, rng, out=self._proximity[i], pose=(x, y, theta))
+        self.ring.read_rows(self.world, self.robot_list, self.world.robot_states, self.np_random, self._proximity)
 
     def _all_explored(self) -> bool:
         return bool(np.all(self.visited[self.goal]))

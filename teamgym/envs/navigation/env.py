@@ -327,12 +327,9 @@ class Navigation(TeamEnv):
         self._update_distances()
         live = np.array([self._index[a] for a in self.agents], dtype=int)
         self._live = live
-        for contact in self.world.contacts:
-            for name in (contact.a, contact.b):
-                i = self._index.get(name)
-                if i is not None and name in self.agents:
-                    self._collisions[i] += 1
-                    self._new_collisions[i] += 1
+        hits = self.world.contacts_per(self.agents)
+        self._collisions[live] += hits
+        self._new_collisions[live] += hits
         offset = self.goals - self._pos
         distance = np.sqrt(np.einsum("ij,ij->i", offset, offset))
         self._progress = self._goal_distance - distance
@@ -364,10 +361,12 @@ class Navigation(TeamEnv):
         return dict(zip(self.agents, self._arrived[[self._index[a] for a in self.agents]].tolist()))
 
     def _read_proximity(self, indices: np.ndarray) -> None:
-        space, rng, read, states = self.world.space, self.np_random, self.ring.read, self.world.robot_states
-        for i in indices.tolist():
-            x, y, theta = states[i, :3].tolist()
-            read(self.robot_list[i], space, rng, out=self._proximity[i], pose=(x, y, theta))
+        if len(indices) == 0:
+            return
+        robots = [self.robot_list[i] for i in indices.tolist()]
+        block = np.empty((len(indices), self.ring.width), dtype=np.float32)
+        self.ring.read_rows(self.world, robots, self.world.robot_states[indices], self.np_random, block)
+        self._proximity[indices] = block
 
     def _observe(self, out: np.ndarray) -> None:
         rows = np.array([self._index[a] for a in self.agents], dtype=int)
