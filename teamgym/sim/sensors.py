@@ -70,7 +70,59 @@ def _check_rows(sensor: Sensor, robots: Sequence[DiffDriveRobot], poses: np.ndar
     return poses[:, :3].tolist()
 
 
-class ProximityRing:
+class NoisyRowSensor:
+    """Shared reading logic of the per-robot sensors (proximity ring, light sensor).
+
+    A subclass gives ``width``, ``noise_std``, :meth:`_read_one` (the noise-free values of one
+    robot) and :meth:`_clip` (the valid range after noise). Noise is one normal draw per value,
+    robot after robot, so reading rows equals reading the robots one by one.
+    """
+
+    width: int
+    noise_std: float
+
+    def _read_one(self, robot: DiffDriveRobot, space: pymunk.Space, x: float, y: float, theta: float, out: np.ndarray) -> None:
+        raise NotImplementedError
+
+    def _clip(self, out: np.ndarray) -> None:
+        raise NotImplementedError
+
+    def read(
+        self,
+        robot: DiffDriveRobot,
+        space: pymunk.Space,
+        rng: np.random.Generator | None = None,
+        out: np.ndarray | None = None,
+        pose: tuple[float, float, float] | None = None,
+    ) -> np.ndarray:
+        """One robot's values into ``out`` (allocated if not given); ``pose`` may give its ``(x, y, θ)``."""
+        if out is None:
+            out = np.empty(self.width, dtype=np.float32)
+        x, y, theta = pose if pose is not None else (*robot.body.position, robot.body.angle)
+        self._read_one(robot, space, x, y, theta, out)
+        self._add_noise(rng, out)
+        return out
+
+    def read_rows(
+        self,
+        world: World,
+        robots: Sequence[DiffDriveRobot],
+        poses: np.ndarray,
+        rng: np.random.Generator | None,
+        out: np.ndarray,
+    ) -> None:
+        space = world.space
+        for robot, (x, y, theta), row in zip(robots, _check_rows(self, robots, poses, out), out):
+            self._read_one(robot, space, x, y, theta, row)
+        self._add_noise(rng, out)
+
+    def _add_noise(self, rng: np.random.Generator | None, out: np.ndarray) -> None:
+        if self.noise_std > 0 and rng is not None:
+            out += rng.normal(0.0, self.noise_std, size=out.shape)
+            self._clip(out)
+
+
+class ProximityRing(NoisyRowSensor):
     """Ray-cast distance sensors around the robot's rim.
 
     A reading is the distance (m) from the robot's surface along the ray to the first solid
@@ -101,44 +153,10 @@ class ProximityRing:
     def width(self) -> int:
         return len(self.angles)
 
-    def read(
-        self,
-        robot: DiffDriveRobot,
-        space: pymunk.Space,
-        rng: np.random.Generator | None = None,
-        out: np.ndarray | None = None,
-        pose: tuple[float, float, float] | None = None,
-    ) -> np.ndarray:
-        """Distances for every ray into ``out`` (allocated if not given).
+    def _clip(self, out: np.ndarray) -> None:
+        np.clip(out, 0.0, self.max_range, out=out)
 
-        ``pose`` may give the robot's ``(x, y, θ)`` when the caller has it already.
-        """
-        if out is None:
-            out = np.empty(self.n_rays, dtype=np.float32)
-        x, y, theta = pose if pose is not None else (*robot.body.position, robot.body.angle)
-        self._cast(robot, space, x, y, theta, out)
-        self._add_noise(rng, out)
-        return out
-
-    def read_rows(
-        self,
-        world: World,
-        robots: Sequence[DiffDriveRobot],
-        poses: np.ndarray,
-        rng: np.random.Generator | None,
-        out: np.ndarray,
-    ) -> None:
-        space = world.space
-        for robot, (x, y, theta), row in zip(robots, _check_rows(self, robots, poses, out), out):
-            self._cast(robot, space, x, y, theta, row)
-        self._add_noise(rng, out)
-
-    def _add_noise(self, rng: np.random.Generator | None, out: np.ndarray) -> None:
-        if self.noise_std > 0 and rng is not None:
-            out += rng.normal(0.0, self.noise_std, size=out.shape)
-            np.clip(out, 0.0, self.max_range, out=out)
-
-    def _cast(self, robot: DiffDriveRobot, space: pymunk.Space, x: float, y: float, theta: float, out: np.ndarray) -> None:
+    def _read_one(self, robot: DiffDriveRobot, space: pymunk.Space, x: float, y: float, theta: float, out: np.ndarray) -> None:
         """Noise-free distances of one robot into ``out``."""
         out.fill(self.max_range)
         r = robot.spec.radius
@@ -156,7 +174,7 @@ class ProximityRing:
                     out[i] = alpha * span
 
 
-class LightSensor:
+class LightSensor(NoisyRowSensor):
     """Ambient-light intensity per sensor direction towards a point lamp.
 
     Reading ``i`` is ``I₀ · max(0, cos(φ − α_i)) / max(d, d_min)²`` where ``φ`` is the lamp's
@@ -203,39 +221,11 @@ class LightSensor:
     def width(self) -> int:
         return len(self.angles)
 
-    def read(
-        self,
-        robot: DiffDriveRobot,
-        space: pymunk.Space,
-        rng: np.random.Generator | None = None,
-        out: np.ndarray | None = None,
-        pose: tuple[float, float, float] | None = None,
-    ) -> np.ndarray:
-        """Intensities into ``out``; ``pose`` may give the robot's ``(x, y, θ)`` if already read."""
-        if out is None:
-            out = np.empty(len(self.angles), dtype=np.float32)
-        x, y, theta = pose if pose is not None else robot.pose
+    def _clip(self, out: np.ndarray) -> None:
+        np.maximum(out, 0.0, out=out)
+
+    def _read_one(self, robot: DiffDriveRobot, space: pymunk.Space, x: float, y: float, theta: float, out: np.ndarray) -> None:
         self._shine(robot, space, self.lamp, x, y, theta, out)
-        self._add_noise(rng, out)
-        return out
-
-    def read_rows(
-        self,
-        world: World,
-        robots: Sequence[DiffDriveRobot],
-        poses: np.ndarray,
-        rng: np.random.Generator | None,
-        out: np.ndarray,
-    ) -> None:
-        space, lamp = world.space, self.lamp
-        for robot, (x, y, theta), row in zip(robots, _check_rows(self, robots, poses, out), out):
-            self._shine(robot, space, lamp, x, y, theta, row)
-        self._add_noise(rng, out)
-
-    def _add_noise(self, rng: np.random.Generator | None, out: np.ndarray) -> None:
-        if self.noise_std > 0 and rng is not None:
-            out += rng.normal(0.0, self.noise_std, size=out.shape)
-            np.maximum(out, 0.0, out=out)
 
     def _shine(
         self, robot: DiffDriveRobot, space: pymunk.Space, lamp: Point, x: float, y: float, theta: float, out: np.ndarray

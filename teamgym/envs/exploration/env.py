@@ -430,7 +430,7 @@ class Exploration(TeamEnv):
         }
         if not math.isnan(self._explore_time):
             metrics["explore_time"] = float(self._explore_time)
-        if self.config.action_type == "operator":
+        if self.action_type.is_macro:  # task bookkeeping exists only when operators run as tasks
             watcher = self._watchers[i]
             metrics.update(
                 stages=int(self._stages),
