@@ -34,6 +34,8 @@ class ActionType(ABC):
     name: str = ""
     #: Whether one ``step()`` runs several control steps (until :meth:`stage_over`).
     is_macro: bool = False
+    #: Whether :meth:`mask` can return a mask (the env skips asking otherwise).
+    has_masks: bool = False
 
     @abstractmethod
     def space(self) -> spaces.Space: ...
@@ -113,6 +115,7 @@ class WithMessage(ActionType):
         self.comm_dim = int(comm_dim)
         self.name = motion.name
         self.is_macro = motion.is_macro
+        self.has_masks = motion.has_masks
 
     def space(self) -> spaces.Dict:
         message = spaces.Box(-1.0, 1.0, shape=(self.comm_dim,), dtype=np.float32)

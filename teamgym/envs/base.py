@@ -320,7 +320,10 @@ class TeamEnv(ParallelEnv):
     # -- masks and communication -------------------------------------------------------
     def _refresh_masks(self) -> None:
         """Ask the action type for every live agent's mask (kept for checks, infos and ``action_masks``)."""
-        masks = {}
+        masks: dict[str, np.ndarray] = {}
+        if not self.action_type.has_masks:
+            self._masks = masks
+            return
         for agent in self.agents:
             mask = self.action_type.mask(self, agent)
             if mask is not None:

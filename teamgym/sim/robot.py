@@ -50,8 +50,8 @@ class RobotSpec:
     """Physical parameters of a differential-drive robot (SI units).
 
     Defaults describe a Khepera: 55 mm diameter, 53 mm wheel base, about 80 g. The motor
-    force limit (0.6 N) lets one robot push a 60 g box with ground friction coefficient 0.5
-    (friction 0.29 N) but not a 150 g one (0.74 N), which two robots can move together.
+    force limit (0.6 N) lets one robot push a 50 g box with ground friction coefficient 0.5
+    (friction 0.25 N) but not a 200 g one (0.98 N), which two robots (1.2 N) can move together.
     """
 
     radius: float = 0.0275

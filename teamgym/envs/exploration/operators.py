@@ -148,6 +148,7 @@ class OperatorAction(ActionType):
 
     name = "operator"
     is_macro = True
+    has_masks = True
 
     def __init__(self, operators: OperatorSet) -> None:
         self.operators = operators
