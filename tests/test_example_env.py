@@ -14,30 +14,43 @@ from teamgym.envs.config import ConfigError
 from teamgym.envs.examples.beacon import REPORT_BYTES, Beacon, BeaconConfig, env, parallel_env
 
 FORMATS = ["flat", "dict"]
+#: The API cases: both observation formats, and a learned message (``comm_dim``) beside the beacon reports.
+CASES = {
+    "flat": {"obs_format": "flat"},
+    "dict": {"obs_format": "dict"},
+    "comm": {"obs_format": "dict", "sense_range": 1.0, "comm_dim": 2, "comm_throughput": 0.5, "comm_latency": 1},
+}
 STILL = np.zeros(2, dtype=np.float32)
 
 
+def sample(space, rng):
+    """A value of a Box or of a Dict of Boxes (motion + learned message), drawn with ``rng``."""
+    if hasattr(space, "spaces"):
+        return {key: sample(sub, rng) for key, sub in space.spaces.items()}
+    return rng.uniform(space.low, space.high).astype(space.dtype)
+
+
 def random_actions(env, rng):
-    return {a: rng.uniform(env.action_space(a).low, env.action_space(a).high).astype(np.float32) for a in env.agents}
+    return {a: sample(env.action_space(a), rng) for a in env.agents}
 
 
 # -- PettingZoo API -----------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("obs_format", FORMATS)
-def test_parallel_api(obs_format):
-    parallel_api_test(parallel_env(max_cycles=30, obs_format=obs_format), num_cycles=40)
+@pytest.mark.parametrize("case", CASES)
+def test_parallel_api(case):
+    parallel_api_test(parallel_env(max_cycles=30, **CASES[case]), num_cycles=40)
 
 
-@pytest.mark.parametrize("obs_format", FORMATS)
-def test_parallel_seed(obs_format):
-    parallel_seed_test(lambda: parallel_env(max_cycles=30, obs_format=obs_format, sensor_noise=0.002), num_cycles=20)
+@pytest.mark.parametrize("case", CASES)
+def test_parallel_seed(case):
+    parallel_seed_test(lambda: parallel_env(max_cycles=30, sensor_noise=0.002, **CASES[case]), num_cycles=20)
 
 
-@pytest.mark.parametrize("obs_format", FORMATS)
-def test_aec_api(obs_format):
-    api_test(parallel_to_aec(parallel_env(max_cycles=20, obs_format=obs_format)), num_cycles=20)
-    api_test(env(max_cycles=10, obs_format=obs_format), num_cycles=10)
+@pytest.mark.parametrize("case", CASES)
+def test_aec_api(case):
+    api_test(parallel_to_aec(parallel_env(max_cycles=20, **CASES[case])), num_cycles=20)
+    api_test(env(max_cycles=10, **CASES[case]), num_cycles=10)
 
 
 def test_render_rgb_array():
@@ -49,9 +62,9 @@ def test_render_rgb_array():
     render_test(env_fn)
 
 
-@pytest.mark.parametrize("obs_format", FORMATS)
-def test_observations_fit_the_space(obs_format):
-    e = parallel_env(obs_format=obs_format, max_cycles=60, comm_range=0.8, sensor_noise=0.01)
+@pytest.mark.parametrize("case", CASES)
+def test_observations_fit_the_space(case):
+    e = parallel_env(max_cycles=60, **{"comm_range": 0.8, "sensor_noise": 0.01, **CASES[case]})
     rng = np.random.default_rng(0)
     for seed in range(3):
         observations, _ = e.reset(seed=seed)
@@ -117,6 +130,19 @@ def test_nothing_arrives_without_throughput():
         assert not any(obs["report_mask"].any() for obs in observations.values())
     assert infos["robot_0"]["messages_sent"] == 3 and infos["robot_0"]["dropped_loss"] == 3
     assert all(info["bytes_delivered"] == 0 for info in infos.values())
+
+
+def test_learned_messages_and_reports_share_the_channel_apart():
+    e = parallel_env(**RADIO, comm_dim=2)
+    e.reset(seed=0, options=SCENE)
+    message = np.array([0.5, -0.5], dtype=np.float32)
+    observations, _, _, _, infos = e.step({a: {"motion": STILL, "message": message} for a in e.agents})
+    one = observations["robot_1"]
+    np.testing.assert_array_equal(one["report_mask"], [1, 0])  # only kind "beacon"
+    np.testing.assert_allclose(one["reports"][0], SCENE["beacon"])
+    np.testing.assert_array_equal(one["inbox_mask"], [1, 0])  # only kind "learned": robot_0's message
+    np.testing.assert_array_equal(one["inbox"][0], message)
+    assert infos["robot_0"]["bytes_sent"] == REPORT_BYTES + message.nbytes
 
 
 def test_flat_observation_decodes_to_the_same_report():
@@ -190,6 +216,17 @@ def test_scripted_policy_reaches_the_beacon_on_most_seeds(obs_format):
     assert sum(results) >= 4, results
 
 
+def test_reports_speed_the_team_up():
+    """The same scripted team gathers sooner when the robots that see the beacon are heard."""
+    cycles = {}
+    for throughput in (0.0, 1.0):
+        e = parallel_env(max_cycles=400, comm_throughput=throughput)
+        for seed in range(3):
+            run_scripted(e, seed)
+            cycles.setdefault(throughput, []).append(e.cycles)
+    assert sum(cycles[1.0]) < sum(cycles[0.0]), cycles
+
+
 def test_random_episode_keeps_the_contract():
     e = parallel_env(max_cycles=40)
     rng = np.random.default_rng(3)
@@ -238,7 +275,14 @@ def test_copy_mid_episode_continues_identically(how, options):
 
 @pytest.mark.parametrize(
     ("key", "value"),
-    [("n_robots", 0), ("n_robots", 17), ("goal_radius", 0.6), ("sense_range", -1.0), ("time_penalty", -0.1), ("comm_latency", -1)],
+    [
+        ("n_robots", 0),
+        ("n_robots", 17),
+        ("goal_radius", 0.6),  # > sense_range: robots at the beacon would not see it
+        ("sense_range", -1.0),
+        ("time_penalty", -0.1),
+        ("comm_latency", -1),
+    ],
 )
 def test_invalid_config_is_refused_everywhere(key, value):
     with pytest.raises(ConfigError, match=key):

@@ -2,43 +2,36 @@
 
 ``n_robots`` Khepera robots start at random in a walled square arena (``arena_size`` m a
 side). A beacon sits at a random point at least ``goal_radius / 2`` from the walls; a robot
-sees it only within ``sense_range`` of it. The team succeeds when every robot is within
+sees it only within ``sense_range``. The team succeeds when every robot is within
 ``goal_radius`` of the beacon (:meth:`Beacon.episode_success`); all agents then terminate.
 
 Communication: in the sensing phase every live robot that sees the beacon broadcasts an
-env-generated message through the core channel: kind ``"beacon"``, payload the beacon's
-``(x, y)`` in metres, size :data:`REPORT_BYTES` (8 bytes: x and y as float32). The radio is
-the base config's ``comm_range``, ``comm_throughput``, ``comm_latency`` and
-``comm_byte_budget``; with latency 0 a report is in the same step's observations of the
-robots in range. After ``reset`` no report has been sent yet.
+env-generated message on the core channel: kind ``"beacon"``, payload the beacon's ``(x, y)``
+(m), size :data:`REPORT_BYTES` = 8 (two float32). The radio is the base config's
+``comm_range``, ``comm_throughput``, ``comm_latency`` and ``comm_byte_budget``; with latency 0
+a report is in the same step's observations of the robots in range (none at ``reset``).
 
-Observation fields (``env.decode(obs)``; ``obs_format="dict"`` gives them as a Dict):
+Observation fields (``env.decode(obs)``; ``obs_format="dict"`` gives them as a Dict), with
+K = max(1, n_robots − 1) report slots (each other robot sends at most one report a step):
 
-=================  ========  =====  ===================================================
-field              shape     dtype  meaning
-=================  ========  =====  ===================================================
-``position``       (2,)      f32    own x, y (m), in [0, arena_size]
-``heading``        (1,)      f32    own θ (rad, CCW from +x), in [−π, π]
-``proximity``      (8,)      f32    Khepera ring distances (m), ``sensor_range`` if free
-``beacon_seen``    (1,)      int8   1 if the beacon is within ``sense_range``, else 0
-``beacon_offset``  (2,)      f32    beacon minus own position (m); zeros if not seen
-``reports``        (K, 2)    f32    beacon positions received this step, zero-padded
-``report_mask``    (K,)      int8   1 for a received report, 0 for padding
-=================  ========  =====  ===================================================
-
-K = max(1, n_robots − 1): each other robot sends at most one report per step.
+=================  ======  =====  ====================================================
+field              shape   dtype  meaning
+=================  ======  =====  ====================================================
+``position``       (2,)    f32    own x, y (m), in [0, arena_size]
+``heading``        (1,)    f32    own θ (rad, CCW from +x), in [−π, π]
+``proximity``      (8,)    f32    Khepera ring distances (m), ``sensor_range`` if free
+``beacon_seen``    (1,)    int8   1 if the beacon is within ``sense_range``, else 0
+``beacon_offset``  (2,)    f32    beacon minus own position (m); zeros if not seen
+``reports``        (K, 2)  f32    beacon positions received this step, zero-padded
+``report_mask``    (K,)    int8   1 for a received report, 0 for padding
+=================  ======  =====  ====================================================
 
 Actions: continuous (v, ω) (:class:`~teamgym.envs.actions.VelocityAction`).
-
-Reward per step and robot: ``progress_reward`` × (decrease of the distance to the beacon,
-m) − ``time_penalty`` − ``collision_penalty`` × (contacts begun in the step).
-
+Reward per step: ``progress_reward`` × (decrease of the distance to the beacon, m)
+− ``time_penalty`` − ``collision_penalty`` × (contacts begun in the step).
 Metrics in ``infos[agent]``: ``distance_to_beacon`` (m), ``beacon_seen`` (0/1),
-``collisions`` (this episode) and the channel counters (``bytes_sent``, ``bytes_delivered``,
-``messages_dropped``, ...), present from the first ``reset`` on.
-
-Reset options fix a scene (tests, demos): ``{"beacon": (x, y), "starts": [(x, y, θ), ...]}``;
-other keys are ignored.
+``collisions`` (this episode) and the channel counters (``bytes_sent``, ...) from ``reset`` on.
+Reset options fix a scene: ``{"beacon": (x, y), "starts": [(x, y, θ), ...]}`` (other keys ignored).
 """
 
 from __future__ import annotations
@@ -49,6 +42,7 @@ from typing import Any, Literal
 
 import numpy as np
 from gymnasium import spaces
+from pettingzoo import AECEnv
 
 from teamgym.envs.actions import ActionType, VelocityAction
 from teamgym.envs.base import TeamEnv
@@ -65,7 +59,6 @@ __all__ = ["REPORT_BYTES", "Beacon", "BeaconConfig", "env", "parallel_env"]
 REPORT_BYTES = 8
 #: Every robot is a Khepera (55 mm diameter, 0.4 m/s).
 SPEC = RobotSpec()
-BEACON_COLOUR = (230, 160, 0)
 
 
 @dataclass(frozen=True)
@@ -76,7 +69,7 @@ class BeaconConfig(EnvConfig):
     arena_size: float = 2.0
     sense_range: float = 0.5
     goal_radius: float = 0.25
-    action_type: Literal["velocity"] = "velocity"
+    action_type: Literal["velocity"] = "velocity"  # one choice; the API and regression tests read this key
     sensor_range: float = 0.1
     sensor_noise: float = 0.0
     progress_reward: float = 1.0
@@ -137,7 +130,7 @@ class Beacon(TeamEnv):
         )
 
     # -- a new episode ----------------------------------------------------------------------
-    def reset(self, seed: int | None = None, options: dict | None = None):
+    def reset(self, seed: int | None = None, options: dict | None = None) -> tuple[dict, dict[str, dict[str, Any]]]:
         """:meth:`TeamEnv.reset`; ``options`` may fix the scene (the base passes ``_build`` none)."""
         self._options = options if isinstance(options, dict) else {}
         return super().reset(seed=seed, options=options)
@@ -182,9 +175,8 @@ class Beacon(TeamEnv):
     def _option(self, key: str, shape: tuple[int, ...], margin: float) -> np.ndarray:
         """Reset option ``key`` as a float array of ``shape`` whose points lie ``margin`` inside the arena."""
         value = np.asarray(self._options[key], dtype=float)
-        s = self.config.arena_size
-        inside = value.shape == shape and np.all(np.isfinite(value)) and np.all(value[..., :2] >= margin)
-        if not (inside and np.all(value[..., :2] <= s - margin)):
+        xy = value[..., :2] if value.shape == shape else np.array(np.nan)
+        if not np.all((xy >= margin) & (xy <= self.config.arena_size - margin)):  # NaN fails too
             raise ValueError(f"reset option {key!r}={self._options[key]!r} must have shape {shape}, points in the arena")
         return value
 
@@ -242,13 +234,13 @@ class Beacon(TeamEnv):
 
     def _metrics(self, agent: str) -> dict[str, Any]:
         i = self._row[agent]
-        metrics = {
+        # The channel counters are here from reset on (the base adds them only once a message was sent).
+        return {
             "distance_to_beacon": float(self._distance[i]),
             "beacon_seen": int(self._seen[i]),
             "collisions": int(self._collisions[i]),
+            **self.channel.stats(agent),
         }
-        # The base adds these only once a message was sent; here they are there from reset on.
-        return {**metrics, **self.channel.stats(agent)}
 
     def episode_success(self) -> bool:
         """Every robot is within ``goal_radius`` of the beacon."""
@@ -263,7 +255,8 @@ class Beacon(TeamEnv):
     def _overlay(self) -> Overlay:
         angles = np.linspace(0.0, 2 * math.pi, 33)
         circle = self.beacon + self.config.goal_radius * np.column_stack([np.cos(angles), np.sin(angles)])
-        return Overlay(points=[(tuple(self.beacon), BEACON_COLOUR)], paths=[([tuple(p) for p in circle], BEACON_COLOUR)])
+        orange = (230, 160, 0)
+        return Overlay(points=[(tuple(self.beacon), orange)], paths=[([tuple(p) for p in circle], orange)])
 
 
 def parallel_env(render_mode: str | None = None, **config: Any) -> Beacon:
@@ -271,7 +264,7 @@ def parallel_env(render_mode: str | None = None, **config: Any) -> Beacon:
     return Beacon(render_mode=render_mode, **config)
 
 
-def env(render_mode: str | None = None, **config: Any):
+def env(render_mode: str | None = None, **config: Any) -> AECEnv:
     """The AEC form of the env, through PettingZoo's ``parallel_to_aec``."""
     from pettingzoo.utils.conversions import parallel_to_aec
 
