@@ -7,7 +7,8 @@ rewards, terminations, truncations and the numeric ``infos`` values present when
 fixture was recorded (string-valued infos were later replaced by indices, so they are left
 out; keys added later are ignored).
 
-``python -m tests.regression record`` writes ``tests/data/regression_hashes.json``; the test
+``python -m tests.regression record`` adds the cases missing from ``tests/data/regression_hashes.json``
+(a new env or action type; recorded hashes are never rewritten); the test
 ``tests/test_regression.py`` recomputes every fingerprint with ``obs_format="flat"``.
 """
 
@@ -32,8 +33,9 @@ def cases() -> list[tuple[str, str]]:
     """(env id, action type) for every registered env and every action type it offers."""
     out = []
     for env_id in teamgym.envs():
-        hint = typing.get_type_hints(teamgym.env_class(env_id).config_class)["action_type"]
-        out.extend((env_id, kind) for kind in typing.get_args(hint))
+        hint = typing.get_type_hints(teamgym.env_class(env_id).config_class).get("action_type")
+        kinds = typing.get_args(hint) if hint is not None else ()
+        out.extend((env_id, kind) for kind in kinds)
     return out
 
 
@@ -86,9 +88,12 @@ def fingerprint(env_id: str, action_type: str, seed: int, info_keys: list[str] |
     return digest.hexdigest(), sorted(seen)
 
 
-def record() -> dict:
-    data: dict = {"steps": STEPS, "seeds": list(SEEDS), "cases": {}}
+def record(existing: dict | None = None) -> dict:
+    """Fingerprints of the cases missing from ``existing`` (recorded ones are never overwritten)."""
+    data: dict = existing or {"steps": STEPS, "seeds": list(SEEDS), "cases": {}}
     for env_id, kind in cases():
+        if f"{env_id}/{kind}" in data["cases"]:
+            continue
         hashes, keys = [], set()
         for seed in SEEDS:
             h, k = fingerprint(env_id, kind, seed)
@@ -103,4 +108,5 @@ if __name__ == "__main__":
     if sys.argv[1:] != ["record"]:
         sys.exit("usage: python -m tests.regression record")
     FIXTURE.parent.mkdir(parents=True, exist_ok=True)
-    FIXTURE.write_text(json.dumps(record(), indent=1) + "\n")
+    existing = json.loads(FIXTURE.read_text()) if FIXTURE.exists() else None
+    FIXTURE.write_text(json.dumps(record(existing), indent=1) + "\n")

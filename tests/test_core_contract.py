@@ -216,3 +216,21 @@ def test_layout_fields_carry_dtype_and_bounds():
     as_dict = layout.to_dict(row)
     assert as_dict["image"].dtype == np.uint8 and as_dict["image"][3, 3] == 15
     np.testing.assert_array_equal(layout.decode(as_dict)["pose"], [16, 17, 18])
+
+
+def test_field_bounds_broadcast_per_element():
+    layout = ObservationLayout([Field("pose", (3,), (0.0, 0.0, -np.pi), (2.0, 2.0, np.pi))])
+    box = layout.space("dict")["pose"]
+    np.testing.assert_allclose(box.high, [2.0, 2.0, np.pi], rtol=1e-6)
+    np.testing.assert_allclose(layout.space("flat").low, [0.0, 0.0, -np.pi], rtol=1e-6)
+
+
+def test_task_fields_may_not_use_the_inbox_names():
+    from teamgym.envs.navigation import Navigation
+
+    class Clashing(Navigation):
+        def _make_layout(self):
+            return super()._make_layout().extended([Field("inbox_mask", (1,))])
+
+    with pytest.raises(ValueError, match="reserved for the message inbox"):
+        Clashing()

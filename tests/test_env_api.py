@@ -282,7 +282,8 @@ def test_copy_continues_like_original(env_id, config, how, random_policy):
     carry the stream's state, not only the simulation's.
     """
     before, after = COPY_STEPS.get((env_id, config.get("action_type")), (15, 20))
-    env = teamgym.make(env_id, **{**config, "max_cycles": 400, "sensor_noise": 0.002})
+    noise = {"sensor_noise": 0.002} if "sensor_noise" in teamgym.env_class(env_id).config_class.field_names() else {}
+    env = teamgym.make(env_id, **{**config, "max_cycles": 400, **noise})
     env.reset(seed=5)
     policy_record(env, random_policy, before, seed=50)
     assert env.agents, "the episode ended before the copy"

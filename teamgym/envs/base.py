@@ -7,7 +7,9 @@ implements these hooks:
 * ``_agent_names()`` (from the config alone);
 * ``_setup()`` once, after the config is parsed and the agents are named (build what depends
   only on the config: robot specs, sensors, maps), then ``_make_action_type()`` and ``_make_layout()``;
-* ``_build(rng)``: a new episode's :class:`~teamgym.sim.world.World`, robots and initial readings;
+* ``_build(rng)``: a new episode's :class:`~teamgym.sim.world.World`, robots and initial readings
+  (``self.reset_options`` holds the ``options`` given to ``reset``; messages sent here are
+  delivered before the first observation);
 * ``_observe(out)``: every live agent's flat observation into a preallocated array;
 * ``episode_success()``: the episode contract;
 
@@ -63,6 +65,11 @@ class TeamEnv(ParallelEnv):
         "is_parallelizable": True,
     }
     config_class: ClassVar[type[EnvConfig]] = EnvConfig
+    #: Whether the env sends messages of its own through ``self.channel`` (then the channel's
+    #: counters are in ``infos`` from the first reset on, as they are whenever ``comm_dim > 0``).
+    uses_channel: ClassVar[bool] = False
+    #: Observation fields the base adds when ``comm_dim > 0``; a task may not use these names.
+    INBOX_FIELDS: ClassVar[tuple[str, ...]] = ("inbox", "inbox_sender", "inbox_mask")
     pixels_per_metre: ClassVar[float] = 200.0
 
     def __init__(self, render_mode: str | None = None, **config: Any) -> None:
@@ -81,6 +88,9 @@ class TeamEnv(ParallelEnv):
         action_type = self._make_action_type()
         self.action_type: ActionType = WithMessage(action_type, c.comm_dim) if c.comm_dim else action_type
         self.layout: ObservationLayout = self._make_layout()
+        reserved = [f.name for f in self.layout.fields if f.name in self.INBOX_FIELDS]
+        if reserved:
+            raise ValueError(f"{type(self).__name__}: observation field name(s) {reserved} are reserved for the message inbox")
         if c.comm_dim:
             self.layout = self.layout.extended(self._inbox_fields())
         self.channel = Channel(self.possible_agents, self._channel_config())
@@ -207,8 +217,10 @@ class TeamEnv(ParallelEnv):
         self.agents = list(self.possible_agents)
         self.cycles = 0
         self._joining = []
+        self.reset_options: dict = dict(options) if options else {}
         self.channel.reset()
         self._build(self.np_random)
+        self._deliver_messages()
         self._trails = {a: [self.robots[a].position] for a in self.agents}
         self._object_trails = {}
         self._record_object_trails()
@@ -395,7 +407,7 @@ class TeamEnv(ParallelEnv):
     def _collect_infos(self) -> dict[str, dict[str, Any]]:
         success = bool(self.episode_success())
         infos = {a: self._metrics(a) for a in self.agents}
-        comm = bool(self.config.comm_dim) or self.channel.used
+        comm = bool(self.config.comm_dim) or self.uses_channel
         for agent, info in infos.items():
             info["success"] = success
             if agent in self._masks:

@@ -27,13 +27,24 @@ ObsFormat = Literal["flat", "dict"]
 
 @dataclass(frozen=True)
 class Field:
-    """One named observation field: ``shape``, element ``dtype`` and bounds ``[low, high]``."""
+    """One named observation field: ``shape``, element ``dtype`` and bounds ``[low, high]``.
+
+    ``low`` and ``high`` are numbers or arrays that broadcast to ``shape`` (e.g. a pose
+    ``(x, y, θ)`` with per-element bounds).
+    """
 
     name: str
     shape: tuple[int, ...] = ()
-    low: float = -np.inf
-    high: float = np.inf
+    low: float | tuple[float, ...] = -np.inf
+    high: float | tuple[float, ...] = np.inf
     dtype: type = np.float32
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """``low`` and ``high`` as float64 arrays of the field's shape."""
+        return (
+            np.broadcast_to(np.asarray(self.low, dtype=np.float64), self.shape).copy(),
+            np.broadcast_to(np.asarray(self.high, dtype=np.float64), self.shape).copy(),
+        )
 
     @property
     def size(self) -> int:
@@ -42,12 +53,12 @@ class Field:
     def space(self) -> spaces.Box:
         """The field as a gymnasium ``Box`` of its own dtype (infinite bounds only for floats)."""
         dtype = np.dtype(self.dtype)
-        low, high = self.low, self.high
+        low, high = self.bounds()
         if dtype.kind in "iu":
             info = np.iinfo(dtype)
-            low = info.min if not np.isfinite(low) else low
-            high = info.max if not np.isfinite(high) else high
-        return spaces.Box(low=low, high=high, shape=self.shape, dtype=dtype)
+            low = np.where(np.isfinite(low), low, info.min)
+            high = np.where(np.isfinite(high), high, info.max)
+        return spaces.Box(low=low.astype(dtype), high=high.astype(dtype), shape=self.shape, dtype=dtype)
 
 
 def _as_field(item: Field | tuple) -> Field:
@@ -92,9 +103,12 @@ class ObservationLayout:
 
     def flat_space(self) -> spaces.Box:
         """A float32 ``Box`` of ``size`` values with every field's bounds."""
-        low = np.concatenate([np.full(f.size, f.low, dtype=np.float32) for f in self.fields]) if self.fields else np.zeros(0)
-        high = np.concatenate([np.full(f.size, f.high, dtype=np.float32) for f in self.fields]) if self.fields else np.zeros(0)
-        return spaces.Box(low.astype(np.float32), high.astype(np.float32), dtype=np.float32)
+        if not self.fields:
+            return spaces.Box(np.zeros(0, np.float32), np.zeros(0, np.float32), dtype=np.float32)
+        bounds = [f.bounds() for f in self.fields]
+        low = np.concatenate([lo.ravel() for lo, _ in bounds]).astype(np.float32)
+        high = np.concatenate([hi.ravel() for _, hi in bounds]).astype(np.float32)
+        return spaces.Box(low, high, dtype=np.float32)
 
     def dict_space(self) -> spaces.Dict:
         """A ``Dict`` of every field's ``Box`` (in field order)."""

@@ -98,6 +98,7 @@ class Beacon(TeamEnv):
 
     metadata = {**TeamEnv.metadata, "name": "beacon_v0"}
     config_class = BeaconConfig
+    uses_channel = True  # beacon reports: channel counters in infos from reset on
     config: BeaconConfig
 
     # -- construction: once per env, from the config alone --------------------------------
@@ -110,7 +111,6 @@ class Beacon(TeamEnv):
         self.capacity = max(1, c.n_robots - 1)
         # Global state: x, y, θ of every robot, then the beacon's x, y.
         self.state_space = spaces.Box(-np.inf, np.inf, shape=(3 * c.n_robots + 2,), dtype=np.float32)
-        self._options: dict = {}
 
     def _make_action_type(self) -> ActionType:
         return VelocityAction(SPEC)
@@ -130,11 +130,6 @@ class Beacon(TeamEnv):
         )
 
     # -- a new episode ----------------------------------------------------------------------
-    def reset(self, seed: int | None = None, options: dict | None = None) -> tuple[dict, dict[str, dict[str, Any]]]:
-        """:meth:`TeamEnv.reset`; ``options`` may fix the scene (the base passes ``_build`` none)."""
-        self._options = options if isinstance(options, dict) else {}
-        return super().reset(seed=seed, options=options)
-
     def _build(self, rng: np.random.Generator) -> None:
         c = self.config
         self.world = World((c.arena_size, c.arena_size), dt=c.dt, substeps=c.substeps)
@@ -166,18 +161,18 @@ class Beacon(TeamEnv):
             else:
                 raise ConfigError(f"BeaconConfig: could not place {c.n_robots} robots in a {s} m arena")
             starts[i] = (p[0], p[1], rng.uniform(-math.pi, math.pi))
-        if "beacon" in self._options:
+        if "beacon" in self.reset_options:
             beacon = self._option("beacon", (2,), 0.0)
-        if "starts" in self._options:
+        if "starts" in self.reset_options:
             starts = self._option("starts", (c.n_robots, 3), r)
         return beacon, starts
 
     def _option(self, key: str, shape: tuple[int, ...], margin: float) -> np.ndarray:
         """Reset option ``key`` as a float array of ``shape`` whose points lie ``margin`` inside the arena."""
-        value = np.asarray(self._options[key], dtype=float)
+        value = np.asarray(self.reset_options[key], dtype=float)
         xy = value[..., :2] if value.shape == shape else np.array(np.nan)
         if not np.all((xy >= margin) & (xy <= self.config.arena_size - margin)):  # NaN fails too
-            raise ValueError(f"reset option {key!r}={self._options[key]!r} must have shape {shape}, points in the arena")
+            raise ValueError(f"reset option {key!r}={self.reset_options[key]!r} must have shape {shape}, points in the arena")
         return value
 
     # -- step phases, in the order TeamEnv.step runs them -----------------------------------
@@ -234,12 +229,10 @@ class Beacon(TeamEnv):
 
     def _metrics(self, agent: str) -> dict[str, Any]:
         i = self._row[agent]
-        # The channel counters are here from reset on (the base adds them only once a message was sent).
         return {
             "distance_to_beacon": float(self._distance[i]),
             "beacon_seen": int(self._seen[i]),
             "collisions": int(self._collisions[i]),
-            **self.channel.stats(agent),
         }
 
     def episode_success(self) -> bool:
