@@ -167,8 +167,8 @@ def test_config_that_cannot_be_placed_fails_at_make(config):
     ],
 )
 def test_tight_config_accepted_at_make_resets_on_every_seed(config):
-    env = teamgym.make("Navigation-v0", **config)
-    for seed in range(40):
+    env = teamgym.make("Navigation-v0", **config)  # make() tried seeds 0-31
+    for seed in range(32, 44):
         env.reset(seed=seed)
 
 
