@@ -144,6 +144,23 @@ class ObservationLayout:
 # -- actions ------------------------------------------------------------------------------
 
 
+class MaskedDiscrete(spaces.Discrete):
+    """``Discrete(n)`` whose ``sample()`` without a mask draws an admissible action.
+
+    The env keeps ``live_mask`` equal to the agent's current action mask (also in
+    ``infos[agent]["action_mask"]``); ``sample(mask=...)`` behaves as in gymnasium.
+    """
+
+    def __init__(self, n: int, seed: int | None = None) -> None:
+        super().__init__(n, seed=seed)
+        self.live_mask = np.ones(n, dtype=np.int8)
+
+    def sample(self, mask: np.ndarray | None = None, probability: np.ndarray | None = None) -> np.int64:
+        if mask is None and probability is None:
+            mask = self.live_mask
+        return super().sample(mask=mask, probability=probability)
+
+
 class ActionChecker:
     """Validates actions for one space; built once per agent, called every step.
 

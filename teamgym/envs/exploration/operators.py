@@ -22,11 +22,11 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import numpy as np
-from gymnasium import spaces
 
 from teamgym.control.behaviour import DEFAULT_PRIORITIES, NARROW_PASSAGE, BehaviourParameters
 from teamgym.control.watcher import Task
 from teamgym.envs.actions import ActionType
+from teamgym.envs.spaces import MaskedDiscrete
 from teamgym.maps.geometry import door_opening, shared_edge
 from teamgym.maps.model import OfficeMap, Point
 
@@ -121,21 +121,8 @@ class OperatorSet:
         return mask
 
 
-class OperatorSpace(spaces.Discrete):
-    """``Discrete(n)`` over operator indices whose ``sample()`` without a mask draws an admissible one.
-
-    The env keeps ``live_mask`` equal to the agent's current action mask (also in
-    ``infos[agent]["action_mask"]``); ``sample(mask=...)`` behaves as in gymnasium.
-    """
-
-    def __init__(self, n: int, seed: int | None = None) -> None:
-        super().__init__(n, seed=seed)
-        self.live_mask = np.ones(n, dtype=np.int8)
-
-    def sample(self, mask: np.ndarray | None = None, probability: np.ndarray | None = None):
-        if mask is None and probability is None:
-            mask = self.live_mask
-        return super().sample(mask=mask, probability=probability)
+class OperatorSpace(MaskedDiscrete):
+    """``Discrete`` over operator indices; ``sample()`` draws an admissible operator."""
 
 
 class OperatorAction(ActionType):

@@ -1,0 +1,453 @@
+"""Rendezvous-v0: robots meet as soon as possible on a graph of places and ways (paper 003).
+
+``n_robots`` Khepera-like robots (default 2) start at places of a graph map (default the
+38-place map of the paper's Figs. 5–7, ``teamgym/maps/data/graphs``). In the world, map
+coordinates are multiplied by ``scale`` (m per map unit); every way is a corridor
+``corridor_width`` wide and every place a small clearing, walled unless
+``corridor_walls=False``. Ways become blocked by an obstacle in their middle: from the start
+(``blocked_ways``), at given times (``blockings``: ``(a, b, t)``) or at random
+(``block_rate`` per second, only ways whose loss keeps the map connected). A robot detects
+the blocked ways of the place it stands at (section 1); a robot already on a way finishes it
+(the obstacle is put in place once the way is clear). The team succeeds when every pair of
+robots is within ``meet_distance`` (centres); a robot stops short of a robot ahead.
+
+Robots talk only through the core channel (``comm_*`` keys): with ``protocol_messages`` every
+action carries a message of integer records (:mod:`teamgym.envs.rendezvous.messages`: whole
+path, re-planning request, present and next position, blocked way), so a lossy or delayed
+channel can be studied. The env scores every whole path announced (PATH records): its cost
+over networkx's shortest-path cost between its ends on the map as the team knows it at that
+moment (the ways detected blocked so far): ``optimality`` (1.0 is optimal).
+
+Observations (flat float32 or ``obs_format="dict"``), D = the map's largest degree:
+
+=================  ===========  ===========================================================
+field              shape        meaning
+=================  ===========  ===========================================================
+``pose``           (3,)         own x, y (m), heading θ (rad)
+``place``          (1,)         index of the last place reached
+``target``         (1,)         index of the place being driven to, −1 when standing
+``progress``       (1,)         fraction of the current way done (0 when standing)
+``neighbours``     (D,)         indices of the place's neighbours in map order, −1 padding
+``blocked``        (D,)         1 where the robot has detected that way blocked
+``proximity``      (8,)         Khepera ring distances (m)
+``messages``       (N−1, L)     protocol messages received this step (``protocol_messages``)
+``message_sender`` (N−1,)       sender index, −1 padding
+``message_mask``   (N−1,)       1 for a message, 0 for padding
+=================  ===========  ===========================================================
+
+Actions (``action_type``): ``"next_place"`` (a macro action: one ``step`` lasts until some
+moving robot reaches its next place; masks in ``infos[agent]["action_mask"]``) or
+``"velocity"`` (v, ω). With ``protocol_messages`` the action is ``{"move": ..., "message": ...}``.
+
+Reward, shared per control step: ``progress_reward`` × (decrease of the mean distance between
+robots, m) − ``time_penalty`` − ``collision_penalty`` per contact, + ``meet_bonus`` on meeting.
+Metrics in ``infos``: ``meeting_time`` (s, once met), ``path_length`` (own, m), ``place``,
+``collisions``, ``robot_collisions`` (between robots, the team's), ``blocked_known`` (ways this
+robot detected blocked), ``plans`` and ``replans`` (whole paths announced, and those after the
+first), ``expansions`` (nodes expanded, as the planners declare them), ``optimality`` (worst
+announced path so far) and the channel's message and byte counts.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import networkx as nx
+import numpy as np
+from gymnasium import spaces
+
+from teamgym.control.way_following import WayFollower
+from teamgym.envs.actions import ActionType, VelocityAction
+from teamgym.envs.base import TeamEnv
+from teamgym.envs.config import ConfigError
+from teamgym.envs.rendezvous.actions import NextPlaceAction, WithRecords
+from teamgym.envs.rendezvous.config import RendezvousConfig
+from teamgym.envs.rendezvous.messages import Kind, decode
+from teamgym.envs.rendezvous.scene import blocker_vertices, corridor_walls
+from teamgym.envs.spaces import Field, ObservationLayout
+from teamgym.sim.objects import StaticPolygon, Wall
+from teamgym.sim.render import Overlay, robot_colour
+from teamgym.sim.robot import DiffDriveRobot, RobotSpec
+from teamgym.sim.sensors import KHEPERA_RING, ProximityRing
+from teamgym.sim.world import World
+
+__all__ = ["Rendezvous", "RendezvousConfig", "env", "parallel_env"]
+
+_MARGIN = 0.1  # m of floor around the map
+_DEFAULT_SPEED = 0.1
+
+
+class Rendezvous(TeamEnv):
+    """Rendezvous on a graph of places and ways (paper 003). See the module docstring."""
+
+    metadata = {**TeamEnv.metadata, "name": "rendezvous_v0"}
+    config_class = RendezvousConfig
+    config: RendezvousConfig
+    pixels_per_metre = 150.0
+
+    # -- construction ------------------------------------------------------------------
+    def _agent_names(self) -> list[str]:
+        return [f"robot_{i}" for i in range(self.config.n_robots)]
+
+    def _setup(self) -> None:
+        c = self.config
+        self.map = c.graph_map
+        self.uses_channel = c.protocol_messages
+        ids = self.map.place_ids
+        self.place_index = {p: i for i, p in enumerate(ids)}
+        self.places_xy = np.array([[_MARGIN + p.x * c.scale, _MARGIN + p.y * c.scale] for p in self.map.places])
+        neighbours = [[self.place_index[q] for q in self.map.neighbours(p)] for p in ids]
+        self.max_degree = max(len(n) for n in neighbours)
+        self.neighbour_table = np.full((len(ids), self.max_degree), -1, dtype=np.int64)
+        for i, row in enumerate(neighbours):
+            self.neighbour_table[i, : len(row)] = row
+        self.way_index = {frozenset((self.place_index[w.a], self.place_index[w.b])): k for k, w in enumerate(self.map.ways)}
+        self.way_ends = [(self.place_index[w.a], self.place_index[w.b]) for w in self.map.ways]
+        self.graph = nx.Graph()
+        for k, (a, b) in enumerate(self.way_ends):
+            self.graph.add_edge(a, b, length=float(self.map.ways[k].length), way=k)
+        self.spec_robot = RobotSpec(max_wheel_speed=max(0.4, c.max_speed))
+        self.ring = ProximityRing(KHEPERA_RING, c.sensor_range, c.sensor_noise)
+        speeds = c.speeds or (_DEFAULT_SPEED,) * c.n_robots
+        self.followers = [WayFollower(speed=v, stop_distance=0.9 * c.meet_distance) for v in speeds]
+        n, w = c.n_robots, len(self.way_ends)
+        self.state_space = spaces.Box(-np.inf, np.inf, shape=(5 * n + w,), dtype=np.float32)
+        self._walls = corridor_walls(self.map, c.scale, c.corridor_width, _MARGIN) if c.corridor_walls else []
+
+    def _make_action_type(self) -> ActionType:
+        c = self.config
+        motion: ActionType = (
+            NextPlaceAction(self.max_degree) if c.action_type == "next_place" else VelocityAction(self.spec_robot)
+        )
+        return WithRecords(motion, c.message_len) if c.protocol_messages else motion
+
+    def _make_layout(self) -> ObservationLayout:
+        c, d, n = self.config, self.max_degree, len(self.place_index)
+        fields = [
+            Field("pose", (3,)),
+            Field("place", (1,), 0, n - 1),
+            Field("target", (1,), -1, n - 1),
+            Field("progress", (1,), 0.0, 1.0),
+            Field("neighbours", (d,), -1, n - 1),
+            Field("blocked", (d,), 0, 1, np.int8),
+            Field("proximity", (len(KHEPERA_RING),), 0.0, c.sensor_range),
+        ]
+        if c.protocol_messages:
+            k = c.n_robots - 1
+            fields += [
+                Field("messages", (k, c.message_len), -1, np.iinfo(np.int32).max, np.int32),
+                Field("message_sender", (k,), -1, c.n_robots - 1, np.int32),
+                Field("message_mask", (k,), 0, 1, np.int8),
+            ]
+        return ObservationLayout(fields)
+
+    # -- episodes ----------------------------------------------------------------------
+    def _build(self, rng: np.random.Generator) -> None:
+        c = self.config
+        width, height = self.map.size
+        self.world = World((2 * _MARGIN + width * c.scale, 2 * _MARGIN + height * c.scale), dt=c.dt, substeps=c.substeps)
+        for k, (a, b) in enumerate(self._walls):
+            self.world.add(Wall(f"wall_{k}", a, b, 0.01))
+        n = c.n_robots
+        if c.start_places:
+            starts = np.array([self.place_index[p] for p in c.start_places])
+        else:
+            starts = rng.choice(len(self.place_index), size=n, replace=False)
+        headings = rng.uniform(-np.pi, np.pi, size=n)
+        self.robots = {}
+        for agent, place, heading in zip(self.possible_agents, starts.tolist(), headings.tolist()):
+            x, y = self.places_xy[place]
+            self.robots[agent] = self.world.add(DiffDriveRobot(agent, (float(x), float(y)), heading, self.spec_robot))
+        self.robot_list = list(self.robots.values())
+        self._place = starts.astype(np.int64).copy()
+        self._from = self._place.copy()
+        self._target = np.full(n, -1, dtype=np.int64)
+        self._arrived_now = np.zeros(n, dtype=bool)
+        self._known = [set() for _ in range(n)]
+        self._blocked: set[int] = set()
+        self._blockers: dict[int, StaticPolygon] = {}
+        self._pending_blockings = sorted(c.blockings, key=lambda b: b[2])
+        self._collisions = np.zeros(n, dtype=np.int64)
+        self._new_contacts = np.zeros(n, dtype=np.int64)
+        self._robot_collisions = 0
+        self._met = False
+        self._meeting_time = math.nan
+        self._plans: list[float] = []
+        self._expansions = 0
+        self._proximity = np.full((n, self.ring.width), c.sensor_range, dtype=np.float32)
+        for a, b in c.blocked_ways:
+            self._block(self.way_index[frozenset((self.place_index[a], self.place_index[b]))])
+        self.world.read_states()
+        self._update_state()
+        self._distance = self._mean_distance()
+        self._check_goals()
+        self._sense()
+
+    # -- the next-place macro action (NextPlaceAction calls these) --------------------------
+    def start_moves(self, actions: dict[str, Any]) -> None:
+        """Start the chosen ways; a robot already on a way finishes it, "wait" stays."""
+        for agent, slot in actions.items():
+            i = self._row[agent]
+            if self._target[i] >= 0 or int(slot) == self.max_degree:
+                continue
+            self._from[i] = self._place[i]
+            self._target[i] = self.neighbour_table[self._place[i], int(slot)]
+        self._stage_start = self.cycles
+
+    def follow_way(self, agent: str) -> tuple[float, float]:
+        """The way-following controller's command for ``agent`` (zero when standing)."""
+        i = self._row[agent]
+        if self._target[i] < 0:
+            return 0.0, 0.0
+        pose = tuple(self.world.robot_states[i, :3].tolist())
+        start, end = tuple(self.places_xy[self._from[i]]), tuple(self.places_xy[self._target[i]])
+        return self.followers[i].command(pose, start, end, self._nearest_ahead(i))
+
+    def moves_over(self) -> bool:
+        """The stage ends on meeting, when a robot reaches its next place, or when no robot moves."""
+        return self._met or bool(self._arrived_now.any()) or not (self._target >= 0).any()
+
+    def move_mask(self, agent: str) -> np.ndarray:
+        """Admissible slots: unblocked ways from the robot's place (as it knows them) and "wait"."""
+        i = self._row[agent]
+        mask = np.zeros(self.max_degree + 1, dtype=np.int8)
+        mask[self.max_degree] = 1
+        if self._target[i] >= 0:
+            mask[list(self.neighbour_table[self._place[i]]).index(self._target[i])] = 1
+            return mask
+        for k, q in enumerate(self.neighbour_table[self._place[i]].tolist()):
+            if q >= 0 and self.way_index[frozenset((int(self._place[i]), q))] not in self._known[i]:
+                mask[k] = 1
+        return mask
+
+    def note_message(self, agent: str, values: np.ndarray) -> None:
+        """Score the whole paths a message announces (PATH records; see the module docstring)."""
+        for kind, args in decode(values):
+            if kind == Kind.PATH and len(args) >= 2:
+                self._expansions += max(0, args[0])
+                self._plans.append(self._optimality(list(args[1:])))
+
+    def _optimality(self, path: list[int]) -> float:
+        """Cost of ``path`` over the shortest-path cost between its ends with the known blocked ways (inf if invalid)."""
+        known = set().union(*self._known)
+        cost = 0.0
+        for a, b in zip(path, path[1:]):
+            k = self.way_index.get(frozenset((a, b)))
+            if k is None or k in known:
+                return math.inf
+            cost += self.graph.edges[a, b]["length"]
+        if len(path) < 1 or not all(0 <= p < len(self.place_index) for p in path):
+            return math.inf
+        best = self._shortest_cost(path[0], path[-1], known)
+        return 1.0 if best == 0 and cost == 0 else cost / best if best > 0 else math.inf
+
+    def _shortest_cost(self, a: int, b: int, blocked: set[int]) -> float:
+        def weight(u: int, v: int, data: dict) -> float | None:
+            return None if data["way"] in blocked else data["length"]
+
+        try:
+            return float(nx.shortest_path_length(self.graph, a, b, weight=weight))
+        except nx.NetworkXNoPath:
+            return math.inf
+
+    # -- step phases ---------------------------------------------------------------------
+    def _update_state(self) -> None:
+        """Arrivals at places, contacts; obstacles waiting for a way to clear are put in place."""
+        states = self.world.robot_states
+        self._arrived_now[:] = False
+        for i, follower in enumerate(self.followers):
+            pose = tuple(states[i, :3].tolist())
+            if self._target[i] >= 0 and follower.arrived(pose, tuple(self.places_xy[self._target[i]])):
+                self._place[i], self._target[i] = self._target[i], -1
+                self._arrived_now[i] = True
+            elif self._target[i] < 0:
+                self._place[i] = self._nearest_place(i)
+        hits = self.world.contacts_per(self.possible_agents)
+        self._collisions += hits
+        self._new_contacts = hits
+        self._robot_collisions += sum(1 for ct in self.world.contacts if ct.a in self._row and ct.b in self._row)
+        for k in [k for k in self._blocked if k not in self._blockers and not self._on_way(k)]:
+            self._place_blocker(k)
+
+    def _apply_events(self) -> None:
+        c, time = self.config, self.world.time
+        while self._pending_blockings and self._pending_blockings[0][2] <= time + 1e-9:
+            a, b, _ = self._pending_blockings.pop(0)
+            self._block(self.way_index[frozenset((self.place_index[a], self.place_index[b]))])
+        if c.block_rate > 0 and self.np_random.random() < c.block_rate * c.dt:
+            self._block_random()
+
+    def _check_goals(self) -> None:
+        if self._met:
+            return
+        pos = self.world.robot_states[:, :2]
+        d = np.linalg.norm(pos[:, None, :] - pos[None, :, :], axis=2)
+        if np.all(d <= self.config.meet_distance):
+            self._met = True
+            self._meeting_time = self.world.time
+
+    def _accumulate_rewards(self, total: np.ndarray) -> None:
+        c = self.config
+        distance = self._mean_distance()
+        reward = c.progress_reward * (self._distance - distance) - c.time_penalty
+        self._distance = distance
+        if self._met and self._meeting_time == self.world.time:
+            reward += c.meet_bonus
+        total += reward - c.collision_penalty * self._new_contacts
+
+    def _sense(self) -> None:
+        """Proximity rings; a robot standing at a place detects that place's blocked ways."""
+        self.ring.read_rows(self.world, self.robot_list, self.world.robot_states, self.np_random, self._proximity)
+        for i in range(len(self.robot_list)):
+            if self._target[i] < 0:
+                place = int(self._place[i])
+                for q in self.neighbour_table[place].tolist():
+                    k = self.way_index.get(frozenset((place, q))) if q >= 0 else None
+                    if k is not None and k in self._blocked:
+                        self._known[i].add(k)
+
+    def _terminations(self) -> dict[str, bool]:
+        return dict.fromkeys(self.agents, self._met)
+
+    def episode_success(self) -> bool:
+        """Every pair of robots is within ``meet_distance``."""
+        return self.world is not None and self._met
+
+    # -- helpers -------------------------------------------------------------------------
+    def _mean_distance(self) -> float:
+        pos = self.world.robot_states[:, :2]
+        d = np.linalg.norm(pos[:, None, :] - pos[None, :, :], axis=2)
+        n = len(pos)
+        return float(d.sum() / (n * (n - 1)))
+
+    def _nearest_place(self, i: int) -> int:
+        d = np.linalg.norm(self.places_xy - self.world.robot_states[i, :2], axis=1)
+        k = int(np.argmin(d))
+        return k if d[k] <= self.config.corridor_width / 2 else int(self._place[i])
+
+    def _nearest_ahead(self, i: int) -> float:
+        """Distance to the nearest other robot within 60° of the heading (inf if none)."""
+        x, y, theta = self.world.robot_states[i, :3]
+        best = math.inf
+        for j, (xj, yj) in enumerate(self.world.robot_states[:, :2].tolist()):
+            if j != i:
+                d = math.hypot(xj - x, yj - y)
+                if d < best and abs(math.remainder(math.atan2(yj - y, xj - x) - theta, math.tau)) < math.pi / 3:
+                    best = d
+        return best
+
+    def _on_way(self, k: int) -> bool:
+        ends = set(self.way_ends[k])
+        return any(
+            self._target[i] >= 0 and {int(self._from[i]), int(self._target[i])} == ends for i in range(len(self.robot_list))
+        )
+
+    def _block(self, k: int) -> None:
+        self._blocked.add(k)
+        if not self._on_way(k):
+            self._place_blocker(k)
+
+    def _place_blocker(self, k: int) -> None:
+        a, b = self.way_ends[k]
+        vertices = blocker_vertices(tuple(self.places_xy[a]), tuple(self.places_xy[b]), self.config.corridor_width)
+        self._blockers[k] = self.world.add(StaticPolygon(f"blocker_{k}", vertices))
+
+    def _block_random(self) -> None:
+        """Block a random way that is not blocked and whose loss keeps the map connected."""
+        candidates = [k for k in range(len(self.way_ends)) if k not in self._blocked]
+        if not candidates:
+            return
+        k = candidates[int(self.np_random.integers(len(candidates)))]
+        a, b = self.way_ends[k]
+        if math.isfinite(self._shortest_cost(a, b, self._blocked | {k})):
+            self._block(k)
+
+    # -- state, metrics, rendering -------------------------------------------------------
+    def _observe(self, out: np.ndarray) -> None:
+        layout, states = self.layout, self.world.robot_states
+        for row, agent in enumerate(self.agents):
+            i, buffer = self._row[agent], out[row]
+            buffer[0:3] = states[i, :3]
+            buffer[2] = math.remainder(float(states[i, 2]), math.tau)
+            place = int(self._place[i])
+            layout.view(buffer, "place")[0] = place
+            layout.view(buffer, "target")[0] = self._target[i]
+            layout.view(buffer, "progress")[0] = self._progress(i)
+            neighbours = self.neighbour_table[place]
+            layout.view(buffer, "neighbours")[:] = neighbours
+            layout.view(buffer, "blocked")[:] = [
+                q >= 0 and self.way_index[frozenset((place, int(q)))] in self._known[i] for q in neighbours
+            ]
+            layout.view(buffer, "proximity")[:] = self._proximity[i]
+            if self.config.protocol_messages:
+                packed = self.channel.inbox_array(agent, self.config.message_len, self.config.n_robots - 1, kind="protocol")
+                layout.view(buffer, "messages")[:] = packed.payload
+                layout.view(buffer, "message_sender")[:] = packed.sender
+                layout.view(buffer, "message_mask")[:] = packed.mask
+
+    def _progress(self, i: int) -> float:
+        if self._target[i] < 0:
+            return 0.0
+        a, b = self.places_xy[self._from[i]], self.places_xy[self._target[i]]
+        squared = float(np.dot(b - a, b - a))
+        done = float(np.dot(self.world.robot_states[i, :2] - a, b - a)) / max(squared, 1e-12)
+        return float(np.clip(done, 0.0, 1.0))
+
+    def _metrics(self, agent: str) -> dict[str, Any]:
+        i = self._row[agent]
+        metrics: dict[str, Any] = {
+            "path_length": float(self.robot_list[i].odometer),
+            "place": int(self._place[i]),
+            "collisions": int(self._collisions[i]),
+            "robot_collisions": int(self._robot_collisions),
+            "blocked_known": len(self._known[i]),
+            "plans": len(self._plans),
+            "replans": max(0, len(self._plans) - 1),
+            "expansions": int(self._expansions),
+        }
+        if self._plans:
+            metrics["optimality"] = float(max(self._plans))
+        if self._met:
+            metrics["meeting_time"] = float(self._meeting_time)
+        return metrics
+
+    def place_id(self, index: int) -> str:
+        """The map id of place ``index`` (observations and infos hold indices)."""
+        return self.map.place_ids[int(index)]
+
+    def state(self) -> np.ndarray:
+        if self.world is None:
+            raise RuntimeError("state() called before reset()")
+        states = self.world.robot_states
+        robots = np.column_stack([states[:, :3], self._place, self._target]).ravel()
+        blocked = np.array([k in self._blocked for k in range(len(self.way_ends))], dtype=float)
+        return np.concatenate([robots, blocked]).astype(np.float32)
+
+    def _overlay(self) -> Overlay:
+        overlay = Overlay(
+            points=[(tuple(self.places_xy[p]), robot_colour(i)) for i, p in enumerate(self._target.tolist()) if p >= 0]
+        )
+        for k, (a, b) in enumerate(self.way_ends):
+            colour = (200, 40, 40) if k in self._blocked else (200, 200, 200)
+            overlay.paths.append(([tuple(self.places_xy[a]), tuple(self.places_xy[b])], colour))
+        return overlay
+
+    def _check_feasible(self) -> None:
+        blocked = {self.way_index[frozenset((self.place_index[a], self.place_index[b]))] for a, b in self.config.blocked_ways}
+        if self.config.start_places:
+            a, b = (self.place_index[p] for p in self.config.start_places[:2])
+            if not math.isfinite(self._shortest_cost(a, b, blocked)):
+                raise ConfigError("RendezvousConfig: blocked_ways leave the start places without a path between them")
+
+
+def parallel_env(render_mode: str | None = None, **config: Any) -> Rendezvous:
+    """The PettingZoo parallel env (same as ``teamgym.make("Rendezvous-v0", ...)``)."""
+    return Rendezvous(render_mode=render_mode, **config)
+
+
+def env(render_mode: str | None = None, **config: Any):
+    """The AEC form of the env, through PettingZoo's ``parallel_to_aec``."""
+    from pettingzoo.utils.conversions import parallel_to_aec
+
+    return parallel_to_aec(parallel_env(render_mode=render_mode, **config))

@@ -1,0 +1,155 @@
+"""Rendezvous-v0 (paper 003): ways, blocking and detection, the next-place macro action, meeting, messages."""
+
+import dataclasses
+import math
+
+import networkx as nx
+import numpy as np
+import pytest
+from pettingzoo.test import parallel_api_test
+
+from teamgym.envs.config import ConfigError
+from teamgym.envs.rendezvous import RendezvousConfig, parallel_env
+from teamgym.envs.rendezvous.messages import Kind, decode, encode, used_length
+
+SQUARE = dict(map="square4", start_places=("A", "C"))  # A(0.5,0.5) B(2.5,0.5) C(2.5,2.5) D(0.5,2.5), diagonal A–C
+
+
+def silent(env, move):
+    """An action with no message."""
+    return {"move": move, "message": np.full(env.config.message_len, -1, dtype=np.int32)}
+
+
+def place_of(env, agent):
+    return env.place_id(env._place[env.possible_agents.index(agent)])
+
+
+def slot(env, agent, place_id):
+    i = env.possible_agents.index(agent)
+    row = env.neighbour_table[env._place[i]].tolist()
+    return row.index(env.place_index[place_id])
+
+
+def test_api_on_the_square_map():
+    parallel_api_test(parallel_env(**SQUARE, max_cycles=200), num_cycles=30)
+
+
+def test_blocked_way_is_detected_at_its_place_and_masked():
+    env = parallel_env(**SQUARE, blocked_ways=(("A", "C"),))
+    obs, infos = env.reset(seed=0)
+    fields = env.decode(obs["robot_0"])
+    diagonal = slot(env, "robot_0", "C")
+    assert fields["blocked"][diagonal] == 1 and infos["robot_0"]["action_mask"][diagonal] == 0
+    assert infos["robot_0"]["blocked_known"] == 1
+    with pytest.raises(ValueError, match="masked"):
+        env.step({"robot_0": silent(env, diagonal), "robot_1": silent(env, env.max_degree)})
+
+
+def test_a_step_lasts_until_a_robot_reaches_its_next_place():
+    env = parallel_env(**SQUARE)
+    env.reset(seed=0)
+    *_, infos = env.step({"robot_0": silent(env, slot(env, "robot_0", "B")), "robot_1": silent(env, env.max_degree)})
+    assert env.place_id(infos["robot_0"]["place"]) == "B"
+    length = 2.0 * env.config.scale
+    assert env.world.time == pytest.approx(length / 0.1, rel=0.25)
+
+
+def test_robots_meet_and_succeed():
+    env = parallel_env(**SQUARE)
+    env.reset(seed=0)
+    *_, infos = env.step({"robot_0": silent(env, slot(env, "robot_0", "C")), "robot_1": silent(env, slot(env, "robot_1", "A"))})
+    for _ in range(20):
+        if not env.agents:
+            break
+        *_, infos = env.step({a: silent(env, env.max_degree) for a in env.agents})
+    assert env.episode_success() and infos["robot_0"]["success"]
+    assert "meeting_time" in infos["robot_0"] and infos["robot_0"]["robot_collisions"] == 0
+    positions = np.array([r.position for r in env.robots.values()])
+    assert np.linalg.norm(positions[0] - positions[1]) <= env.config.meet_distance
+
+
+def test_a_robot_on_a_way_finishes_it_and_the_obstacle_comes_after():
+    env = parallel_env(**SQUARE, blockings=(("A", "B", 0.5),))
+    env.reset(seed=0)
+    env.step({"robot_0": silent(env, slot(env, "robot_0", "B")), "robot_1": silent(env, env.max_degree)})
+    assert place_of(env, "robot_0") == "B"  # reached B although A–B was blocked on the way
+    assert any(name.startswith("blocker_") for name in env.world.entities)
+
+
+def test_path_messages_are_scored_against_the_known_map():
+    env = parallel_env(**SQUARE)
+    env.reset(seed=0)
+    a, b, c, d = (env.place_index[p] for p in "ABCD")
+    detour = encode([(Kind.PATH, (7, a, b, c))], env.config.message_len)
+    obs, *_, infos = env.step({"robot_0": {"move": env.max_degree, "message": detour}, "robot_1": silent(env, env.max_degree)})
+    expected = (2.0 + 2.2) / math.hypot(2.0, 2.0)  # A–B (2 m) + B–C (2.2 m) over the diagonal
+    assert infos["robot_0"]["optimality"] == pytest.approx(expected)
+    assert infos["robot_0"]["plans"] == 1 and infos["robot_0"]["expansions"] == 7
+    assert env.decode(obs["robot_1"])["message_mask"][0] == 1
+
+
+def test_messages_reach_the_partner_through_the_channel():
+    env = parallel_env(**SQUARE, comm_latency=1)
+    env.reset(seed=0)
+    message = encode([(Kind.PRESENT, (env.place_index["A"],))], env.config.message_len)
+    obs, *_ = env.step({"robot_0": {"move": env.max_degree, "message": message}, "robot_1": silent(env, env.max_degree)})
+    assert env.decode(obs["robot_1"])["message_mask"][0] == 0  # one step of latency
+    obs, *_, infos = env.step({a: silent(env, env.max_degree) for a in env.agents})
+    fields = env.decode(obs["robot_1"])
+    assert fields["message_mask"][0] == 1 and fields["message_sender"][0] == 0
+    assert decode(fields["messages"][0]) == [(Kind.PRESENT, (env.place_index["A"],))]
+    assert infos["robot_0"]["bytes_sent"] == 4 * used_length(message)
+
+
+def test_random_blocking_keeps_the_map_connected():
+    env = parallel_env(map="square4", block_rate=50.0, max_cycles=300)
+    env.reset(seed=3)
+    for _ in range(30):
+        if not env.agents:
+            break
+        env.step({a: silent(env, env.max_degree) for a in env.agents})
+    ways = [env.way_ends[k] for k in range(len(env.way_ends)) if k not in env._blocked]
+    graph = nx.Graph(ways)
+    graph.add_nodes_from(range(len(env.place_index)))
+    assert env._blocked and nx.is_connected(graph)
+
+
+def test_robots_stay_inside_the_corridors():
+    env = parallel_env(map="square4", action_type="velocity", protocol_messages=False, max_cycles=150)
+    env.reset(seed=1)
+    rng = np.random.default_rng(0)
+    while env.agents:
+        env.step({a: np.array([0.4, rng.uniform(-3, 3)], dtype=np.float32) for a in env.agents})
+        for x, y in env.world.robot_states[:, :2].tolist():
+            gaps = [_distance_to_segment((x, y), env.places_xy[a], env.places_xy[b]) for a, b in env.way_ends]
+            gaps += [math.dist((x, y), p) for p in env.places_xy.tolist()]
+            assert min(gaps) <= env.config.corridor_width * 0.6 + 0.01
+
+
+def _distance_to_segment(p, a, b):
+    a, b, p = np.asarray(a), np.asarray(b), np.asarray(p)
+    t = np.clip(np.dot(p - a, b - a) / np.dot(b - a, b - a), 0.0, 1.0)
+    return float(np.linalg.norm(p - (a + t * (b - a))))
+
+
+@pytest.mark.parametrize(
+    ("key", "value", "fragment"),
+    [
+        ("start_places", ("A", "Z"), "unknown place"),
+        ("start_places", ("A", "A"), "distinct"),
+        ("blocked_ways", (("A", "Z"),), "does not have"),
+        ("speeds", (0.1, 0.5), "speeds"),
+        ("n_robots", 1, "n_robots"),
+        ("map", "nowhere", "map="),
+    ],
+)
+def test_bad_config_is_refused_everywhere(key, value, fragment):
+    with pytest.raises(ConfigError, match=fragment):
+        parallel_env(**{"map": "square4", key: value})
+    with pytest.raises(ConfigError, match=fragment):
+        dataclasses.replace(RendezvousConfig(map="square4"), **{key: value})
+
+
+def test_blocking_every_way_between_the_starts_is_refused_at_make():
+    with pytest.raises(ConfigError, match="without a path"):
+        parallel_env(map="square4", start_places=("A", "C"), blocked_ways=(("A", "B"), ("A", "C"), ("A", "D")))
