@@ -20,6 +20,10 @@ _POLICIES: dict[str, tuple[str, dict[str, Any]]] = {
     "nash-explore": ("baselines.exploration.nash_explore:NashExplore", {}),
     "greedy": ("baselines.exploration.policies:GreedyExplore", {}),
     "random-admissible": ("baselines.exploration.policies:RandomAdmissible", {}),
+    "bidir-astar": ("baselines.rendezvous.protocol:RendezvousProtocol", {"planner": "bidir-astar"}),
+    "bidir-astar-opt": ("baselines.rendezvous.protocol:RendezvousProtocol", {"planner": "bidir-astar-opt"}),
+    "astar-protocol": ("baselines.rendezvous.protocol:RendezvousProtocol", {"planner": "astar"}),
+    "centralized": ("baselines.rendezvous.centralized:CentralizedRendezvous", {}),
 }
 
 

@@ -104,7 +104,10 @@ class Rendezvous(TeamEnv):
             self.neighbour_table[i, : len(row)] = row
         self.way_index = {frozenset((self.place_index[w.a], self.place_index[w.b])): k for k, w in enumerate(self.map.ways)}
         self.way_ends = [(self.place_index[w.a], self.place_index[w.b]) for w in self.map.ways]
+        #: The map as a graph over place indices (map units): node ``pos``, edge ``length`` and ``way`` index.
         self.graph = nx.Graph()
+        for i, p in enumerate(self.map.places):
+            self.graph.add_node(i, pos=(p.x, p.y))
         for k, (a, b) in enumerate(self.way_ends):
             self.graph.add_edge(a, b, length=float(self.map.ways[k].length), way=k)
         self.spec_robot = RobotSpec(max_wheel_speed=max(0.4, c.max_speed))
@@ -174,6 +177,7 @@ class Rendezvous(TeamEnv):
         self._met = False
         self._meeting_time = math.nan
         self._plans: list[float] = []
+        self._announced: dict[str, list[int]] = {}
         self._expansions = 0
         self._proximity = np.full((n, self.ring.width), c.sensor_range, dtype=np.float32)
         for a, b in c.blocked_ways:
@@ -222,11 +226,18 @@ class Rendezvous(TeamEnv):
         return mask
 
     def note_message(self, agent: str, values: np.ndarray) -> None:
-        """Score the whole paths a message announces (PATH records; see the module docstring)."""
+        """Score the whole paths a message announces (PATH records; see the module docstring).
+
+        A PATH equal to the last one the same robot announced is a retransmission, not a new plan.
+        """
         for kind, args in decode(values):
             if kind == Kind.PATH and len(args) >= 2:
+                path = list(args[1:])
+                if self._announced.get(agent) == path:
+                    continue
+                self._announced[agent] = path
                 self._expansions += max(0, args[0])
-                self._plans.append(self._optimality(list(args[1:])))
+                self._plans.append(self._optimality(path))
 
     def _optimality(self, path: list[int]) -> float:
         """Cost of ``path`` over the shortest-path cost between its ends with the known blocked ways (inf if invalid)."""

@@ -1,0 +1,177 @@
+"""Paper 003's coordination protocol (section 3) on Rendezvous-v0, with a choice of planner.
+
+Two agents, ``robot_0`` (Agent 1, which assembles the whole path) and ``robot_1`` (Agent 2),
+each with its own beliefs (section 5: *AgentPath*, *OtherAgentPath*, *Environment*): its place
+P_i, the partner's place P_j and next place P_{j+1}, the current whole path and the ways known
+to be blocked. They coordinate only by the messages of :mod:`teamgym.envs.rendezvous.messages`,
+sent through the env's channel. Each env step an agent that stands at a place:
+
+1. reads its inbox (Steps 1–3, 7): BLOCKED updates the map; NEXT/PRESENT update P_{j+1}/P_j;
+   REPLAN updates both and starts a re-planning phase; PATH (Agent 2) adopts the whole path;
+2. detects the blocked ways of its place (Step 5) and reports each new one (BLOCKED);
+3. while re-planning (Phases 1–2): Agent 2 sends PRESENT(P_i) and waits for a PATH; Agent 1,
+   once it knows P_j, plans from P_i to P_j with the known blocked ways and sends the PATH;
+4. while executing (Phases 3–4): if P_i = P_j it waits (Step 4: met); it takes the next place
+   P_{i+1} on the path toward the partner; if that way is blocked it sends REPLAN(P_i, way)
+   (Step 6); otherwise it goes and sends NEXT (Step 8) — if P_{i+1} = P_{j+1} the robots
+   approach each other there, and the env stops them ``meet_distance`` apart. It waits where
+   the partner is coming to its place. NEXT is ``(P_{i+1}, path checksum, P_i)``: the next and
+   present positions of section 5 plus the plan it follows.
+
+The planner (``planner``): ``bidir-astar`` is the paper's distributed bidirectional A*
+(section 4, not always optimal), ``bidir-astar-opt`` its optimal variant, ``astar`` one-sided
+A*, ``centralized`` networkx's shortest path. Agent 1 runs the search for both agents; the
+search's own per-iteration messages (Agent 2's current paths) are counted in the planner's
+result, not sent through the channel (a search finishes within one control step).
+
+Lossy channels (not in the paper, which assumes delivery): an agent repeats the message it
+waits on every step — PRESENT until a PATH arrives, PATH until Agent 2 answers with a NEXT
+carrying that path's checksum; a standing agent repeats NEXT with its own place — so a lost
+message delays, never deadlocks. The env counts a repeated PATH once.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+import numpy as np
+
+from baselines.policy import Policy
+from baselines.rendezvous.search import PLANNERS
+from teamgym.envs.base import TeamEnv
+from teamgym.envs.rendezvous.messages import Kind, Record, decode, encode
+
+
+def checksum(path: list[int]) -> int:
+    """A 31-bit fingerprint of a path, by which Agent 2 confirms the plan it executes."""
+    value = 17
+    for place in path:
+        value = (value * 1_000_003 + place + 1) % 2_147_483_647
+    return value
+
+
+@dataclass
+class AgentBeliefs:
+    """One agent's knowledge (section 5's belief sets)."""
+
+    place: int = -1
+    partner_place: int = -1
+    partner_next: int = -1
+    path: list[int] = field(default_factory=list)  # whole path, robot_0's place first
+    plan: int = 0  # number of the plan in ``path`` (0: none yet)
+    blocked: set[frozenset[int]] = field(default_factory=set)
+    replanning: bool = True  # Phase 1 at the start
+    acknowledged: int = -1  # Agent 1: the checksum of the last path Agent 2 confirmed
+
+
+class RendezvousProtocol(Policy):
+    """Section 3's protocol for two robots; see the module docstring."""
+
+    name = "bidir-astar"
+    env_ids: ClassVar[tuple[str, ...]] = ("Rendezvous-v0",)
+    observation_fields: ClassVar[tuple[str, ...]] = ("place", "target", "neighbours", "blocked", "messages", "message_mask")
+    required_config: ClassVar[dict[str, Any]] = {"action_type": "next_place", "protocol_messages": True}
+
+    def __init__(self, env: TeamEnv, planner: str = "bidir-astar") -> None:
+        super().__init__(env)
+        if planner not in PLANNERS:
+            raise ValueError(f"unknown planner {planner!r}; choose one of {sorted(PLANNERS)}")
+        if env.config.n_robots != 2 or env.config.action_type != "next_place" or not env.config.protocol_messages:
+            raise ValueError("the protocol of paper 003 needs n_robots=2, action_type='next_place' and protocol_messages=True")
+        self.planner = PLANNERS[planner]
+        self.graph = env.graph
+        self.wait = env.max_degree
+        self.length = env.config.message_len
+        self.beliefs: dict[str, AgentBeliefs] = {}
+
+    def reset(self, seed: int | None = None) -> None:
+        super().reset(seed)
+        self.beliefs = {a: AgentBeliefs() for a in self.env.possible_agents}
+
+    def act(self, observations: dict[str, np.ndarray], infos: dict[str, dict[str, Any]] | None = None) -> dict[str, Any]:
+        actions = {}
+        for agent, observation in observations.items():
+            fields = self.env.decode(observation)
+            move, records = self._decide(agent, fields)
+            actions[agent] = {"move": move, "message": encode(records, self.length)}
+        return actions
+
+    # -- one agent ------------------------------------------------------------------------
+    def _decide(self, agent: str, fields: dict[str, np.ndarray]) -> tuple[int, list[Record]]:
+        me = self.beliefs[agent]
+        first = agent == self.env.possible_agents[0]
+        records: list[Record] = []
+        self._read_inbox(me, fields, first)
+        me.place = int(fields["place"][0])
+        if int(fields["target"][0]) >= 0:  # on a way: finish it (the env ignores the choice)
+            return self.wait, records
+        records += self._detect(me, fields)
+        if me.replanning:
+            records += self._replan(me, first)
+        if me.replanning:
+            return self.wait, records
+        move, more = self._execute(me, fields)
+        if first and me.acknowledged != checksum(me.path):
+            more.append((Kind.PATH, (0, *me.path)))  # repeated until Agent 2 confirms it (the env counts it once)
+        return move, records + more
+
+    def _read_inbox(self, me: AgentBeliefs, fields: dict[str, np.ndarray], first: bool) -> None:
+        for row, valid in zip(fields["messages"], fields["message_mask"]):
+            if not valid:
+                continue
+            for kind, args in decode(row):
+                if kind == Kind.BLOCKED and len(args) == 2:
+                    me.blocked.add(frozenset(args))
+                elif kind == Kind.PRESENT and args:
+                    me.partner_place = args[0]
+                elif kind == Kind.NEXT and len(args) == 3:
+                    me.partner_next, me.partner_place = args[0], args[2]
+                    me.acknowledged = args[1]
+                elif kind == Kind.REPLAN and len(args) == 3:
+                    me.partner_place, me.partner_next = args[0], -1
+                    me.blocked.add(frozenset(args[1:]))
+                    me.replanning = True
+                elif kind == Kind.PATH and not first and len(args) >= 2:
+                    path = list(args[1:])
+                    if path != me.path or me.replanning:
+                        me.path, me.plan, me.replanning = path, me.plan + 1, False
+                        me.partner_place, me.partner_next = path[0], -1
+
+    def _detect(self, me: AgentBeliefs, fields: dict[str, np.ndarray]) -> list[Record]:
+        """Step 5: the blocked ways of the place; new ones are reported to the partner."""
+        records: list[Record] = []
+        for q, blocked in zip(fields["neighbours"].astype(int).tolist(), fields["blocked"].tolist()):
+            way = frozenset((me.place, q))
+            if q >= 0 and blocked and way not in me.blocked:
+                me.blocked.add(way)
+                records.append((Kind.BLOCKED, (me.place, q)))
+        return records
+
+    def _replan(self, me: AgentBeliefs, first: bool) -> list[Record]:
+        """Phases 1–2: Agent 2 reports its place; Agent 1 plans once it knows both places."""
+        if not first:
+            return [(Kind.PRESENT, (me.place,))]
+        if me.partner_place < 0:
+            return [(Kind.PRESENT, (me.place,))]
+        result = self.planner(self.graph, me.place, me.partner_place, me.blocked)
+        if not result.found:
+            return [(Kind.PRESENT, (me.place,))]  # wait for news (a way may reopen only in another episode)
+        me.path, me.plan, me.replanning = list(result.path), me.plan + 1, False
+        return [(Kind.PATH, (int(result.expansions or 0), *me.path))]
+
+    def _execute(self, me: AgentBeliefs, fields: dict[str, np.ndarray]) -> tuple[int, list[Record]]:
+        """Phases 3–4 (Steps 4–8): the next place toward the partner along the path."""
+        path = me.path if me is self.beliefs[self.env.possible_agents[0]] else me.path[::-1]
+        here = [(Kind.NEXT, (me.place, checksum(me.path), me.place))]  # standing: repeated each step
+        if me.place not in path or me.place == me.partner_place:
+            return self.wait, here  # Step 4: met (or off the plan: wait for a new one)
+        k = path.index(me.place)
+        if k + 1 >= len(path) or path[k + 1] == me.partner_place and me.partner_next == me.place:
+            return self.wait, here  # the partner is coming here
+        nxt = path[k + 1]
+        if frozenset((me.place, nxt)) in me.blocked:  # Step 6
+            me.replanning, me.partner_place = True, -1  # wait for the partner's fresh position
+            return self.wait, [(Kind.REPLAN, (me.place, me.place, nxt))]
+        neighbours = fields["neighbours"].astype(int).tolist()
+        return neighbours.index(nxt), [(Kind.NEXT, (nxt, checksum(me.path), me.place))]
