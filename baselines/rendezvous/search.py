@@ -2,9 +2,9 @@
 
 Every planner works on an undirected ``networkx.Graph`` whose nodes carry ``pos`` (x, y) and
 whose edges carry ``length`` (as :meth:`teamgym.maps.graph.GraphMap.to_networkx` builds), with
-a collection of *blocked* ways (frozensets or pairs of two nodes) treated as removed. The
-heuristic is the Euclidean distance between ``pos``: admissible and consistent because a way
-is never shorter than the straight line (:class:`SearchGraph` checks it).
+a collection of *blocked* ways (frozensets or pairs of two nodes, or ``Way`` objects) treated
+as removed. The heuristic is the Euclidean distance between ``pos``: admissible and consistent
+because a way is never shorter than the straight line (:class:`SearchGraph` checks it).
 
 Planners (``PLANNERS`` maps their names to them), each returning a :class:`PlanResult`:
 
@@ -16,11 +16,13 @@ Planners (``PLANNERS`` maps their names to them), each returning a :class:`PlanR
   a provably optimal stopping rule (bidirectional A* with average potentials).
 * :func:`centralized_shortest_path` (``centralized``) -- networkx Dijkstra, the reference.
 
-Tie-breaking (all A* variants, deterministic): the open list is a binary heap of
-``(key, ..., node index)`` tuples; :func:`astar` and both agents of the paper's protocol use
-``(f, h, index)`` -- among equal ``f`` the node with the smaller ``h`` (the deeper one) first,
-then the node met first in the graph's node order. Neighbours are relaxed in the graph's
-adjacency order. The same graph and query therefore always give the same result.
+Tie-breaking (deterministic): an open list is a binary heap of tuples ending in the node's
+index in the graph's node order. :func:`astar` and both agents of the paper's protocol use
+``(f, h, index)``: among equal ``f`` the node with the smaller ``h`` (the deeper one) first,
+then the node that comes first in the graph's node order; :func:`bidirectional_astar_optimal`
+uses ``(key, index)``. Neighbours are relaxed in the graph's adjacency order. A graph with the
+same node and adjacency order and the same query always give the same result (the order in
+which blocked ways are listed does not matter).
 
 Messages (what the distributed protocol would exchange, section 4 and section 5's message
 types): Agent 2 sends its current path after each of its iterations, Agent 1 sends the whole
