@@ -53,3 +53,4 @@ def make_aec(env_id: str, render_mode: str | None = None, **config: Any):
 register("Navigation-v0", "teamgym.envs.navigation:Navigation")
 register("BoxPushing-v0", "teamgym.envs.box_pushing:BoxPushing")
 register("Exploration-v0", "teamgym.envs.exploration:Exploration")
+register("Rendezvous-v0", "teamgym.envs.rendezvous:Rendezvous")

@@ -270,7 +270,9 @@ def policy_record(env, random_policy, steps, seed):
 
 #: Steps before copying / after copying. A step of Exploration-v0 with operators runs a
 #: whole planning stage (often tens of control steps), so it gets fewer of them.
-COPY_STEPS = {("Exploration-v0", "operator"): (4, 6)}
+COPY_STEPS = {("Exploration-v0", "operator"): (4, 6), ("Rendezvous-v0", "next_place"): (3, 4)}
+#: Settings that keep an episode going long enough to copy it mid-way.
+COPY_CONFIG = {"Rendezvous-v0": {"start_places": ("1", "30")}}  # opposite corners of the default map
 
 
 @pytest.mark.parametrize("how", ["deepcopy", "pickle"])
@@ -281,9 +283,10 @@ def test_copy_continues_like_original(env_id, config, how, random_policy):
     Sensor noise makes every step draw from the env's random stream, so the copy must also
     carry the stream's state, not only the simulation's.
     """
-    before, after = COPY_STEPS.get((env_id, config.get("action_type")), (15, 20))
+    kind = config.get("action_type", getattr(teamgym.env_class(env_id).config_class(), "action_type", None))
+    before, after = COPY_STEPS.get((env_id, kind), (15, 20))
     noise = {"sensor_noise": 0.002} if "sensor_noise" in teamgym.env_class(env_id).config_class.field_names() else {}
-    env = teamgym.make(env_id, **{**config, "max_cycles": 400, **noise})
+    env = teamgym.make(env_id, **{**config, "max_cycles": 400, **noise, **COPY_CONFIG.get(env_id, {})})
     env.reset(seed=5)
     policy_record(env, random_policy, before, seed=50)
     assert env.agents, "the episode ended before the copy"

@@ -12,7 +12,9 @@ from teamgym.envs.config import ConfigError
 from teamgym.envs.rendezvous import RendezvousConfig, parallel_env
 from teamgym.envs.rendezvous.messages import Kind, decode, encode, used_length
 
-SQUARE = dict(map="square4", start_places=("A", "C"))  # A(0.5,0.5) B(2.5,0.5) C(2.5,2.5) D(0.5,2.5), diagonal A–C
+SQUARE = dict(
+    map="square4", start_places=("A", "C"), protocol_messages=True
+)  # A(0.5,0.5) B(2.5,0.5) C(2.5,2.5) D(0.5,2.5), diagonal A–C
 
 
 def silent(env, move):
@@ -39,7 +41,8 @@ def test_blocked_way_is_detected_at_its_place_and_masked():
     obs, infos = env.reset(seed=0)
     fields = env.decode(obs["robot_0"])
     diagonal = slot(env, "robot_0", "C")
-    assert fields["blocked"][diagonal] == 1 and infos["robot_0"]["action_mask"][diagonal] == 0
+    assert fields["blocked"][diagonal] == 1 and env.action_mask("robot_0")[diagonal] == 0
+    assert infos["robot_0"]["action_mask"]["move"][diagonal] == 0 and infos["robot_0"]["action_mask"]["message"] is None
     assert infos["robot_0"]["blocked_known"] == 1
     with pytest.raises(ValueError, match="masked"):
         env.step({"robot_0": silent(env, diagonal), "robot_1": silent(env, env.max_degree)})
@@ -102,7 +105,7 @@ def test_messages_reach_the_partner_through_the_channel():
 
 
 def test_random_blocking_keeps_the_map_connected():
-    env = parallel_env(map="square4", block_rate=50.0, max_cycles=300)
+    env = parallel_env(map="square4", block_rate=50.0, max_cycles=300, protocol_messages=True)
     env.reset(seed=3)
     for _ in range(30):
         if not env.agents:

@@ -64,6 +64,10 @@ class ActionType(ABC):
         """The part of this type's ``space`` that :meth:`mask` applies to."""
         return space
 
+    def info_mask(self, mask: np.ndarray) -> Any:
+        """``mask`` in the form ``space().sample(mask=...)`` takes (``infos[agent]["action_mask"]``)."""
+        return mask
+
     def describe(self, action: Any) -> str:
         """A readable name of ``action`` for error messages."""
         return repr(action)
@@ -140,6 +144,9 @@ class WithMessage(ActionType):
 
     def masked_space(self, space: spaces.Space) -> spaces.Space:
         return self.motion.masked_space(space["motion"])
+
+    def info_mask(self, mask: np.ndarray) -> Any:
+        return {"motion": self.motion.info_mask(mask), "message": None}
 
     def describe(self, action: Any) -> str:
         return self.motion.describe(action["motion"]) if isinstance(action, dict) else self.motion.describe(action)

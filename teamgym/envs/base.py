@@ -411,7 +411,7 @@ class TeamEnv(ParallelEnv):
         for agent, info in infos.items():
             info["success"] = success
             if agent in self._masks:
-                info["action_mask"] = self._masks[agent].copy()
+                info["action_mask"] = self.action_type.info_mask(self._masks[agent].copy())
             if comm:
                 info.update(self.channel.stats(agent))
         return infos

@@ -90,5 +90,8 @@ class WithRecords(ActionType):
     def masked_space(self, space: spaces.Space) -> spaces.Space:
         return self.motion.masked_space(space["move"])
 
+    def info_mask(self, mask: np.ndarray) -> Any:
+        return {"move": self.motion.info_mask(mask), "message": None}
+
     def describe(self, action: Any) -> str:
         return self.motion.describe(action["move"] if isinstance(action, dict) else action)

@@ -28,7 +28,7 @@ class RendezvousConfig(EnvConfig):
     default_body_speed: ClassVar[float] = 0.0
 
     max_cycles: int = 6000
-    map: str = "paper003_fig5"
+    map: str = "lattice30"
     n_robots: int = 2
     start_places: tuple[str, ...] = ()
     scale: float = 0.3
@@ -41,7 +41,7 @@ class RendezvousConfig(EnvConfig):
     max_speed: float = 0.2
     meet_distance: float = 0.1
     action_type: Literal["next_place", "velocity"] = "next_place"
-    protocol_messages: bool = True
+    protocol_messages: bool = False
     message_len: int = 64
     sensor_range: float = 0.1
     sensor_noise: float = 0.0

@@ -37,7 +37,9 @@ field              shape        meaning
 
 Actions (``action_type``): ``"next_place"`` (a macro action: one ``step`` lasts until some
 moving robot reaches its next place; masks in ``infos[agent]["action_mask"]``) or
-``"velocity"`` (v, ω). With ``protocol_messages`` the action is ``{"move": ..., "message": ...}``.
+``"velocity"`` (v, ω). With ``protocol_messages`` the action is ``{"move": ..., "message": ...}``
+and ``infos[agent]["action_mask"]`` takes the form gymnasium's ``Dict.sample(mask=...)`` takes,
+``{"move": mask, "message": None}`` (``env.action_mask(agent)`` gives the array).
 
 Reward, shared per control step: ``progress_reward`` × (decrease of the mean distance between
 robots, m) − ``time_penalty`` − ``collision_penalty`` per contact, + ``meet_bonus`` on meeting.
