@@ -472,7 +472,7 @@ def test_random_bytes_give_a_map_error_naming_the_file(content, tmp_path):
 
 
 def test_missing_map_lists_the_shipped_ones(tmp_path):
-    with pytest.raises(MapError, match=r"no graph map 'nowhere': not a shipped graph map \(\['square4'"):
+    with pytest.raises(MapError, match=r"no graph map 'nowhere': not a shipped graph map \(\[.*'square4'"):
         load_graph_map("nowhere")
     with pytest.raises(MapError, match="not a shipped graph map"):
         load_graph_map(tmp_path)  # a folder is no file
