@@ -24,6 +24,11 @@ A*, ``centralized`` networkx's shortest path. Agent 1 runs the search for both a
 search's own per-iteration messages (Agent 2's current paths) are counted in the planner's
 result, not sent through the channel (a search finishes within one control step).
 
+An agent that finds itself or its partner off the current path (a new plan crossed a move
+still under way, which the paper's synchronous description does not meet) goes back to
+Phase 1; Agent 1 plans to the place the partner is heading for, and a PRESENT from the
+partner (sent only in Phase 1) makes it plan again.
+
 Lossy channels (not in the paper, which assumes delivery): an agent repeats the message it
 waits on every step — PRESENT until a PATH arrives, PATH until Agent 2 answers with a NEXT
 carrying that path's checksum; a standing agent repeats NEXT with its own place — so a lost
@@ -124,7 +129,8 @@ class RendezvousProtocol(Policy):
                 if kind == Kind.BLOCKED and len(args) == 2:
                     me.blocked.add(frozenset(args))
                 elif kind == Kind.PRESENT and args:
-                    me.partner_place = args[0]
+                    me.partner_place = me.partner_next = args[0]
+                    me.replanning = me.replanning or first  # the partner is in Phase 1: plan again
                 elif kind == Kind.NEXT and len(args) == 3:
                     me.partner_next, me.partner_place = args[0], args[2]
                     me.acknowledged = args[1]
@@ -154,7 +160,8 @@ class RendezvousProtocol(Policy):
             return [(Kind.PRESENT, (me.place,))]
         if me.partner_place < 0:
             return [(Kind.PRESENT, (me.place,))]
-        result = self.planner(self.graph, me.place, me.partner_place, me.blocked)
+        goal = me.partner_next if me.partner_next >= 0 else me.partner_place  # where the partner will stand
+        result = self.planner(self.graph, me.place, goal, me.blocked)
         if not result.found:
             return [(Kind.PRESENT, (me.place,))]  # wait for news (a way may reopen only in another episode)
         me.path, me.plan, me.replanning = list(result.path), me.plan + 1, False
@@ -164,8 +171,13 @@ class RendezvousProtocol(Policy):
         """Phases 3–4 (Steps 4–8): the next place toward the partner along the path."""
         path = me.path if me is self.beliefs[self.env.possible_agents[0]] else me.path[::-1]
         here = [(Kind.NEXT, (me.place, checksum(me.path), me.place))]  # standing: repeated each step
-        if me.place not in path or me.place == me.partner_place:
-            return self.wait, here  # Step 4: met (or off the plan: wait for a new one)
+        partner = me.partner_next if me.partner_next >= 0 else me.partner_place
+        if me.place not in path or (partner >= 0 and partner not in path):
+            # Off the plan (a plan crossed a move in the channel): back to Phase 1.
+            me.replanning = True
+            return self.wait, self._replan(me, me is self.beliefs[self.env.possible_agents[0]])
+        if me.place == me.partner_place:
+            return self.wait, here  # Step 4: met
         k = path.index(me.place)
         if k + 1 >= len(path) or path[k + 1] == me.partner_place and me.partner_next == me.place:
             return self.wait, here  # the partner is coming here

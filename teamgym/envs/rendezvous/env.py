@@ -46,7 +46,7 @@ robots, m) − ``time_penalty`` − ``collision_penalty`` per contact, + ``meet_
 Metrics in ``infos``: ``meeting_time`` (s, once met), ``path_length`` (own, m), ``place``,
 ``collisions``, ``robot_collisions`` (between robots, the team's), ``blocked_known`` (ways this
 robot detected blocked), ``plans`` and ``replans`` (whole paths announced, and those after the
-first), ``expansions`` (nodes expanded, as the planners declare them), ``optimality`` (worst
+first), ``stale_plans`` (paths through a way the team already knew blocked), ``expansions`` (nodes expanded, as the planners declare them), ``optimality`` (worst
 announced path so far) and the channel's message and byte counts.
 """
 
@@ -180,6 +180,7 @@ class Rendezvous(TeamEnv):
         self._meeting_time = math.nan
         self._plans: list[float] = []
         self._announced: dict[str, list[int]] = {}
+        self._stale_plans = 0
         self._expansions = 0
         self._proximity = np.full((n, self.ring.width), c.sensor_range, dtype=np.float32)
         for a, b in c.blocked_ways:
@@ -242,16 +243,22 @@ class Rendezvous(TeamEnv):
                 self._plans.append(self._optimality(path))
 
     def _optimality(self, path: list[int]) -> float:
-        """Cost of ``path`` over the shortest-path cost between its ends with the known blocked ways (inf if invalid)."""
-        known = set().union(*self._known)
-        cost = 0.0
-        for a, b in zip(path, path[1:]):
-            k = self.way_index.get(frozenset((a, b)))
-            if k is None or k in known:
-                return math.inf
-            cost += self.graph.edges[a, b]["length"]
+        """Cost of ``path`` over the shortest-path cost between its ends on the map as the team knows it.
+
+        A path through a way the team knows to be blocked (its planner had not heard of it yet, e.g.
+        over a lossy channel) is counted in ``stale_plans`` and scored with its own ways taken as
+        open. A path that is not a walk on the map scores ``inf``.
+        """
         if len(path) < 1 or not all(0 <= p < len(self.place_index) for p in path):
             return math.inf
+        ways = [self.way_index.get(frozenset((a, b))) for a, b in zip(path, path[1:])]
+        if any(k is None for k in ways):
+            return math.inf
+        known = set().union(*self._known)
+        if known & set(ways):
+            self._stale_plans += 1
+            known -= set(ways)
+        cost = sum(self.graph.edges[a, b]["length"] for a, b in zip(path, path[1:]))
         best = self._shortest_cost(path[0], path[-1], known)
         return 1.0 if best == 0 and cost == 0 else cost / best if best > 0 else math.inf
 
@@ -418,6 +425,7 @@ class Rendezvous(TeamEnv):
             "plans": len(self._plans),
             "replans": max(0, len(self._plans) - 1),
             "expansions": int(self._expansions),
+            "stale_plans": int(self._stale_plans),
         }
         if self._plans:
             metrics["optimality"] = float(max(self._plans))
