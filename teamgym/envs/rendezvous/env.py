@@ -46,8 +46,9 @@ robots, m) − ``time_penalty`` − ``collision_penalty`` per contact, + ``meet_
 Metrics in ``infos``: ``meeting_time`` (s, once met), ``path_length`` (own, m), ``place``,
 ``collisions``, ``robot_collisions`` (between robots, the team's), ``blocked_known`` (ways this
 robot detected blocked), ``plans`` and ``replans`` (whole paths announced, and those after the
-first), ``stale_plans`` (paths through a way the team already knew blocked), ``expansions`` (nodes expanded, as the planners declare them), ``optimality`` (worst
-announced path so far) and the channel's message and byte counts.
+first), ``stale_plans`` (paths through a way the team already knew blocked), ``expansions``
+(nodes expanded, as the planners declare them), ``optimality`` (worst announced path so far)
+and the channel's message and byte counts.
 """
 
 from __future__ import annotations
