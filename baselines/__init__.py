@@ -17,8 +17,28 @@
 ``run_episode(env, policy, seed, on_step=...)`` plays one episode (:mod:`baselines.episode`).
 """
 
-from baselines.episode import EpisodeResult, Step, run_episode
-from baselines.policy import Policy, RandomPolicy
-from baselines.registry import make_policy, policies, register_policy
+from __future__ import annotations
 
-__all__ = ["EpisodeResult", "Policy", "RandomPolicy", "Step", "make_policy", "policies", "register_policy", "run_episode"]
+import importlib
+from typing import Any
+
+# Names are imported on first use, so that ``python -m baselines.evaluate`` can limit numeric
+# threads before numpy loads (importing this package imports nothing heavy).
+_EXPORTS = {
+    "EpisodeResult": "baselines.episode",
+    "Step": "baselines.episode",
+    "run_episode": "baselines.episode",
+    "Policy": "baselines.policy",
+    "RandomPolicy": "baselines.policy",
+    "make_policy": "baselines.registry",
+    "policies": "baselines.registry",
+    "register_policy": "baselines.registry",
+}
+
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str) -> Any:
+    if name in _EXPORTS:
+        return getattr(importlib.import_module(_EXPORTS[name]), name)
+    raise AttributeError(f"module 'baselines' has no attribute {name!r}")

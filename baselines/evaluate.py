@@ -40,11 +40,16 @@ From Python::
 
 from __future__ import annotations
 
+import os
+
+if __name__ == "__main__":  # the CLI: one numeric thread per process, set before numpy loads
+    for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+        os.environ.setdefault(_variable, "1")
+
 import argparse
 import csv
 import json
 import math
-import os
 import re
 import sys
 from collections.abc import Callable, Mapping, Sequence
@@ -105,6 +110,26 @@ def _worker_run(seed: int, record_trajectories: bool) -> EpisodeResult:
     return _WORKER.run(seed, record_trajectories=record_trajectories)
 
 
+def _worker_run_chunk(chunk: Sequence[tuple[int, bool]]) -> list[EpisodeResult]:
+    """Several episodes in one task (fewer round trips between processes)."""
+    return [_worker_run(s, k) for s, k in chunk]
+
+
+def _pool_context():
+    """``fork`` where the platform has it and torch is not loaded (forking after torch's threads start
+    can hang); ``spawn`` otherwise. Forked workers start in milliseconds instead of re-importing."""
+    import multiprocessing
+
+    methods = multiprocessing.get_all_start_methods()
+    return multiprocessing.get_context("fork" if "fork" in methods and "torch" not in sys.modules else "spawn")
+
+
+def _chunks(items: Sequence[Any], workers: int) -> list[list[Any]]:
+    """``items`` in consecutive chunks, about four per worker, so that the load still balances."""
+    size = max(1, math.ceil(len(items) / (4 * workers)))
+    return [list(items[i : i + size]) for i in range(0, len(items), size)]
+
+
 def evaluate(
     env_id: str = "Navigation-v0",
     policy_name: str = "goto",
@@ -119,8 +144,9 @@ def evaluate(
     """Run ``episodes`` episodes (seeds ``seed .. seed+episodes-1``) and return their results in seed order.
 
     ``config`` is passed to ``teamgym.make`` (strings are parsed as on the command line).
-    With ``workers > 1`` episodes run in that many spawned processes, each with its own
-    env and policy; results are identical to a sequential run. Trajectories are kept for
+    With ``workers > 1`` episodes run in that many worker processes (forked where possible),
+    each with its own env and policy, handed out in chunks of consecutive seeds; results are
+    identical to a sequential run. Trajectories are kept for
     the first episode only unless ``keep_trajectories``. Config, env-id and policy errors
     (including a policy that does not fit the env) raise (``ConfigError``/``ValueError``/
     ``KeyError``/``FileNotFoundError``) before any episode runs.
@@ -146,22 +172,21 @@ def evaluate(
                 bar.update(1)
             return results
         runner.close()
-        import multiprocessing
         from concurrent.futures import ProcessPoolExecutor, as_completed
 
-        context = multiprocessing.get_context("spawn")
-        slots: list[EpisodeResult | None] = [None] * episodes
+        chunks = _chunks(list(zip(seeds, keep)), workers)
+        slots: list[list[EpisodeResult] | None] = [None] * len(chunks)
         with ProcessPoolExecutor(
             max_workers=min(workers, episodes),
-            mp_context=context,
+            mp_context=_pool_context(),
             initializer=_init_worker,
             initargs=(env_id, policy_name, config),
         ) as pool:
-            futures = {pool.submit(_worker_run, s, k): i for i, (s, k) in enumerate(zip(seeds, keep))}
+            futures = {pool.submit(_worker_run_chunk, chunk): i for i, chunk in enumerate(chunks)}
             for future in as_completed(futures):
                 slots[futures[future]] = future.result()
-                bar.update(1)
-        return [r for r in slots if r is not None]
+                bar.update(len(chunks[futures[future]]))
+        return [r for chunk in slots if chunk is not None for r in chunk]
     finally:
         bar.close()
         runner.close()
@@ -367,6 +392,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--max-cycles", type=int, default=None, help="shorthand for --set max_cycles=M")
     parser.add_argument("--out", default=None, help="output directory (default: results/<env>_<policy>/)")
     parser.add_argument("--gif", action="store_true", help="also write an animated GIF of the first episode")
+    parser.add_argument("--no-plot", action="store_true", help="do not draw trajectories.png (matplotlib is then not loaded)")
     parser.add_argument("--workers", type=count, default=1, help="parallel worker processes, >= 1 (default: 1)")
     parser.add_argument("--quiet", action="store_true", help="no progress bar or table")
     parser.add_argument("--list", action="store_true", help="list env ids and policy names and exit")
@@ -431,10 +457,10 @@ def _run(args: argparse.Namespace) -> int:
     summary.update(summarise(results))
     written = [write_summary_json(out / "summary.json", summary), write_episodes_csv(out / "episodes.csv", results)]
 
-    from baselines.plots import plot_trajectories
-
     first = results[0]
-    if first.trajectories:
+    if first.trajectories and not args.no_plot:
+        from baselines.plots import plot_trajectories
+
         title = f"{args.env} · {args.policy} · seed {first.seed} · {'success' if first.success else 'no success'}"
         written.append(
             plot_trajectories(
