@@ -369,3 +369,20 @@ def test_object_trails_follow_obstacles_and_boxes(tmp_path):
     boxes.step({a: stop for a in boxes.agents})
     trails = boxes.object_trajectories()
     assert [len(t) for t in trails.values()] == [3, 1]
+
+
+def test_chunks_cover_every_seed_in_order():
+    from baselines.evaluate import _chunks
+
+    for n, workers in [(1, 2), (7, 2), (20, 2), (101, 4)]:
+        chunks = _chunks(list(range(n)), workers)
+        assert [x for c in chunks for x in c] == list(range(n))
+        assert len(chunks) <= 4 * workers and all(chunks)
+
+
+def test_importing_baselines_loads_no_numpy_until_used():
+    import subprocess
+    import sys
+
+    code = "import sys, baselines; assert 'numpy' not in sys.modules; baselines.make_policy; assert 'numpy' in sys.modules"
+    subprocess.run([sys.executable, "-c", code], check=True)
