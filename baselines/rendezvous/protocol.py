@@ -27,7 +27,8 @@ result, not sent through the channel (a search finishes within one control step)
 An agent that finds itself or its partner off the current path (a new plan crossed a move
 still under way, which the paper's synchronous description does not meet) goes back to
 Phase 1; Agent 1 plans to the place the partner is heading for, and a PRESENT from the
-partner (sent only in Phase 1) makes it plan again.
+partner (sent only in Phase 1) makes it plan again unless the partner stands where the current
+plan ends.
 
 Lossy channels (not in the paper, which assumes delivery): an agent repeats the message it
 waits on every step — PRESENT until a PATH arrives, PATH until Agent 2 answers with a NEXT
@@ -68,6 +69,7 @@ class AgentBeliefs:
     blocked: set[frozenset[int]] = field(default_factory=set)
     replanning: bool = True  # Phase 1 at the start
     acknowledged: int = -1  # Agent 1: the checksum of the last path Agent 2 confirmed
+    awaiting_present: bool = False  # Agent 1 asked for a re-plan: plan only from the partner's PRESENT
 
 
 class RendezvousProtocol(Policy):
@@ -117,7 +119,7 @@ class RendezvousProtocol(Policy):
         if me.replanning:
             return self.wait, records
         move, more = self._execute(me, fields)
-        if first and me.acknowledged != checksum(me.path):
+        if first and not me.replanning and me.acknowledged != checksum(me.path):
             more.append((Kind.PATH, (0, *me.path)))  # repeated until Agent 2 confirms it (the env counts it once)
         return move, records + more
 
@@ -130,7 +132,10 @@ class RendezvousProtocol(Policy):
                     me.blocked.add(frozenset(args))
                 elif kind == Kind.PRESENT and args:
                     me.partner_place = me.partner_next = args[0]
-                    me.replanning = me.replanning or first  # the partner is in Phase 1: plan again
+                    me.awaiting_present = False
+                    # The partner is in Phase 1: plan again, unless it stands where the plan ends
+                    # (its PRESENT crossed the PATH in the channel).
+                    me.replanning = me.replanning or (first and (not me.path or args[0] != me.path[-1]))
                 elif kind == Kind.NEXT and len(args) == 3:
                     me.partner_next, me.partner_place = args[0], args[2]
                     me.acknowledged = args[1]
@@ -158,7 +163,7 @@ class RendezvousProtocol(Policy):
         """Phases 1–2: Agent 2 reports its place; Agent 1 plans once it knows both places."""
         if not first:
             return [(Kind.PRESENT, (me.place,))]
-        if me.partner_place < 0:
+        if me.partner_place < 0 or me.awaiting_present:
             return [(Kind.PRESENT, (me.place,))]
         goal = me.partner_next if me.partner_next >= 0 else me.partner_place  # where the partner will stand
         result = self.planner(self.graph, me.place, goal, me.blocked)
@@ -183,7 +188,8 @@ class RendezvousProtocol(Policy):
             return self.wait, here  # the partner is coming here
         nxt = path[k + 1]
         if frozenset((me.place, nxt)) in me.blocked:  # Step 6
-            me.replanning, me.partner_place = True, -1  # wait for the partner's fresh position
+            me.replanning = True
+            me.awaiting_present = me is self.beliefs[self.env.possible_agents[0]]  # Step 3: the partner stops first
             return self.wait, [(Kind.REPLAN, (me.place, me.place, nxt))]
         neighbours = fields["neighbours"].astype(int).tolist()
         return neighbours.index(nxt), [(Kind.NEXT, (nxt, checksum(me.path), me.place))]

@@ -41,6 +41,7 @@ class RendezvousConfig(EnvConfig):
     max_speed: float = 0.2
     meet_distance: float = 0.1
     action_type: Literal["next_place", "velocity"] = "next_place"
+    stage_end: Literal["any", "all"] = "any"
     protocol_messages: bool = False
     message_len: int = 64
     sensor_range: float = 0.1

@@ -37,7 +37,9 @@ field              shape        meaning
 
 Actions (``action_type``): ``"next_place"`` (a macro action: one ``step`` lasts until some
 moving robot reaches its next place; masks in ``infos[agent]["action_mask"]``) or
-``"velocity"`` (v, ω). With ``protocol_messages`` the action is ``{"move": ..., "message": ...}``
+``"velocity"`` (v, ω). With ``stage_end="all"`` a step lasts until every moving robot has
+arrived (the robots move one way per step together, as in the paper's simulation). With
+``protocol_messages`` the action is ``{"move": ..., "message": ...}``
 and ``infos[agent]["action_mask"]`` takes the form gymnasium's ``Dict.sample(mask=...)`` takes,
 ``{"move": mask, "message": None}`` (``env.action_mask(agent)`` gives the array).
 
@@ -213,8 +215,10 @@ class Rendezvous(TeamEnv):
         return self.followers[i].command(pose, start, end, self._nearest_ahead(i))
 
     def moves_over(self) -> bool:
-        """The stage ends on meeting, when a robot reaches its next place, or when no robot moves."""
-        return self._met or bool(self._arrived_now.any()) or not (self._target >= 0).any()
+        """The stage ends on meeting, when no robot moves, or (``stage_end="any"``) when one reaches its next place."""
+        if self._met or not (self._target >= 0).any():
+            return True
+        return self.config.stage_end == "any" and bool(self._arrived_now.any())
 
     def move_mask(self, agent: str) -> np.ndarray:
         """Admissible slots: unblocked ways from the robot's place (as it knows them) and "wait"."""
