@@ -10,6 +10,15 @@ Office maps (paper 000, section 2.1): sectors, doors, furniture, topology. Graph
 ['A', 'D', 'C']
 """
 
+from teamgym.maps.abstraction import (
+    Workspace,
+    cell_decomposition,
+    random_grid_map,
+    random_voronoi_map,
+    random_workspace,
+    triangulate_free_space,
+    voronoi_roadmap,
+)
 from teamgym.maps.geometry import Segment, wall_layout
 from teamgym.maps.graph import (
     GraphMap,
@@ -40,8 +49,10 @@ __all__ = [
     "Segment",
     "TopologicalModel",
     "Way",
+    "Workspace",
     "available_graph_maps",
     "available_maps",
+    "cell_decomposition",
     "characteristic_distance",
     "door_cost",
     "graph_map_from_dict",
@@ -50,8 +61,13 @@ __all__ = [
     "map_from_dict",
     "passage_cost",
     "plot_graph_map",
+    "random_grid_map",
+    "random_voronoi_map",
+    "random_workspace",
     "save_graph_map",
+    "triangulate_free_space",
     "validate",
     "validate_graph_map",
+    "voronoi_roadmap",
     "wall_layout",
 ]

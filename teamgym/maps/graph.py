@@ -27,6 +27,7 @@ import dataclasses
 import json
 import math
 import numbers
+from collections import Counter
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -275,7 +276,7 @@ def _check_places(graph_map: GraphMap) -> None:
         if not (0.0 <= p.x <= w and 0.0 <= p.y <= h):
             raise MapError(f"{src}: place {p.id!r} at ({p.x:g}, {p.y:g}) m lies outside the {w:g} x {h:g} m workspace")
     ids = graph_map.place_ids
-    duplicates = sorted({i for i in ids if ids.count(i) > 1})
+    duplicates = sorted(i for i, n in Counter(ids).items() if n > 1)
     if duplicates:
         raise MapError(f"{src}: duplicate place id(s) {duplicates}")
 
