@@ -28,7 +28,7 @@ class RendezvousConfig(EnvConfig):
     default_body_speed: ClassVar[float] = 0.0
 
     max_cycles: int = 6000
-    map: str = "lattice30"
+    map: str = "paper003_fig5"
     n_robots: int = 2
     start_places: tuple[str, ...] = ()
     scale: float = 0.3
