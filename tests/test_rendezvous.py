@@ -156,3 +156,18 @@ def test_bad_config_is_refused_everywhere(key, value, fragment):
 def test_blocking_every_way_between_the_starts_is_refused_at_make():
     with pytest.raises(ConfigError, match="without a path"):
         parallel_env(map="square4", start_places=("A", "C"), blocked_ways=(("A", "B"), ("A", "C"), ("A", "D")))
+
+
+def test_block_way_between_steps_is_detected_and_replayed_by_copies():
+    import copy
+
+    env = parallel_env(**SQUARE)
+    env.reset(seed=0)
+    with pytest.raises(KeyError, match="no way"):
+        env.block_way("B", "D")
+    env.block_way("A", "B")
+    clone = copy.deepcopy(env)
+    for e in (env, clone):
+        e.step({a: silent(e, e.max_degree) for a in e.agents})
+    assert env.action_mask("robot_0")[slot(env, "robot_0", "B")] == 0
+    np.testing.assert_array_equal(env.state(), clone.state())

@@ -64,7 +64,7 @@ from gymnasium import spaces
 
 from teamgym.control.way_following import WayFollower
 from teamgym.envs.actions import ActionType, VelocityAction
-from teamgym.envs.base import TeamEnv
+from teamgym.envs.base import EpisodeOverError, TeamEnv
 from teamgym.envs.config import ConfigError
 from teamgym.envs.rendezvous.actions import NextPlaceAction, WithRecords
 from teamgym.envs.rendezvous.config import RendezvousConfig
@@ -367,6 +367,20 @@ class Rendezvous(TeamEnv):
         return any(
             self._target[i] >= 0 and {int(self._from[i]), int(self._target[i])} == ends for i in range(len(self.robot_list))
         )
+
+    def block_way(self, a: str, b: str) -> None:
+        """Block way ``a``–``b`` now, between steps (its obstacle appears once no robot is on it).
+
+        Recorded, so copies and pickles replay it. Raises ``KeyError`` naming the way if the map
+        has no such way, :class:`EpisodeOverError` outside an episode.
+        """
+        if self.world is None or not self.agents:
+            raise EpisodeOverError("block_way() needs a running episode; call reset() first")
+        ends = frozenset((self.place_index.get(a, -1), self.place_index.get(b, -2)))
+        if ends not in self.way_index:
+            raise KeyError(f"block_way: map {self.map.name!r} has no way ({a!r}, {b!r})")
+        self._record("block_way", a, b)
+        self._block(self.way_index[ends])
 
     def _block(self, k: int) -> None:
         self._blocked.add(k)
