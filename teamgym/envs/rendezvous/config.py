@@ -31,7 +31,7 @@ class RendezvousConfig(EnvConfig):
     map: str = "paper003_fig5"
     n_robots: int = 2
     start_places: tuple[str, ...] = ()
-    scale: float = 0.3
+    scale: float = 0.5
     corridor_width: float = 0.14
     corridor_walls: bool = True
     blocked_ways: tuple[tuple[str, str], ...] = ()

@@ -8,7 +8,9 @@ coordinates are multiplied by ``scale`` (m per map unit); every way is a corrido
 (``blocked_ways``), at given times (``blockings``: ``(a, b, t)``) or at random
 (``block_rate`` per second, only ways whose loss keeps the map connected). A robot detects
 the blocked ways of the place it stands at (section 1); a robot already on a way finishes it
-(the obstacle is put in place once the way is clear). The team succeeds when every pair of
+(the obstacle is put in place once the way is clear). A robot that cannot get through a way
+within three times its travel time (plus 5 s) drives back and counts the way as blocked
+(``failed_moves``). The team succeeds when every pair of
 robots is within ``meet_distance`` (centres); a robot stops short of a robot ahead.
 
 Robots talk only through the core channel (``comm_*`` keys): with ``protocol_messages`` every
@@ -177,6 +179,8 @@ class Rendezvous(TeamEnv):
         self._blockers: dict[int, StaticPolygon] = {}
         self._pending_blockings = sorted(c.blockings, key=lambda b: b[2])
         self._collisions = np.zeros(n, dtype=np.int64)
+        self._move_start = np.zeros(n)
+        self._failed_moves = np.zeros(n, dtype=np.int64)
         self._new_contacts = np.zeros(n, dtype=np.int64)
         self._robot_collisions = 0
         self._met = False
@@ -203,6 +207,7 @@ class Rendezvous(TeamEnv):
                 continue
             self._from[i] = self._place[i]
             self._target[i] = self.neighbour_table[self._place[i], int(slot)]
+            self._move_start[i] = self.world.time
         self._stage_start = self.cycles
 
     def follow_way(self, agent: str) -> tuple[float, float]:
@@ -286,6 +291,8 @@ class Rendezvous(TeamEnv):
             if self._target[i] >= 0 and follower.arrived(pose, tuple(self.places_xy[self._target[i]])):
                 self._place[i], self._target[i] = self._target[i], -1
                 self._arrived_now[i] = True
+            elif self._target[i] >= 0 and self.world.time - self._move_start[i] > self._move_timeout(i):
+                self._abandon_move(i)
             elif self._target[i] < 0:
                 self._place[i] = self._nearest_place(i)
         hits = self.world.contacts_per(self.possible_agents)
@@ -345,6 +352,22 @@ class Rendezvous(TeamEnv):
         d = np.linalg.norm(pos[:, None, :] - pos[None, :, :], axis=2)
         n = len(pos)
         return float(d.sum() / (n * (n - 1)))
+
+    def _move_timeout(self, i: int) -> float:
+        """Time allowed for a way: three times its length at the robot's speed, plus 5 s."""
+        length = float(np.linalg.norm(self.places_xy[self._target[i]] - self.places_xy[self._from[i]]))
+        return 3.0 * length / self.followers[i].speed + 5.0
+
+    def _abandon_move(self, i: int) -> None:
+        """A robot that cannot get through a way (an obstacle in its corridor): it drives back, and
+        the way counts as blocked and known to it, as a blocked way seen from its place would."""
+        k = self.way_index[frozenset((int(self._from[i]), int(self._target[i])))]
+        self._blocked.add(k)
+        self._known[i].add(k)
+        self._failed_moves[i] += 1
+        self._target[i], self._from[i] = self._from[i], self._target[i]  # return to where it came from
+        self._move_start[i] = self.world.time
+        self._arrived_now[i] = True
 
     def _nearest_place(self, i: int) -> int:
         d = np.linalg.norm(self.places_xy - self.world.robot_states[i, :2], axis=1)
@@ -445,6 +468,7 @@ class Rendezvous(TeamEnv):
             "replans": max(0, len(self._plans) - 1),
             "expansions": int(self._expansions),
             "stale_plans": int(self._stale_plans),
+            "failed_moves": int(self._failed_moves[i]),
         }
         if self._plans:
             metrics["optimality"] = float(max(self._plans))
