@@ -36,6 +36,7 @@ class RendezvousConfig(EnvConfig):
     corridor_walls: bool = True
     blocked_ways: tuple[tuple[str, str], ...] = ()
     blockings: tuple[tuple[str, str, float], ...] = ()
+    arrival_blockings: tuple[tuple[str, str, str, int], ...] = ()
     block_rate: float = 0.0
     speeds: tuple[float, ...] = ()
     max_speed: float = 0.2
@@ -72,6 +73,15 @@ class RendezvousConfig(EnvConfig):
             missing = [w for w in ways if len(w) != 2 or frozenset(w) not in {x.ends for x in graph_map.ways}]
             require(self, key, not missing, f"names way(s) {missing} that map {self.map!r} does not have")
         require(self, "blockings", all(w[2] >= 0 for w in self.blockings), "times must be >= 0 s")
+        require(
+            self,
+            "arrival_blockings",
+            all(
+                len(w) == 4 and frozenset(w[:2]) in {x.ends for x in graph_map.ways} and w[2] in ids and w[3] >= 1
+                for w in self.arrival_blockings
+            ),
+            f"must hold (a, b, place, visit) with a way a–b and a place of map {self.map!r}, visit >= 1",
+        )
         require(self, "scale", 0.05 <= self.scale <= 100, "must be in [0.05, 100] m per map unit")
         require(self, "corridor_width", 0.07 <= self.corridor_width <= 2.0, "must be in [0.07, 2] m (a robot is 0.055 m wide)")
         require(self, "block_rate", self.block_rate >= 0, "must be >= 0 per second")

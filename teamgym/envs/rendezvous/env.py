@@ -180,6 +180,7 @@ class Rendezvous(TeamEnv):
         self._pending_blockings = sorted(c.blockings, key=lambda b: b[2])
         self._collisions = np.zeros(n, dtype=np.int64)
         self._move_start = np.zeros(n)
+        self._visits = np.zeros(len(self.place_index), dtype=np.int64)
         self._failed_moves = np.zeros(n, dtype=np.int64)
         self._new_contacts = np.zeros(n, dtype=np.int64)
         self._robot_collisions = 0
@@ -291,6 +292,7 @@ class Rendezvous(TeamEnv):
             if self._target[i] >= 0 and follower.arrived(pose, tuple(self.places_xy[self._target[i]])):
                 self._place[i], self._target[i] = self._target[i], -1
                 self._arrived_now[i] = True
+                self._on_arrival(int(self._place[i]))
             elif self._target[i] >= 0 and self.world.time - self._move_start[i] > self._move_timeout(i):
                 self._abandon_move(i)
             elif self._target[i] < 0:
@@ -352,6 +354,13 @@ class Rendezvous(TeamEnv):
         d = np.linalg.norm(pos[:, None, :] - pos[None, :, :], axis=2)
         n = len(pos)
         return float(d.sum() / (n * (n - 1)))
+
+    def _on_arrival(self, place: int) -> None:
+        """``arrival_blockings``: ways that become blocked when a robot reaches a place for the n-th time."""
+        self._visits[place] += 1
+        for a, b, at, visit in self.config.arrival_blockings:
+            if self.place_index[at] == place and self._visits[place] == visit:
+                self._block(self.way_index[frozenset((self.place_index[a], self.place_index[b]))])
 
     def _move_timeout(self, i: int) -> float:
         """Time allowed for a way: three times its length at the robot's speed, plus 5 s."""
