@@ -171,3 +171,22 @@ def test_block_way_between_steps_is_detected_and_replayed_by_copies():
         e.step({a: silent(e, e.max_degree) for a in e.agents})
     assert env.action_mask("robot_0")[slot(env, "robot_0", "B")] == 0
     np.testing.assert_array_equal(env.state(), clone.state())
+
+
+def test_a_way_that_cannot_be_passed_is_abandoned_and_known_blocked():
+    from teamgym.envs.rendezvous.scene import blocker_vertices
+    from teamgym.sim.objects import StaticPolygon
+
+    env = parallel_env(**SQUARE, max_cycles=3000)
+    env.reset(seed=0)
+    a, b = env.place_index["A"], env.place_index["B"]
+    # An obstacle the env does not know of (not a blocked way): the robot finds out by trying.
+    env.world.add(StaticPolygon("crate", blocker_vertices(tuple(env.places_xy[a]), tuple(env.places_xy[b]), 0.14)))
+    *_, infos = env.step({"robot_0": silent(env, slot(env, "robot_0", "B")), "robot_1": silent(env, env.max_degree)})
+    assert infos["robot_0"]["failed_moves"] == 1
+    assert env.action_mask("robot_0").tolist() == [0] * env.max_degree + [1]  # driving back: only "wait"
+    for _ in range(10):
+        if env._target[0] < 0:
+            break
+        env.step({x: silent(env, env.max_degree) for x in env.agents})
+    assert place_of(env, "robot_0") == "A" and env.action_mask("robot_0")[slot(env, "robot_0", "B")] == 0

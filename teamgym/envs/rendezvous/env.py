@@ -232,7 +232,9 @@ class Rendezvous(TeamEnv):
         mask = np.zeros(self.max_degree + 1, dtype=np.int8)
         mask[self.max_degree] = 1
         if self._target[i] >= 0:
-            mask[list(self.neighbour_table[self._place[i]]).index(self._target[i])] = 1
+            row = self.neighbour_table[self._place[i]].tolist()
+            if int(self._target[i]) in row:  # a robot driving back from a way it could not pass has only "wait"
+                mask[row.index(int(self._target[i]))] = 1
             return mask
         for k, q in enumerate(self.neighbour_table[self._place[i]].tolist()):
             if q >= 0 and self.way_index[frozenset((int(self._place[i]), q))] not in self._known[i]:
