@@ -16,6 +16,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from baselines.policy import Policy
+from baselines.rendezvous.protocol import check_message_len
 from baselines.rendezvous.search import centralized_shortest_path
 from teamgym.envs.base import TeamEnv
 from teamgym.envs.rendezvous.messages import Kind, encode
@@ -33,6 +34,7 @@ class CentralizedRendezvous(Policy):
         super().__init__(env)
         if env.config.n_robots != 2 or env.config.action_type != "next_place" or not env.config.protocol_messages:
             raise ValueError("the centralized reference needs n_robots=2, action_type='next_place' and protocol_messages=True")
+        check_message_len(env)
         self.graph = env.graph
         self.wait = env.max_degree
         self.length = env.config.message_len

@@ -49,11 +49,24 @@ from teamgym.envs.base import TeamEnv
 from teamgym.envs.rendezvous.messages import Kind, Record, decode, encode
 
 
+def check_message_len(env: TeamEnv) -> None:
+    """A whole path over every place, with the other records of a step, must fit one message."""
+    needed = len(env.place_index) + 32
+    if env.config.message_len < needed:
+        raise ValueError(
+            f"message_len={env.config.message_len} is too short for whole paths on map {env.config.map!r} "
+            f"({len(env.place_index)} places); set message_len >= {needed}"
+        )
+
+
 def checksum(path: list[int]) -> int:
-    """A 31-bit fingerprint of a path, by which Agent 2 confirms the plan it executes."""
+    """A 24-bit fingerprint of a path, by which Agent 2 confirms the plan it executes.
+
+    Below 2²⁴ so that it survives the float32 values of flat observations exactly.
+    """
     value = 17
     for place in path:
-        value = (value * 1_000_003 + place + 1) % 2_147_483_647
+        value = (value * 1_000_003 + place + 1) % 16_777_213
     return value
 
 
@@ -86,6 +99,7 @@ class RendezvousProtocol(Policy):
             raise ValueError(f"unknown planner {planner!r}; choose one of {sorted(PLANNERS)}")
         if env.config.n_robots != 2 or env.config.action_type != "next_place" or not env.config.protocol_messages:
             raise ValueError("the protocol of paper 003 needs n_robots=2, action_type='next_place' and protocol_messages=True")
+        check_message_len(env)
         self.planner = PLANNERS[planner]
         self.graph = env.graph
         self.wait = env.max_degree

@@ -415,7 +415,8 @@ def random_voronoi_map(
     """A Voronoi roadmap of a random workspace with roughly ``target_places`` places (20 to 10,000).
 
     Lengths scale with ``clearance`` (c): a square workspace whose side s (in c) solves
-    :data:`VORONOI_PLACES`, one obstacle per 300 c² (discs of radius 2–6 c, 4 c apart) and a
+    :data:`VORONOI_PLACES`, one obstacle per 300 c² (discs of radius 2–6 c, 4 c apart; fewer
+    where they do not fit) and a
     sampling spacing of c / 2. While the count is more than 10 % off (at most twice), the
     spacing is rescaled by count / target (the count varies about inversely with it).
     """
@@ -425,7 +426,15 @@ def random_voronoi_map(
     rng = np.random.default_rng(rng)
     a, b = VORONOI_PLACES
     side = (math.sqrt(b * b + 4 * a * target_places) - b) / (2 * a)
-    workspace = random_workspace(rng, round(side * side / 300), side * clearance, (2 * clearance, 6 * clearance), 4 * clearance)
+    n_obstacles = round(side * side / 300)
+    while True:  # a small room may not take every obstacle: one fewer until it does
+        try:
+            workspace = random_workspace(rng, n_obstacles, side * clearance, (2 * clearance, 6 * clearance), 4 * clearance)
+            break
+        except ValueError:
+            if n_obstacles == 0:
+                raise
+            n_obstacles -= 1
     spacing = clearance / 2
     graph_map = voronoi_roadmap(workspace, clearance, spacing, name)
     for _ in range(2):

@@ -44,7 +44,7 @@ class RendezvousConfig(EnvConfig):
     action_type: Literal["next_place", "velocity"] = "next_place"
     stage_end: Literal["any", "all"] = "any"
     protocol_messages: bool = False
-    message_len: int = 64
+    message_len: int = 128
     sensor_range: float = 0.1
     sensor_noise: float = 0.0
     meet_bonus: float = 10.0

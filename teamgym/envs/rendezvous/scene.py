@@ -35,8 +35,9 @@ def corridor_walls(graph_map: GraphMap, scale: float, width: float, margin: floa
 
 
 def blocker_vertices(a: tuple[float, float], b: tuple[float, float], width: float) -> list[tuple[float, float]]:
-    """A square of side ``0.8 · width`` in the middle of way ``a–b``, aligned with it."""
+    """A square in the middle of way ``a–b``, aligned with it: side ``0.8 · width``, at most a
+    third of the way's length (so that it never covers the places at its ends)."""
     mx, my = (a[0] + b[0]) / 2, (a[1] + b[1]) / 2
     angle = math.atan2(b[1] - a[1], b[0] - a[0])
-    c, s, h = math.cos(angle), math.sin(angle), 0.4 * width
+    c, s, h = math.cos(angle), math.sin(angle), min(0.4 * width, math.dist(a, b) / 6)
     return [(mx + c * dx - s * dy, my + s * dx + c * dy) for dx, dy in ((-h, -h), (h, -h), (h, h), (-h, h))]
