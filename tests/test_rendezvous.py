@@ -190,3 +190,22 @@ def test_a_way_that_cannot_be_passed_is_abandoned_and_known_blocked():
             break
         env.step({x: silent(env, env.max_degree) for x in env.agents})
     assert place_of(env, "robot_0") == "A" and env.action_mask("robot_0")[slot(env, "robot_0", "B")] == 0
+
+
+def test_robots_of_different_speeds_meet_nearer_the_slow_one():
+    # Steps 4 and 8: no meeting place is fixed in advance; the faster robot covers more of the path.
+    from baselines import make_policy, run_episode
+
+    env = parallel_env(start_places=("1", "38"), speeds=(0.05, 0.15), protocol_messages=True, stage_end="any")
+    result = run_episode(env, make_policy("bidir-astar", env), seed=0)
+    assert result.success
+    slow, fast = (result.metrics[a]["path_length"] for a in env.possible_agents)
+    assert fast > 2 * slow
+
+
+def test_a_collision_between_robots_spoils_the_meeting():
+    env = parallel_env(**SQUARE)
+    env.reset(seed=0)
+    env._robot_collisions = 1  # as if the robots had bumped on the way
+    env._met = True
+    assert not env.episode_success()

@@ -11,7 +11,8 @@ the blocked ways of the place it stands at (section 1); a robot already on a way
 (the obstacle is put in place once the way is clear). A robot that cannot get through a way
 within three times its travel time (plus 5 s) drives back and counts the way as blocked
 (``failed_moves``). The team succeeds when every pair of
-robots is within ``meet_distance`` (centres); a robot stops short of a robot ahead.
+robots is within ``meet_distance`` (centres) and no two robots have collided; the episode
+ends when they meet either way. A robot stops short of a robot ahead.
 
 Robots talk only through the core channel (``comm_*`` keys): with ``protocol_messages`` every
 action carries a message of integer records (:mod:`teamgym.envs.rendezvous.messages`: whole
@@ -347,8 +348,8 @@ class Rendezvous(TeamEnv):
         return dict.fromkeys(self.agents, self._met)
 
     def episode_success(self) -> bool:
-        """Every pair of robots is within ``meet_distance``."""
-        return self.world is not None and self._met
+        """The robots met (every pair within ``meet_distance``) without a collision between robots."""
+        return self.world is not None and self._met and self._robot_collisions == 0
 
     # -- helpers -------------------------------------------------------------------------
     def _mean_distance(self) -> float:
