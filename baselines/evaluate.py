@@ -212,7 +212,9 @@ def summarise(results: Sequence[EpisodeResult]) -> dict[str, Any]:
     Returns ``episodes``, ``success_rate``, ``mean_episode_length``, ``mean_return`` (mean
     over robots and episodes), ``mean_<metric>`` for every numeric metric (pooled over
     every robot of every episode that reports it) and ``metrics``: per metric (plus
-    ``episode_length`` and ``return``) its ``mean``, ``std``, ``min``, ``max`` and ``count``.
+    ``episode_length``, ``return`` and ``success``) its ``mean``, ``std``, ``min``, ``max``
+    and ``count``. ``success`` is the episode's (the contract's), so ``mean_success`` equals
+    ``success_rate``; it is kept because BoxPushing-v0 summaries had it as a metric.
     """
     if not results:
         raise ValueError("summarise() needs at least one episode result")
@@ -220,6 +222,7 @@ def summarise(results: Sequence[EpisodeResult]) -> dict[str, Any]:
     stats: dict[str, dict[str, float | int]] = {
         "episode_length": _stats([r.length for r in results]),
         "return": _stats([v for r in results for v in r.returns.values()]),
+        "success": _stats([float(r.success) for r in results]),
     }
     for name in names:
         stats[name] = _stats([v for r in results for v in r.metric_values(name)])
@@ -229,6 +232,7 @@ def summarise(results: Sequence[EpisodeResult]) -> dict[str, Any]:
         "mean_episode_length": stats["episode_length"]["mean"],
         "mean_return": stats["return"]["mean"],
     }
+    summary["mean_success"] = stats["success"]["mean"]
     for name in names:
         summary[f"mean_{name}"] = stats[name]["mean"]
     summary["metrics"] = stats

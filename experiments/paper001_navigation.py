@@ -11,8 +11,8 @@ Subcommands (each writes JSON, a Markdown table and PNG plots into ``--out``):
   smoothness J_1 of robot 1 and decision time per step.
 * ``obstacles`` (section 6.3, Figs. 8–9): 3 and 5 robots, 2 obstacles at 20 cm/s,
   Δt = 0.2 s, robot radius 5 cm: distance to the nearest object over time for one seed;
-  then over ``--seeds`` seeds (from ``--first-seed``) ``strict_success`` (every robot at
-  its goal and no contact: the paper's criterion), ``success`` (the env's: every robot at
+  then over ``--seeds`` seeds (from ``--first-seed``) ``success`` (every robot at its goal
+  and no contact: the paper's criterion), ``all_arrived`` (the env's success: every robot at
   its goal), collisions, minimum separation, and how often the arbiter saw one, several
   or no equilibria; the same seeds with ``goto`` and ``nash-first`` (no arbiter) for
   comparison. Each in three workspaces (``WORKSPACES``): ``walled`` (2 m arena with walls,
@@ -20,7 +20,7 @@ Subcommands (each writes JSON, a Markdown table and PNG plots into ``--out``):
   obstacles still reflect at the 2 m square's edges and stay inside it) and
   ``open-straight`` (no walls, obstacles on one straight line for the whole episode).
 * ``failures``: for ``nash`` with 5 robots, the first contact of every episode without
-  strict success (what was hit, from which side, robot speed, gap to the nearest wall,
+  success (what was hit, from which side, robot speed, gap to the nearest wall,
   obstacle just reflected?, distance to goal) in each workspace: the failure taxonomy of
   docs/navigation.md. Run it on the held-out seeds (``--first-seed 100``).
 
@@ -59,7 +59,7 @@ EXPOSURE_DISTANCE = 0.25
 def run(env_id: str, policy_name: str, seed: int, config: dict[str, Any], policy_kwargs: dict | None = None) -> dict[str, Any]:
     """One episode; returns per-robot final metrics, per-step centre distances and policy statistics.
 
-    ``success`` is the env's (every robot at its goal, from ``infos``); ``strict_success``
+    ``arrived`` is the env's success (every robot at its goal, from ``infos``); ``success``
     also requires that no robot touched anything (the paper's criterion, from the metrics).
     """
     env = teamgym.make(env_id, **{**required_config(policy_name), **config})
@@ -72,8 +72,8 @@ def run(env_id: str, policy_name: str, seed: int, config: dict[str, Any], policy
     collisions = sum(m["collisions"] for m in robots)
     return {
         "seed": seed,
-        "success": result.success,
-        "strict_success": result.success and collisions == 0,
+        "success": result.success and collisions == 0,
+        "arrived": result.success,
         "collisions": collisions,
         "min_center_distance": min(m["min_center_distance"] for m in robots),
         "min_clearance": min(m["min_clearance"] for m in robots),
@@ -200,7 +200,7 @@ def experiment_delay(out: Path, seeds: int) -> dict:
                 {
                     "T0/dt": fraction,
                     "T0 modelled": modelled,
-                    "success": float(np.mean([r["success"] for r in results])),
+                    "success": float(np.mean([r["arrived"] for r in results])),
                     "collisions": int(sum(r["collisions"] for r in results)),
                     "time_to_goal_s": float(np.nanmean([r["time_to_goal"] for r in results])),
                     "steps": float(np.mean([r["steps"] for r in results])),
@@ -224,7 +224,7 @@ def experiment_decision_set(out: Path, seeds: int) -> dict:
                 "K": k,
                 "J_1": float(np.mean([r["smoothness"][0] for r in results])),
                 "decision_ms": float(1000 * np.mean(times)),
-                "success": float(np.mean([r["success"] for r in results])),
+                "success": float(np.mean([r["arrived"] for r in results])),
             }
         )
     _plot_decision_set(out / "decision_set.png", rows)
@@ -248,8 +248,8 @@ def experiment_obstacles(out: Path, seeds: int, first_seed: int = 0) -> dict:
                         "workspace": workspace,
                         "robots": n,
                         "policy": policy,
-                        "strict_success": float(np.mean([r["strict_success"] for r in results])),
                         "success": float(np.mean([r["success"] for r in results])),
+                        "all_arrived": float(np.mean([r["arrived"] for r in results])),
                         "collisions_per_episode": float(np.mean([r["collisions"] for r in results])),
                         "min_center_distance_m": float(np.min([r["min_center_distance"] for r in results])),
                         "median_min_center_distance_m": float(np.median([r["min_center_distance"] for r in results])),
@@ -274,7 +274,7 @@ def experiment_failures(out: Path, seeds: int, first_seed: int = 0) -> dict:
         config = {**OBSTACLE_SETTING, **setting, "n_robots": 5}
         for seed in range(first_seed, first_seed + seeds):
             r = run("Navigation-v0", "nash", seed, config)
-            if r["strict_success"]:
+            if r["success"]:
                 continue
             first = r["contacts"][0] if r["contacts"] else {}
             rows.append(
@@ -355,7 +355,7 @@ def _plot_nearest(path: Path, result: dict, n: int, workspace: str = "walled") -
         path_k = result["obstacle_paths"][:, k]
         ax.plot(path_k[:, 0], path_k[:, 1], color="0.5", linestyle="--", linewidth=1)
         ax.annotate(f"o{k + 1}", path_k[0], fontsize=8, color="0.3")
-    title = f"{n} robots, 2 obstacles, {workspace} (seed {result['seed']}): strict success={result['strict_success']}"
+    title = f"{n} robots, 2 obstacles, {workspace} (seed {result['seed']}): success={result['success']}"
     _draw_trajectories(ax, result, title)
     ax = fig.add_subplot(1, 2, 2)
     nearest = result["nearest"]

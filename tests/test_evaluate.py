@@ -286,15 +286,16 @@ def test_agents_disagreeing_on_success_is_an_error():
 
 
 def test_success_is_one_csv_column_not_a_metric(tmp_path):
-    # BoxPushing-v0 also reports "success" among its own metrics: it must not become a metric column.
+    # BoxPushing-v0 also reports "success" among its own metrics: one CSV column, and the summary's
+    # mean_success (which BoxPushing summaries always had) is the episode success rate.
     args = ["--env", "BoxPushing-v0", "--policy", "sbs", "--set", "situation=S1", "--max-cycles", "5", "--episodes", "2"]
     assert main([*args, "--out", str(tmp_path), "--quiet"]) == 0
     with (tmp_path / "episodes.csv").open() as handle:
         header = next(csv.reader(handle))
     assert header.count("success") == 1
     summary = json.loads((tmp_path / "summary.json").read_text())
-    assert "mean_success" not in summary and "success" not in summary["metrics"]
-    assert summary["success_rate"] == 0.0
+    assert summary["success_rate"] == 0.0 and summary["mean_success"] == 0.0
+    assert summary["metrics"]["success"]["count"] == 2
 
 
 def test_summarise_pools_robots_and_episodes():
@@ -386,3 +387,10 @@ def test_importing_baselines_loads_no_numpy_until_used():
 
     code = "import sys, baselines; assert 'numpy' not in sys.modules; baselines.make_policy; assert 'numpy' in sys.modules"
     subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_summary_keeps_mean_success_equal_to_the_success_rate():
+    from baselines.evaluate import evaluate, summarise
+
+    summary = summarise(evaluate("Navigation-v0", "goto", episodes=3, seed=0, config={"max_cycles": 60}))
+    assert summary["mean_success"] == summary["success_rate"] and summary["metrics"]["success"]["count"] == 3
