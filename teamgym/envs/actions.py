@@ -107,31 +107,42 @@ class WheelSpeedAction(ActionType):
 
 
 class WithMessage(ActionType):
-    """A motion action plus a learned message: ``Dict(motion=..., message=Box(-1, 1, (comm_dim,)))``.
+    """A motion action plus a message: ``Dict(motion=..., message=...)``.
 
-    ``start`` broadcasts every agent's message through the env's communication channel
-    (:class:`teamgym.sim.channel.Channel`, kind ``"learned"``); the motion part is handed to
-    the wrapped type unchanged.
+    ``start`` hands every agent's message to :meth:`send` (which puts it on the env's
+    communication channel, :class:`teamgym.sim.channel.Channel`) and the motion part to the
+    wrapped type unchanged; everything else is the wrapped type's. The base form is the
+    learned message of ``comm_dim``: ``Box(-1, 1, (comm_dim,))``, broadcast as kind
+    ``"learned"``. A task's own message format subclasses it (``motion_key``,
+    :meth:`message_space`, :meth:`send`).
     """
 
-    def __init__(self, motion: ActionType, comm_dim: int) -> None:
+    motion_key = "motion"
+
+    def __init__(self, motion: ActionType, length: int) -> None:
         self.motion = motion
-        self.comm_dim = int(comm_dim)
+        self.length = int(length)
         self.name = motion.name
         self.is_macro = motion.is_macro
         self.has_masks = motion.has_masks
 
+    def message_space(self) -> spaces.Box:
+        return spaces.Box(-1.0, 1.0, shape=(self.length,), dtype=np.float32)
+
+    def send(self, env: TeamEnv, agent: str, message: Any) -> None:
+        env.channel.send(agent, np.asarray(message, dtype=np.float32), kind="learned")
+
     def space(self) -> spaces.Dict:
-        message = spaces.Box(-1.0, 1.0, shape=(self.comm_dim,), dtype=np.float32)
-        return spaces.Dict({"motion": self.motion.space(), "message": message})
+        return spaces.Dict({self.motion_key: self.motion.space(), "message": self.message_space()})
 
     def start(self, env: TeamEnv, actions: dict[str, Any]) -> None:
+        key = self.motion_key
         for agent, action in actions.items():
-            env.channel.send(agent, np.asarray(action["message"], dtype=np.float32), kind="learned")
-        self.motion.start(env, {agent: action["motion"] for agent, action in actions.items()})
+            self.send(env, agent, action["message"])
+        self.motion.start(env, {agent: action[key] for agent, action in actions.items()})
 
     def act(self, env: TeamEnv, agent: str, action: Any) -> tuple[float, float]:
-        return self.motion.act(env, agent, action["motion"])
+        return self.motion.act(env, agent, action[self.motion_key])
 
     def stage_over(self, env: TeamEnv) -> bool:
         return self.motion.stage_over(env)
@@ -140,13 +151,13 @@ class WithMessage(ActionType):
         return self.motion.mask(env, agent)
 
     def mask_index(self, action: Any) -> int:
-        return self.motion.mask_index(action["motion"])
+        return self.motion.mask_index(action[self.motion_key])
 
     def masked_space(self, space: spaces.Space) -> spaces.Space:
-        return self.motion.masked_space(space["motion"])
+        return self.motion.masked_space(space[self.motion_key])
 
     def info_mask(self, mask: np.ndarray) -> Any:
-        return {"motion": self.motion.info_mask(mask), "message": None}
+        return {self.motion_key: self.motion.info_mask(mask), "message": None}
 
     def describe(self, action: Any) -> str:
-        return self.motion.describe(action["motion"]) if isinstance(action, dict) else self.motion.describe(action)
+        return self.motion.describe(action[self.motion_key] if isinstance(action, dict) else action)

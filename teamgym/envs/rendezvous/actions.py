@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
-from teamgym.envs.actions import ActionType
+from teamgym.envs.actions import ActionType, WithMessage
 from teamgym.envs.rendezvous.messages import used_length
 from teamgym.envs.spaces import MaskedDiscrete
 
@@ -52,46 +52,18 @@ class NextPlaceAction(ActionType):
         return "wait" if int(action) == self.max_degree else f"neighbour slot {int(action)}"
 
 
-class WithRecords(ActionType):
+class WithRecords(WithMessage):
     """A move plus a protocol message (see the module docstring)."""
 
-    def __init__(self, motion: ActionType, message_len: int) -> None:
-        self.motion = motion
-        self.message_len = int(message_len)
-        self.name = motion.name
-        self.is_macro = motion.is_macro
-        self.has_masks = motion.has_masks
+    motion_key = "move"
 
-    def space(self) -> spaces.Dict:
-        message = spaces.Box(-1, np.iinfo(np.int32).max, shape=(self.message_len,), dtype=np.int32)
-        return spaces.Dict({"move": self.motion.space(), "message": message})
+    def message_space(self) -> spaces.Box:
+        return spaces.Box(-1, np.iinfo(np.int32).max, shape=(self.length,), dtype=np.int32)
 
-    def start(self, env, actions: dict[str, Any]) -> None:
-        for agent, action in actions.items():
-            message = np.asarray(action["message"], dtype=np.int32)
-            used = used_length(message)
-            if used:
-                env.channel.send(agent, message[:used].astype(np.float32), size=4 * used, kind="protocol")
-                env.note_message(agent, message[:used])
-        self.motion.start(env, {agent: action["move"] for agent, action in actions.items()})
-
-    def act(self, env, agent: str, action: Any) -> tuple[float, float]:
-        return self.motion.act(env, agent, action["move"])
-
-    def stage_over(self, env) -> bool:
-        return self.motion.stage_over(env)
-
-    def mask(self, env, agent: str) -> np.ndarray | None:
-        return self.motion.mask(env, agent)
-
-    def mask_index(self, action: Any) -> int:
-        return self.motion.mask_index(action["move"])
-
-    def masked_space(self, space: spaces.Space) -> spaces.Space:
-        return self.motion.masked_space(space["move"])
-
-    def info_mask(self, mask: np.ndarray) -> Any:
-        return {"move": self.motion.info_mask(mask), "message": None}
-
-    def describe(self, action: Any) -> str:
-        return self.motion.describe(action["move"] if isinstance(action, dict) else action)
+    def send(self, env, agent: str, message: Any) -> None:
+        """Transmit the records only (4 bytes a value, no padding); the env scores PATH records."""
+        values = np.asarray(message, dtype=np.int32)
+        used = used_length(values)
+        if used:
+            env.channel.send(agent, values[:used].astype(np.float32), size=4 * used, kind="protocol")
+            env.note_message(agent, values[:used])
