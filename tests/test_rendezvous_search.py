@@ -1,7 +1,9 @@
 """Rendezvous planners of paper 003 (section 4) and the meeting place (section 3, Steps 4 and 8)."""
 
+import importlib.util
 import math
 import statistics
+from pathlib import Path
 
 import networkx as nx
 import numpy as np
@@ -20,36 +22,17 @@ from baselines.rendezvous.search import (
 )
 from teamgym.maps.graph import load_graph_map
 
+# The random graphs of the planner benchmark (one definition for the benchmark and the tests).
+_BENCH = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_rendezvous_search.py"
+_spec = importlib.util.spec_from_file_location("bench_rendezvous_search", _BENCH)
+bench = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(bench)
+grid_map, geometric_map, random_blocked = bench.grid_map, bench.geometric_map, bench.random_blocked
+
 TOL = 1e-9
 SEARCHES = [astar, distributed_bidirectional_astar, bidirectional_astar_optimal]
 
 # --------------------------------------------------------------------------- random maps
-
-
-def grid_map(rng, w, h, p_block, diagonal=False, stretch=0.0):
-    """A w x h grid (8-connected if ``diagonal``) with lengths >= the straight line and random blocked ways."""
-    graph = nx.grid_2d_graph(w, h)
-    if diagonal:
-        graph.add_edges_from(((x, y), (x + 1, y + 1)) for x in range(w - 1) for y in range(h - 1))
-        graph.add_edges_from(((x + 1, y), (x, y + 1)) for x in range(w - 1) for y in range(h - 1))
-    for v in graph:
-        graph.nodes[v]["pos"] = (float(v[0]), float(v[1]))
-    for u, v in graph.edges:
-        graph.edges[u, v]["length"] = math.dist(u, v) * (1.0 + stretch * rng.random())
-    return graph, random_blocked(rng, graph, p_block)
-
-
-def geometric_map(rng, n, radius, p_block):
-    """A random geometric graph in the unit square, Euclidean lengths, random blocked ways (may be disconnected)."""
-    graph = nx.random_geometric_graph(n, radius, seed=int(rng.integers(2**31)))
-    for u, v in graph.edges:
-        graph.edges[u, v]["length"] = math.dist(graph.nodes[u]["pos"], graph.nodes[v]["pos"])
-    return graph, random_blocked(rng, graph, p_block)
-
-
-def random_blocked(rng, graph, p_block):
-    edges = list(graph.edges)
-    return {frozenset(edges[i]) for i in np.flatnonzero(rng.random(len(edges)) < p_block)}
 
 
 def random_maps(seed, count):
