@@ -9,8 +9,8 @@ Subcommands (each writes ``<name>.json`` and ``<name>.md`` into ``--out``; exit 
 check that failed):
 
 * ``planners``: ``--maps`` random maps, map *i* drawn from ``numpy.random.default_rng([seed,
-  0, i])`` (so results do not depend on ``--workers``); kinds alternate between ``grid`` and,
-  when :mod:`teamgym.maps.abstraction` provides ``random_voronoi_map``, ``voronoi``; sizes
+  0, i])`` (so results do not depend on ``--workers``); kinds alternate between ``grid`` and
+  ``voronoi`` (:mod:`teamgym.maps.abstraction`); sizes
   log-uniform in ``--places``; a random 0-20 % of the ways blocked. Per map one query between
   two random places of the largest connected part, then ``--replans`` re-planning queries: a
   random way of the current optimal path that has a detour becomes blocked (plus up to 2 %
@@ -35,9 +35,8 @@ check that failed):
   re-plans, channel messages and bytes (team), expansions. Corridor walls only up to
   ``WALLS_MAX_PLACES`` places (speed); ``message_len`` fits two whole paths.
 
-Maps: ``teamgym.maps.abstraction`` (another module, maybe not there yet) is used when it can
-be imported (``random_grid_map``, ``random_voronoi_map``); otherwise grids are built here
-(:func:`grid_graph`). The paper's scenario maps (Figs. 5 and 8) are not part of this script.
+Maps come from :mod:`teamgym.maps.abstraction` (``random_grid_map``, ``random_voronoi_map``).
+The paper's scenario maps (Figs. 5 and 8) are in ``experiments/paper003_scenarios.py``.
 """
 
 from __future__ import annotations
@@ -46,7 +45,6 @@ import argparse
 import hashlib
 import importlib
 import importlib.util
-import inspect
 import json
 import math
 import multiprocessing
@@ -55,7 +53,6 @@ import time
 from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
-from types import ModuleType
 from typing import Any
 
 import networkx as nx
@@ -95,8 +92,8 @@ MAX_CYCLES = 10_000
 """Episode limit in control cycles (1,000 s at dt = 0.1 s): long Voronoi detours need several hundred seconds."""
 GENERATOR_ATTEMPTS = 5
 """Attempts of a map generator (fresh random draws each) before the map is skipped."""
-BUILTIN_GRID = "paper003_rendezvous.grid_graph"
 ABSTRACTION = "teamgym.maps.abstraction."
+GENERATORS = {"grid": ABSTRACTION + "random_grid_map", "voronoi": ABSTRACTION + "random_voronoi_map"}
 
 
 # -- maps -----------------------------------------------------------------------------------------------
@@ -104,71 +101,14 @@ class MapGenerationError(ValueError):
     """A map generator failed :data:`GENERATOR_ATTEMPTS` times in a row (the map is skipped)."""
 
 
-def abstraction_module() -> ModuleType | None:
-    """``teamgym.maps.abstraction`` if it can be imported now, else None."""
-    try:
-        if importlib.util.find_spec("teamgym.maps.abstraction") is None:
-            return None
-        return importlib.import_module("teamgym.maps.abstraction")
-    except Exception as error:  # noqa: BLE001 - a module being written may not import yet
-        print(f"note: teamgym.maps.abstraction is not usable ({type(error).__name__}: {error}); grids built here")
-        return None
-
-
 def map_generators() -> dict[str, str]:
-    """The generator of each map kind available now: ``grid`` always, ``voronoi`` with the abstraction module.
-
-    Grids come from ``teamgym.maps.abstraction.random_grid_map`` when it exists, else from
-    :func:`grid_graph`. A run decides this once and passes the result on (recorded in its JSON).
-    """
-    module = abstraction_module()
-    generators = {"grid": BUILTIN_GRID}
-    if module is not None and hasattr(module, "random_grid_map"):
-        generators["grid"] = ABSTRACTION + "random_grid_map"
-    if module is not None and hasattr(module, "random_voronoi_map"):
-        generators["voronoi"] = ABSTRACTION + "random_voronoi_map"
-    return generators
+    """The generator of each map kind (recorded in a run's JSON)."""
+    return dict(GENERATORS)
 
 
 def map_kinds() -> tuple[str, ...]:
-    """The map kinds available now (see :func:`map_generators`)."""
-    return tuple(map_generators())
-
-
-def grid_graph(n_places: int, rng: np.random.Generator, diagonal_share: float | None = None) -> nx.Graph:
-    """A w × h grid of about ``n_places`` places 1 apart (4-connected), some cells with one diagonal.
-
-    Aspect ratio log-uniform in [1/2, 2]; a share of the cells (uniform in [0, 0.3] unless
-    given) gets one diagonal of random direction (never both: ways do not cross). Nodes are
-    ``"0" .. "n-1"`` row by row with ``pos`` (x, y) = (0.5 + column, 0.5 + row); ``length`` is
-    the straight line.
-    """
-    aspect = math.exp(rng.uniform(math.log(0.5), math.log(2.0)))
-    w = max(2, round(math.sqrt(n_places * aspect)))
-    h = max(2, round(n_places / w))
-    share = rng.uniform(0.0, 0.3) if diagonal_share is None else diagonal_share
-    graph = nx.Graph()
-    for y in range(h):
-        for x in range(w):
-            graph.add_node(str(y * w + x), pos=(0.5 + x, 0.5 + y))
-
-    def link(x0: int, y0: int, x1: int, y1: int) -> None:
-        graph.add_edge(str(y0 * w + x0), str(y1 * w + x1), length=math.hypot(x1 - x0, y1 - y0))
-
-    for y in range(h):
-        for x in range(w):
-            if x + 1 < w:
-                link(x, y, x + 1, y)
-            if y + 1 < h:
-                link(x, y, x, y + 1)
-    cells = [(x, y) for y in range(h - 1) for x in range(w - 1)]
-    for k in np.flatnonzero(rng.random(len(cells)) < share):
-        x, y = cells[k]
-        if rng.random() < 0.5:
-            link(x, y, x + 1, y + 1)
-        else:
-            link(x + 1, y, x, y + 1)
-    return graph
+    """The map kinds: ``grid`` and ``voronoi``."""
+    return tuple(GENERATORS)
 
 
 def _as_networkx(made: Any) -> nx.Graph:
@@ -182,8 +122,8 @@ def _as_networkx(made: Any) -> nx.Graph:
 def random_graph(kind: str, n_places: int, rng: np.random.Generator, generators: dict[str, str] | None = None) -> nx.Graph:
     """A random map of about ``n_places`` places as a networkx graph (node ``pos``, edge ``length``).
 
-    ``generators`` (default: :func:`map_generators` now) names the function of each kind;
-    abstraction grids get a random share of diagonals in [0, 0.3] when the function takes one.
+    ``generators`` (default :data:`GENERATORS`) names the function of each kind; grids get a
+    random share of diagonals in [0, 0.3].
     A generator's ValueError is retried with the next random draws (``graph.graph
     ["generator_retries"]`` counts them); after :data:`GENERATOR_ATTEMPTS` attempts
     :class:`MapGenerationError` is raised.
@@ -192,16 +132,13 @@ def random_graph(kind: str, n_places: int, rng: np.random.Generator, generators:
     if kind not in generators:
         raise ValueError(f"unknown or unavailable map kind {kind!r}; available: {sorted(generators)}")
     name = generators[kind]
-    if name == BUILTIN_GRID:
-        return grid_graph(n_places, rng)
     function = getattr(importlib.import_module(ABSTRACTION.rstrip(".")), name.removeprefix(ABSTRACTION))
     for attempt in range(GENERATOR_ATTEMPTS):
         try:
             if kind == "voronoi":
                 graph = _as_networkx(function(rng, n_places))
             else:
-                takes = "diagonals" in inspect.signature(function).parameters
-                graph = _as_networkx(function(n_places, rng, **({"diagonals": float(rng.uniform(0.0, 0.3))} if takes else {})))
+                graph = _as_networkx(function(n_places, rng, diagonals=float(rng.uniform(0.0, 0.3))))
         except ValueError as error:  # e.g. a random workspace whose obstacles do not fit: draw again
             failure = error
             continue
