@@ -209,3 +209,8 @@ def test_a_collision_between_robots_spoils_the_meeting():
     env._robot_collisions = 1  # as if the robots had bumped on the way
     env._met = True
     assert not env.episode_success()
+
+
+def test_blocked_ways_that_cut_the_map_are_refused_for_random_starts():
+    with pytest.raises(ConfigError, match="random start places"):
+        parallel_env(map="square4", blocked_ways=(("A", "B"), ("A", "C"), ("A", "D")))

@@ -510,11 +510,15 @@ class Rendezvous(TeamEnv):
         return overlay
 
     def _check_feasible(self) -> None:
+        """The robots can meet: their start places (every place, for random starts) stay joined despite ``blocked_ways``."""
         blocked = {self.way_index[frozenset((self.place_index[a], self.place_index[b]))] for a, b in self.config.blocked_ways}
-        if self.config.start_places:
-            a, b = (self.place_index[p] for p in self.config.start_places[:2])
-            if not math.isfinite(self._shortest_cost(a, b, blocked)):
-                raise ConfigError("RendezvousConfig: blocked_ways leave the start places without a path between them")
+        starts = [self.place_index[p] for p in self.config.start_places] or list(range(len(self.place_index)))
+        open_map = self.graph.copy()
+        open_map.remove_edges_from([self.way_ends[k] for k in blocked])
+        reach = nx.node_connected_component(open_map, starts[0])
+        if not set(starts) <= reach:
+            where = "the start places" if self.config.start_places else "the map (random start places)"
+            raise ConfigError(f"RendezvousConfig: blocked_ways leave {where} without a path between them")
 
 
 def parallel_env(render_mode: str | None = None, **config: Any) -> Rendezvous:
