@@ -153,7 +153,7 @@ def run_episode(
     final: dict[str, dict[str, Any]] = {a: dict(infos[a]) for a in env.possible_agents if a in infos}
     returns = {a: 0.0 for a in env.agents}
     frames = [env.render()] if record_frames else None
-    limit = getattr(getattr(env, "config", None), "max_cycles", None)
+    limit = getattr(getattr(env, "config", None), "cycle_limit", None)
     length = 0
     success = success_of(infos)
     if on_reset is not None:
@@ -173,7 +173,7 @@ def run_episode(
         if on_step is not None:
             on_step(Step(env, policy, length, agents, actions, observations, rewards, terminations, truncations, infos))
         if limit is not None and length > limit:
-            raise RuntimeError(f"episode with seed {seed} ran past max_cycles={limit}; the env does not truncate")
+            raise RuntimeError(f"episode with seed {seed} ran past its cycle limit ({limit} steps); the env does not truncate")
     metrics = {agent: _numeric_metrics(info) for agent, info in final.items()}
     result = EpisodeResult(seed=int(seed), length=length, success=success, returns=returns, metrics=metrics, frames=frames)
     if record_trajectories:

@@ -79,9 +79,10 @@ def test_substep_travel_is_bounded(env_id, dt, substeps):
 
 @pytest.mark.parametrize("env_id", ENV_IDS)
 def test_robots_stay_in_the_arena_at_the_largest_accepted_substep(env_id):
-    # 0.4 m/s × dt / substeps = MAX_SUBSTEP_TRAVEL: the coarsest stepping the config accepts.
+    # top speed × dt / substeps = MAX_SUBSTEP_TRAVEL: the coarsest stepping the config accepts.
     dt = 0.5
-    substeps = int(np.ceil(0.4 * dt / MAX_SUBSTEP_TRAVEL))
+    speed = teamgym.env_class(env_id).config_class().body_speed()
+    substeps = int(np.ceil(speed * dt / MAX_SUBSTEP_TRAVEL - 1e-9))
     env = teamgym.make(env_id, dt=dt, substeps=substeps, max_cycles=40)
     env.reset(seed=1)
     width, height = env.world.size

@@ -250,7 +250,7 @@ class TeamEnv(ParallelEnv):
             self._check_goals()
             self._accumulate_rewards(total)
             self._sense()
-            if not self.action_type.is_macro or self.action_type.stage_over(self) or self.cycles >= self.config.max_cycles:
+            if not self.action_type.is_macro or self.action_type.stage_over(self) or self.cycles >= self.config.cycle_limit:
                 break
         self._deliver_messages()
         rewards = {a: float(total[self._row[a]]) for a in self.agents}
@@ -260,7 +260,7 @@ class TeamEnv(ParallelEnv):
             rewards[agent] = 0.0
         self._joining = []
         terminations = self._terminations()
-        truncated = self.cycles >= self.config.max_cycles
+        truncated = self.cycles >= self.config.cycle_limit
         truncations = {a: truncated and not terminations[a] for a in self.agents}
         self._refresh_masks()
         observations = self._collect_observations()
@@ -324,9 +324,12 @@ class TeamEnv(ParallelEnv):
         index = self.action_type.mask_index(action)
         if mask is not None and not mask[index]:
             describe = self.action_type.describe
-            admissible = [describe(int(k)) for k in np.flatnonzero(mask)]
+            allowed = np.flatnonzero(mask)
+            admissible = ", ".join(describe(int(k)) for k in allowed[:8])
+            if len(allowed) > 8:
+                admissible += f" and {len(allowed) - 8} more"
             raise ValueError(
-                f"action {describe(index)} for {agent!r} is masked (not admissible in this state); admissible now: {admissible}"
+                f"action {describe(index)} for {agent!r} is masked (not admissible in this state); admissible now: [{admissible}]"
             )
 
     # -- masks and communication -------------------------------------------------------

@@ -174,6 +174,11 @@ class EnvConfig:
             values[key] = value
         return cls(**values)
 
+    @property
+    def cycle_limit(self) -> int:
+        """Control steps after which an episode is truncated (``max_cycles``; a task may derive it from a time limit)."""
+        return self.max_cycles
+
     def body_speed(self) -> float:
         """The fastest body speed (m/s) this config allows: the max of ``body_speed_keys`` values."""
         return max([self.default_body_speed, *(float(getattr(self, k)) for k in self.body_speed_keys)])

@@ -51,7 +51,6 @@ that continues identically when fed the same generator state.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import operator
 from collections.abc import Mapping, Sequence
@@ -159,6 +158,13 @@ class Message:
         fields = ("sender", "recipient", "size", "kind", "sent_step")
         same = all(getattr(self, f) == getattr(other, f) for f in fields)
         return same and np.array_equal(self.payload, other.payload)
+
+    def stamped(self, step: int) -> Message:
+        """This message with ``sent_step=step`` (fields already validated: no second check or payload copy)."""
+        clone = object.__new__(Message)
+        clone.__dict__.update(self.__dict__)
+        object.__setattr__(clone, "sent_step", int(step))
+        return clone
 
     def __reduce__(self) -> tuple[Any, tuple[Any, ...]]:
         # Rebuild through __init__ so that copies and unpickled messages keep a read-only payload.
@@ -295,7 +301,7 @@ class Channel:
             if origin is None:
                 self._dropped["absent"][s] += 1
                 continue
-            stamped = dataclasses.replace(message, sent_step=step)
+            stamped = message.stamped(step)
             for r in self._receivers(message, s, where):
                 if not self._in_range(origin, where[r]):  # type: ignore[arg-type]  # receivers are present
                     self._dropped["range"][s] += 1

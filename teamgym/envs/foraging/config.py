@@ -1,0 +1,123 @@
+"""Configuration of ``Foraging-v0`` (paper 002): the field, the robots, perception and the task."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import ClassVar, Literal
+
+from teamgym.envs.config import EnvConfig, require
+from teamgym.envs.foraging.grid import GridSpec
+from teamgym.sim.robot import RobotSpec
+
+__all__ = ["ForagingConfig"]
+
+
+@dataclass(frozen=True)
+class ForagingConfig(EnvConfig):
+    """Configuration of ``Foraging-v0`` (SI units, angles in rad).
+
+    Task (section 4.1): ``task="consume"``: a target disappears once one robot has stayed
+    within ``reach_radius`` of it for ``consume_time`` s; success when every target is
+    consumed. ``task="surround"``: a target is done when ``robots_per_target`` robots are
+    within ``reach_radius`` of it at once; success when every target is done. An episode
+    lasts at most ``time_limit`` s (``max_cycles`` caps the control steps as well; the
+    smaller limit applies).
+
+    Field (section 4.3): a walled ``field_size`` rectangle (the RoboCup small-size field,
+    3.0 m × 2.4 m) with a world-model grid of ``cell_size`` cells; landmarks every
+    ``landmark_spacing`` m along the walls (corners included).
+
+    Robots (section 4.2, the Viper): ``robot_radius``, ``max_speed`` (m/s), a forward camera of
+    ``camera_range`` (1 m) and opening ``camera_fov``. The default opening, 1.28 rad (73°),
+    makes the camera's sector cover 16 cells of 0.2 m, the paper's "perception limited to 16
+    cells in the direction of the robot's heading" (area ``fov / 2 · range²`` = 0.64 m²).
+
+    Perception uncertainty (section 2.2): ``vision_noise`` scales the measurement errors of
+    the look-up table in :mod:`teamgym.envs.foraging.perception` (0: exact vision);
+    ``rotational_certainty`` is Pe of eq. (2) (certainty kept per radian turned);
+    ``odometry_rotation_noise`` is the heading error (rad) per radian turned and
+    ``odometry_distance_noise`` the position error (m) per metre travelled (0 and 0: exact
+    odometry).
+    """
+
+    body_speed_keys: ClassVar[tuple[str, ...]] = ("max_speed",)
+    default_body_speed: ClassVar[float] = 0.0
+
+    max_cycles: int = 1_000_000
+    substeps: int = 10
+    task: Literal["consume", "surround"] = "consume"
+    n_robots: int = 2
+    n_targets: int = 3
+    robots_per_target: int = 2
+    consume_time: float = 10.0
+    time_limit: float = 200.0
+    field_size: tuple[float, float] = (3.0, 2.4)
+    cell_size: float = 0.2
+    landmark_spacing: float = 0.6
+    robot_radius: float = 0.09
+    max_speed: float = 0.5
+    reach_radius: float = 0.2
+    camera_range: float = 1.0
+    camera_fov: float = 1.28
+    vision_noise: float = 1.0
+    rotational_certainty: float = 0.9
+    odometry_rotation_noise: float = 0.05
+    odometry_distance_noise: float = 0.01
+    action_type: Literal["goto_cell", "velocity"] = "goto_cell"
+    observe_world_model: bool = False
+    consume_reward: float = 1.0
+    progress_reward: float = 0.01
+    time_penalty: float = 0.001
+
+    def check(self) -> None:
+        super().check()
+        width, height = self.field_size
+        require(self, "field_size", 0.5 <= width <= 50 and 0.5 <= height <= 50, "must be (width, height) in [0.5, 50] m")
+        require(self, "n_robots", 1 <= self.n_robots <= 16, "must be in [1, 16]")
+        require(self, "n_targets", 1 <= self.n_targets <= 32, "must be in [1, 32]")
+        if self.task == "surround":
+            require(self, "robots_per_target", 1 <= self.robots_per_target <= self.n_robots, "must be in [1, n_robots]")
+        require(self, "consume_time", 0 < self.consume_time <= self.time_limit, "must be in (0, time_limit] s")
+        require(self, "time_limit", 0 < self.time_limit <= 100_000, "must be in (0, 100000] s")
+        require(self, "cell_size", 0.05 <= self.cell_size <= min(width, height) / 2, "must be in [0.05 m, half the field]")
+        perimeter = 2 * (width + height)
+        require(self, "landmark_spacing", 0.1 <= self.landmark_spacing <= perimeter, "must be in [0.1 m, the perimeter]")
+        require(self, "robot_radius", 0.02 <= self.robot_radius <= 0.5, "must be in [0.02, 0.5] m")
+        require(self, "max_speed", 0.01 <= self.max_speed <= 5, "must be in [0.01, 5] m/s")
+        require(self, "reach_radius", self.robot_radius <= self.reach_radius <= 2.0, "must be in [robot_radius, 2] m")
+        require(self, "camera_range", 0.1 <= self.camera_range <= 100, "must be in [0.1, 100] m")
+        require(self, "camera_fov", 0.05 <= self.camera_fov <= 2 * math.pi, "must be in [0.05, 2π] rad")
+        require(self, "vision_noise", 0 <= self.vision_noise <= 10, "must be in [0, 10]")
+        require(self, "rotational_certainty", 0 < self.rotational_certainty <= 1, "must be in (0, 1]")
+        require(self, "odometry_rotation_noise", 0 <= self.odometry_rotation_noise <= 1, "must be in [0, 1] rad/rad")
+        require(self, "odometry_distance_noise", 0 <= self.odometry_distance_noise <= 1, "must be in [0, 1] m/m")
+        for key in ("consume_reward", "progress_reward", "time_penalty"):
+            require(self, key, getattr(self, key) >= 0, "must be >= 0")
+        # Room: robots and targets are placed apart; ask for at most a third of the free area.
+        margin = self.robot_radius + 0.02
+        free = max(0.0, width - 2 * margin) * max(0.0, height - 2 * margin)
+        needed = (self.n_robots * (3 * self.robot_radius) ** 2) + self.n_targets * (2 * self.reach_radius) ** 2
+        require(self, "n_robots", needed <= free / 3, f"and n_targets={self.n_targets} leave too little room on this field")
+
+    @property
+    def cycle_limit(self) -> int:
+        """Control steps an episode may last: ``time_limit / dt``, capped by ``max_cycles``."""
+        return min(self.max_cycles, math.ceil(self.time_limit / self.dt - 1e-9))
+
+    @property
+    def grid(self) -> GridSpec:
+        return GridSpec(float(self.field_size[0]), float(self.field_size[1]), self.cell_size)
+
+    @property
+    def robot_spec(self) -> RobotSpec:
+        """A Viper-sized differential-drive robot (RoboCup small size: 180 mm across)."""
+        r = self.robot_radius
+        return RobotSpec(
+            radius=r,
+            wheel_base=1.6 * r,
+            wheel_radius=0.25 * r,
+            max_wheel_speed=self.max_speed,
+            mass=1.5,
+            max_motor_force=20.0,
+        )

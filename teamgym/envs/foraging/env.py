@@ -1,0 +1,471 @@
+"""``Foraging-v0``: consuming and surrounding with limited perception and a lossy radio (paper 002).
+
+``n_robots`` Viper-sized robots search a walled field (the RoboCup small-size field, 3.0 m ×
+2.4 m by default) for ``n_targets`` static targets placed at random. Each robot sees only
+through a forward camera (``camera_range`` 1 m, ``camera_fov`` 73°) that other robots occlude,
+knows its own pose only through odometry whose error grows with rotation and resets at a
+landmark sighting (:mod:`teamgym.envs.foraging.perception`), and shares what it sees over the
+core radio: every control step each live robot broadcasts a packet of perception tuples
+``(class, gx, gy, Pc)`` — its own location first — delivered with probability
+``comm_throughput`` (section 2.1). Tasks (section 4.1, :class:`ForagingConfig`): ``consume``
+(a robot stays at a target for ``consume_time`` and it disappears) and ``surround``
+(``robots_per_target`` robots at a target at once).
+
+Observation fields (``env.decode(obs)``; ``obs_format="dict"`` gives them as a Dict), with
+D = n_targets + n_robots − 1 detection slots and R = (n_robots − 1)(1 + D) received tuples:
+
+==========================  ============  =====  ============================================
+field                       shape         dtype  meaning
+==========================  ============  =====  ============================================
+``pose_estimate``           (3,)          f32    odometry estimate x̂, ŷ (m), θ̂ (rad)
+``localisation_certainty``  (1,)          f32    Pl (eq. 2)
+``detections``              (D, 4)        f32    own tuples (class, gx, gy, Pc), targets first
+``detection_polar``         (D, 2)        f32    their measured distance (m) and bearing (rad)
+``detection_mask``          (D,)          int8   1 for a detection, 0 for padding
+``received``                (R, 4)        f32    tuples received this step (packets in order)
+``received_sender``         (R,)          int32  sender's index in ``possible_agents``, −1 pad
+``received_mask``           (R,)          int8   1 for a received tuple
+``at_target``               (1,)          int8   within ``reach_radius`` of a live target
+``consume_progress``        (1,)          f32    time at the current target / ``consume_time``
+``world_model``             (2, ny, nx)   f32    optional (``observe_world_model``): the
+                                                 robot's fused grid model (targets, robots)
+==========================  ============  =====  ============================================
+
+Actions: ``goto_cell`` (default; :class:`~teamgym.envs.foraging.actions.GoToCellAction`, a cell
+index driven to by :class:`~teamgym.envs.foraging.controller.GoToController`, with a mask) or
+``velocity`` (continuous (v, ω)). ``comm_dim`` adds a learned message (same channel).
+
+Rewards (team, every robot): ``consume_reward`` per target finished in the step,
+``progress_reward`` × the decrease of the robot's distance to its nearest live target (m),
+− ``time_penalty``. Metrics in ``infos[agent]`` (section 4.5): ``TL`` (s, once any robot has
+seen a target), ``TT1``.. ``TTn`` (s, the k-th target finished), ``TG`` (s, on success), ``DG``
+(m travelled by this robot), ``targets_done``, ``localisation_certainty``, ``position_error``
+(m, estimate vs truth), and the channel counters ``bytes_sent``, ``bytes_delivered``, ...
+Reset options fix a scene: ``{"targets": [(x, y), ...], "starts": [(x, y, θ), ...]}``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+from pettingzoo import AECEnv
+
+from teamgym.envs.actions import ActionType, VelocityAction
+from teamgym.envs.base import TeamEnv
+from teamgym.envs.config import ConfigError
+from teamgym.envs.foraging.actions import GoToCellAction
+from teamgym.envs.foraging.config import ForagingConfig
+from teamgym.envs.foraging.controller import GoToController
+from teamgym.envs.foraging.perception import (
+    ROBOT,
+    SENDER,
+    TARGET,
+    Odometry,
+    VisionModel,
+    landmark_positions,
+    packet_bytes,
+    visibility,
+)
+from teamgym.envs.spaces import Field, ObservationLayout
+from teamgym.sim.objects import Target
+from teamgym.sim.render import Overlay
+from teamgym.sim.robot import DiffDriveRobot
+from teamgym.sim.world import World
+
+__all__ = ["Foraging", "env", "parallel_env"]
+
+#: Channel message kind of the perception packets.
+PACKET_KIND = "perception"
+_PLACEMENT_TRIES = 2000
+
+
+class Foraging(TeamEnv):
+    """Consume or surround targets with a camera, odometry and a lossy radio; see the module docstring."""
+
+    metadata = {**TeamEnv.metadata, "name": "foraging_v0"}
+    config_class = ForagingConfig
+    uses_channel = True
+    config: ForagingConfig
+    pixels_per_metre = 160.0
+
+    # -- construction ------------------------------------------------------------------------
+    def _agent_names(self) -> list[str]:
+        return [f"robot_{i}" for i in range(self.config.n_robots)]
+
+    def _setup(self) -> None:
+        c = self.config
+        self.grid = c.grid
+        self.spec = c.robot_spec
+        self.vision = VisionModel(c.camera_range, c.camera_fov, c.vision_noise)
+        self.landmarks = landmark_positions(*self.grid_size, c.landmark_spacing)
+        self.controller = GoToController(self.spec.max_speed, self.spec.max_turn_rate, self.spec.radius)
+        n = c.n_robots
+        self.n_detections = c.n_targets + n - 1
+        self.n_received = max(1, (n - 1) * (1 + self.n_detections))
+        self.state_space = spaces.Box(-np.inf, np.inf, shape=(3 * n + 3 * c.n_targets,), dtype=np.float32)
+
+    @property
+    def grid_size(self) -> tuple[float, float]:
+        return float(self.config.field_size[0]), float(self.config.field_size[1])
+
+    def _check_feasible(self) -> None:
+        rng = np.random.default_rng(0)
+        for _ in range(8):
+            if self._draw_scene(rng) is not None:
+                return
+        raise ConfigError(
+            f"ForagingConfig: could not place {self.config.n_robots} robots and {self.config.n_targets} targets "
+            f"on a {self.config.field_size} m field (lower n_robots/n_targets/reach_radius or enlarge field_size)"
+        )
+
+    def _make_action_type(self) -> ActionType:
+        if self.config.action_type == "velocity":
+            return VelocityAction(self.spec)
+        return GoToCellAction(self.grid, self.spec.radius)
+
+    def _make_layout(self) -> ObservationLayout:
+        c, (w, h) = self.config, self.grid_size
+        top = max(self.grid.nx, self.grid.ny) - 1
+        d, r = self.n_detections, self.n_received
+        fields = [
+            Field("pose_estimate", (3,), [-w, -h, -math.pi], [2 * w, 2 * h, math.pi]),
+            Field("localisation_certainty", (1,), 0.0, 1.0),
+            Field("detections", (d, 4), 0.0, [SENDER, top, top, 1.0]),
+            Field("detection_polar", (d, 2), [0.0, -math.pi], [c.camera_range + 1.0, math.pi]),
+            Field("detection_mask", (d,), 0, 1, np.int8),
+            Field("received", (r, 4), 0.0, [SENDER, top, top, 1.0]),
+            Field("received_sender", (r,), -1, c.n_robots - 1, np.int32),
+            Field("received_mask", (r,), 0, 1, np.int8),
+            Field("at_target", (1,), 0, 1, np.int8),
+            Field("consume_progress", (1,), 0.0, 1.0),
+        ]
+        if c.observe_world_model:
+            fields.append(Field("world_model", (2, *self.grid.shape), 0.0, 1.0))
+        return ObservationLayout(fields)
+
+    # -- a new episode ------------------------------------------------------------------------
+    def _draw_scene(self, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray] | None:
+        """Targets (T, 2) and starts (n, 3) drawn apart, or None if they do not fit."""
+        c, r = self.config, self.spec.radius
+        (w, h), margin = self.grid_size, r + 0.02
+        starts = np.zeros((c.n_robots, 3))
+        for i in range(c.n_robots):
+            for _ in range(_PLACEMENT_TRIES):
+                p = rng.uniform((margin, margin), (w - margin, h - margin))
+                if np.all(np.hypot(*(starts[:i, :2] - p).T) >= 3 * r):
+                    break
+            else:
+                return None
+            starts[i] = (p[0], p[1], rng.uniform(-math.pi, math.pi))
+        targets = np.zeros((c.n_targets, 2))
+        edge = min(c.reach_radius, 0.5 * min(w, h))
+        for j in range(c.n_targets):
+            for _ in range(_PLACEMENT_TRIES):
+                p = rng.uniform((0.5 * edge, 0.5 * edge), (w - 0.5 * edge, h - 0.5 * edge))
+                apart = np.all(np.hypot(*(targets[:j] - p).T) >= 2 * c.reach_radius)
+                if apart and np.all(np.hypot(*(starts[:, :2] - p).T) > c.reach_radius + r):
+                    break
+            else:
+                return None
+            targets[j] = p
+        return targets, starts
+
+    def _build(self, rng: np.random.Generator) -> None:
+        c = self.config
+        scene = self._draw_scene(rng)
+        if scene is None:
+            raise ConfigError("ForagingConfig: the scene could not be placed (see make()'s feasibility check)")
+        targets, starts = scene
+        if "targets" in self.reset_options:
+            targets = self._option("targets", (c.n_targets, 2), 0.0)
+        if "starts" in self.reset_options:
+            starts = self._option("starts", (c.n_robots, 3), self.spec.radius)
+        self.world = World(self.grid_size, dt=c.dt, substeps=c.substeps)
+        self.world.add_boundary()
+        self.robots = {
+            a: self.world.add(DiffDriveRobot(a, (x, y), th, self.spec)) for a, (x, y, th) in zip(self.possible_agents, starts)
+        }
+        self.targets = targets.copy()
+        self._target_names = [f"target_{j}" for j in range(c.n_targets)]
+        for name, xy in zip(self._target_names, targets):
+            self.world.add(Target(name, tuple(xy), radius=0.04))
+        n, t = c.n_robots, c.n_targets
+        self.target_live = np.ones(t, dtype=bool)
+        self.target_done_at = np.full(t, np.nan)
+        self._done_order: list[float] = []
+        self._first_seen = math.nan
+        self._timer = np.zeros(n)
+        self._at = np.full(n, -1)
+        self._travelled = np.zeros(n)
+        self._finished_now = 0
+        self.world.read_states()
+        self._pose = self._read_pose()
+        self.odometry = Odometry(self._pose, c.rotational_certainty, c.odometry_rotation_noise, c.odometry_distance_noise)
+        self._nearest = self._nearest_target_distance()
+        self._update_presence()
+        self._success = False
+        d = self.n_detections
+        self._detections = np.zeros((n, d, 4), dtype=np.float32)
+        self._polar = np.zeros((n, d, 2), dtype=np.float32)
+        self._target_rows = np.zeros((n, d), dtype=bool)
+        self.models = {}
+        if c.observe_world_model:
+            from teamgym.envs.foraging.world_model import GridWorldModel
+
+            self.models = {a: GridWorldModel(self.grid, n, i) for i, a in enumerate(self.possible_agents)}
+        self._sense()
+
+    def _option(self, key: str, shape: tuple[int, ...], margin: float) -> np.ndarray:
+        value = np.asarray(self.reset_options[key], dtype=float)
+        xy = value[..., :2] if value.shape == shape else np.array(np.nan)
+        (w, h) = self.grid_size
+        inside = (xy[..., 0] >= margin) & (xy[..., 0] <= w - margin) & (xy[..., 1] >= margin) & (xy[..., 1] <= h - margin)
+        if not np.all(inside):  # NaN fails too
+            raise ValueError(f"reset option {key!r}={self.reset_options[key]!r} must have shape {shape}, points in the field")
+        return value
+
+    # -- step phases --------------------------------------------------------------------------
+    def _read_pose(self) -> np.ndarray:
+        states = self.world.robot_states
+        pose = states[:, :3].copy()
+        pose[:, 2] = (pose[:, 2] + math.pi) % (2 * math.pi) - math.pi
+        return pose
+
+    def goto_commands(self, cells: dict[str, int]) -> dict[str, tuple[float, float]]:
+        """Control phase of ``goto_cell``: every acting robot's ``(v, ω)`` for its go-to cell."""
+        rows = np.fromiter((self._row[a] for a in cells), dtype=np.int64, count=len(cells))
+        goal = self.grid.cell_at(np.fromiter(cells.values(), dtype=np.int64, count=len(cells)))
+        estimate = self.odometry.estimate[rows]
+        # Homing: the detected target nearest (in cells) to the go-to cell, if within one cell of it.
+        detections = self._detections[rows]
+        gap = np.maximum(np.abs(detections[..., 1] - goal[:, None, 0]), np.abs(detections[..., 2] - goal[:, None, 1]))
+        gap[~self._target_rows[rows]] = np.inf
+        best = np.argmin(gap, axis=1)
+        picked = np.arange(len(rows))
+        homing = np.where((gap[picked, best] <= 1)[:, None], self._polar[rows, best], np.nan)
+        # Stop at a target when the go-to cell is within one cell of the robot's estimated cell.
+        own = self.grid.cell_of(estimate[:, :2])
+        stop = (self._at[rows] >= 0) & (np.max(np.abs(own - goal), axis=1) <= 1)
+        aim = self.grid.centre_of(goal)
+        commands = self.controller.commands(estimate, self._pose[rows], aim, homing, stop, self.grid_size)
+        return dict(zip(cells, map(tuple, commands.tolist())))
+
+    def _update_state(self) -> None:
+        """State phase: true poses, odometry, distance travelled, who is at which target."""
+        before = self._pose
+        self._pose = self._read_pose()
+        self.odometry.advance(before, self._pose, self.np_random)
+        self._travelled += np.hypot(*(self._pose[:, :2] - before[:, :2]).T)
+        self._update_presence()
+
+    def _update_presence(self) -> None:
+        """``_at[i]``: the live target robot i is within ``reach_radius`` of (nearest), −1 if none."""
+        gap = np.hypot(*(self._pose[:, None, :2] - self.targets[None, :, :]).transpose(2, 0, 1))
+        gap[:, ~self.target_live] = np.inf
+        nearest = np.argmin(gap, axis=1)
+        at = np.where(gap[np.arange(len(gap)), nearest] <= self.config.reach_radius, nearest, -1)
+        self._timer = np.where((at >= 0) & (at == self._at), self._timer, 0.0)
+        self._at = at
+
+    def _check_goals(self) -> None:
+        """Goals phase: consume (a robot stayed ``consume_time``) or surround (enough robots at once)."""
+        c, now = self.config, self.world.time
+        self._finished_now = 0
+        live = np.array([a in self.agents for a in self.possible_agents])
+        if c.task == "consume":
+            self._timer[self._at >= 0] += c.dt
+            done = np.unique(self._at[(self._at >= 0) & (self._timer >= c.consume_time - 1e-9) & live])
+        else:
+            counts = np.bincount(self._at[(self._at >= 0) & live], minlength=c.n_targets)
+            done = np.flatnonzero(counts >= c.robots_per_target)
+        for j in done.tolist():
+            self._finish_target(j, now)
+        if len(done):
+            self._update_presence()
+        self._success = bool(not self.target_live.any())
+
+    def _finish_target(self, j: int, now: float) -> None:
+        self.target_live[j] = False
+        self.target_done_at[j] = now
+        self._done_order.append(now)
+        self._finished_now += 1
+        self.world.remove(self._target_names[j])
+
+    def _nearest_target_distance(self) -> np.ndarray:
+        if not self.target_live.any():
+            return np.zeros(len(self._pose))
+        live = self.targets[self.target_live]
+        return np.min(np.hypot(*(self._pose[:, None, :2] - live[None]).transpose(2, 0, 1)), axis=1)
+
+    def _accumulate_rewards(self, total: np.ndarray) -> None:
+        c = self.config
+        before, self._nearest = self._nearest, self._nearest_target_distance()
+        progress = np.where(self._finished_now > 0, 0.0, before - self._nearest)
+        rows = [self._row[a] for a in self.agents]
+        total[rows] += c.consume_reward * self._finished_now + c.progress_reward * progress[rows] - c.time_penalty
+
+    def _sense(self) -> None:
+        """Sensing phase: camera (targets, robots, landmarks), re-localisation, tuples; packets go on the radio."""
+        c, n = self.config, self.config.n_robots
+        live_targets = np.flatnonzero(self.target_live)
+        t = len(live_targets)
+        points = np.concatenate([self.targets[live_targets], self._pose[:, :2], self.landmarks])
+        skip = np.full((n, len(points)), -1)
+        skip[:, t : t + n] = np.arange(n)
+        seen, distance, bearing = visibility(
+            self._pose, points, c.camera_range, c.camera_fov, self._pose[:, :2], self.spec.radius, skip
+        )
+        seen[np.arange(n), t + np.arange(n)] = False  # a robot does not see itself
+        if not math.isfinite(self._first_seen) and seen[:, :t].any():
+            self._first_seen = self.world.time
+        rows, cols = np.nonzero(seen[:, : t + n])  # row-major: per robot, targets before robots
+        d_true, b_true = distance[rows, cols], bearing[rows, cols]
+        pv = self.vision.pv(d_true, b_true)
+        measured_d, measured_b = self.vision.measure(d_true, b_true, pv, self.np_random)
+        self._relocalise(seen[:, t + n :], distance[:, t + n :], bearing[:, t + n :])
+        est = self.odometry.estimate
+        heading = est[rows, 2] + measured_b
+        x = est[rows, 0] + measured_d * np.cos(heading)
+        y = est[rows, 1] + measured_d * np.sin(heading)
+        cells = self.grid.cell_of(np.stack([x, y], axis=1))
+        slots = np.arange(len(rows)) - np.searchsorted(rows, rows)
+        self._detections[:] = 0.0
+        self._polar[:] = 0.0
+        self._target_rows[:] = False
+        self._detections[rows, slots, 0] = np.where(cols < t, TARGET, ROBOT)
+        self._detections[rows, slots, 1:3] = cells
+        self._detections[rows, slots, 3] = pv * self.odometry.certainty[rows]
+        self._polar[rows, slots, 0] = measured_d
+        self._polar[rows, slots, 1] = measured_b
+        self._target_rows[rows, slots] = cols < t
+        self._detection_count = np.bincount(rows, minlength=n)
+        self._send_packets()
+
+    def _relocalise(self, seen: np.ndarray, distance: np.ndarray, bearing: np.ndarray) -> None:
+        """Landmark sightings: the nearest landmark in view re-localises a robot when its Pv ≥ Pl."""
+        odometry = self.odometry
+        for i in np.flatnonzero(seen.any(axis=1)).tolist():
+            if self.possible_agents[i] not in self.agents:
+                continue
+            visible = np.flatnonzero(seen[i])
+            k = visible[np.argmin(distance[i, visible])]
+            pv = float(self.vision.pv(distance[i, k], bearing[i, k]))
+            if pv < odometry.certainty[i]:
+                continue
+            d_m, b_m = self.vision.measure(np.array([distance[i, k]]), np.array([bearing[i, k]]), np.array([pv]), self.np_random)
+            # The pose implied by the measured landmark differs from the truth by the measurement error.
+            true = self._pose[i]
+            ray = true[2] + bearing[i, k]
+            measured_ray = true[2] + b_m[0]
+            dx = distance[i, k] * math.cos(ray) - d_m[0] * math.cos(measured_ray)
+            dy = distance[i, k] * math.sin(ray) - d_m[0] * math.sin(measured_ray)
+            odometry.relocalise(i, true, pv, (dx, dy, float(bearing[i, k] - b_m[0])))
+
+    def _send_packets(self) -> None:
+        """Every live robot broadcasts its location tuple and detections (section 4.3)."""
+        est, grid = self.odometry.estimate, self.grid
+        own_cells = grid.cell_of(est[:, :2])
+        for agent in self.agents:
+            i = self._row[agent]
+            m = int(self._detection_count[i])
+            payload = np.empty((1 + m, 4), dtype=np.float32)
+            payload[0] = (SENDER, own_cells[i, 0], own_cells[i, 1], self.odometry.certainty[i])
+            payload[1:] = self._detections[i, :m]
+            self.channel.send(agent, payload.ravel(), size=packet_bytes(m, grid), kind=PACKET_KIND)
+
+    def _received(self, agent: str) -> tuple[np.ndarray, np.ndarray]:
+        """Tuples (m, 4) and their senders' indices (m,) delivered to ``agent`` this step."""
+        packets = [msg for msg in self.channel.inbox(agent) if msg.kind == PACKET_KIND]
+        if not packets:
+            return np.zeros((0, 4), dtype=np.float32), np.zeros(0, dtype=np.int32)
+        tuples = [msg.payload.reshape(-1, 4) for msg in packets]
+        senders = [np.full(len(t), self._row[msg.sender], dtype=np.int32) for msg, t in zip(packets, tuples)]
+        return np.concatenate(tuples)[: self.n_received], np.concatenate(senders)[: self.n_received]
+
+    def _terminations(self) -> dict[str, bool]:
+        return dict.fromkeys(self.agents, self._success)
+
+    # -- outputs ------------------------------------------------------------------------------
+    def _observe(self, out: np.ndarray) -> None:
+        view, c = self.layout.view, self.config
+        (w, h) = self.grid_size
+        for obs, agent in zip(out, self.agents):
+            i = self._row[agent]
+            estimate = self.odometry.estimate[i]
+            view(obs, "pose_estimate")[:] = (min(max(estimate[0], -w), 2 * w), min(max(estimate[1], -h), 2 * h), estimate[2])
+            view(obs, "localisation_certainty")[0] = self.odometry.certainty[i]
+            m = int(self._detection_count[i])
+            view(obs, "detections")[:m] = self._detections[i, :m]
+            view(obs, "detection_polar")[:m] = self._polar[i, :m]
+            view(obs, "detection_mask")[:m] = 1
+            tuples, senders = self._received(agent)
+            k = len(tuples)
+            view(obs, "received")[:k] = tuples
+            view(obs, "received_sender")[:] = -1
+            view(obs, "received_sender")[:k] = senders
+            view(obs, "received_mask")[:k] = 1
+            view(obs, "at_target")[0] = int(self._at[i] >= 0)
+            progress = self._timer[i] / c.consume_time if c.task == "consume" else 0.0
+            view(obs, "consume_progress")[0] = min(1.0, progress)
+            if c.observe_world_model:
+                model = self.models[agent]
+                model.observe_own(self._detections[i, :m], self._sector(i), self.world.time)
+                for sender in np.unique(senders).tolist():
+                    model.receive(sender, tuples[senders == sender], self.world.time)
+                view(obs, "world_model")[:] = model.fused()
+
+    def _sector(self, i: int) -> np.ndarray:
+        x, y, theta = self.odometry.estimate[i]
+        return self.grid.sector_mask(x, y, theta, self.config.camera_range, self.config.camera_fov)
+
+    def _metrics(self, agent: str) -> dict[str, Any]:
+        i = self._row[agent]
+        metrics: dict[str, Any] = {}
+        if math.isfinite(self._first_seen):
+            metrics["TL"] = self._first_seen
+        for k, time in enumerate(self._done_order, start=1):
+            metrics[f"TT{k}"] = time
+        if self._success:
+            metrics["TG"] = self._done_order[-1]
+        metrics["DG"] = float(self._travelled[i])
+        metrics["targets_done"] = len(self._done_order)
+        metrics["localisation_certainty"] = float(self.odometry.certainty[i])
+        metrics["position_error"] = float(np.hypot(*(self.odometry.estimate[i, :2] - self._pose[i, :2])))
+        return metrics
+
+    def episode_success(self) -> bool:
+        """Every target consumed (``consume``) or surrounded (``surround``)."""
+        return self.world is not None and self._success
+
+    def state(self) -> np.ndarray:
+        """True x, y, θ of every robot, then x, y, live (0/1) of every target (see ``state_space``)."""
+        if self.world is None:
+            raise RuntimeError("state() called before reset()")
+        targets = np.column_stack([self.targets, self.target_live.astype(float)])
+        return np.concatenate([self._pose.ravel(), targets.ravel()]).astype(np.float32)
+
+    def _overlay(self) -> Overlay:
+        c, overlay = self.config, Overlay()
+        for point in self.landmarks:
+            overlay.points.append((tuple(point), (90, 90, 90)))
+        arc = np.linspace(-0.5 * c.camera_fov, 0.5 * c.camera_fov, 9)
+        for agent in self.agents:
+            x, y, theta = self._pose[self._row[agent]]
+            edge = [(x + c.camera_range * math.cos(theta + a), y + c.camera_range * math.sin(theta + a)) for a in arc]
+            overlay.paths.append(([(x, y), *edge, (x, y)], (170, 170, 220)))
+        return overlay
+
+
+def parallel_env(render_mode: str | None = None, **config: Any) -> Foraging:
+    """The PettingZoo parallel env; ``config`` holds :class:`ForagingConfig` keys."""
+    return Foraging(render_mode=render_mode, **config)
+
+
+def env(render_mode: str | None = None, **config: Any) -> AECEnv:
+    """The AEC form of the env, through PettingZoo's ``parallel_to_aec``."""
+    from pettingzoo.utils.conversions import parallel_to_aec
+
+    return parallel_to_aec(parallel_env(render_mode=render_mode, **config))

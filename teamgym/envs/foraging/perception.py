@@ -1,0 +1,190 @@
+"""Perception of paper 002: a forward camera with occlusion, the vision look-up table (Pv),
+odometry with rotational error and its certainty (Pl, eq. 2), and perception tuples (eq. 1).
+
+**Tuples** (section 2.1): every object a robot sees becomes ``(class, gx, gy, Pc)``: class
+:data:`TARGET` or :data:`ROBOT` (:data:`SENDER` marks a transmitting robot's own location in
+a packet, with Pc = its Pl), the grid cell of the object's estimated global position and the
+confidence Pc = Pv · Pl (eq. 1).
+
+**Vision (Pv)**: the paper fills a look-up table from experiments that relates the distance
+and bearing of an object to the measurement error. Ours, :data:`PV_TABLE`, gives Pv per
+distance bin (a quarter of the camera range each) and |bearing| bin (a third of the half
+opening each); the measurement errors follow from it: σ_d = ``vision_noise`` · 0.3 m · (1 − Pv)
+and σ_b = ``vision_noise`` · 0.2 rad · (1 − Pv), so a near, centred object (Pv 0.95) is
+measured to 1.5 cm and 0.01 rad, a far one at the edge of view (Pv 0.5) to 15 cm and 0.1 rad.
+
+**Localisation (Pl, eq. 2, lost in the text)**: reconstructed from the sentences around it:
+"d and θ are the traversing and rotational components of incremental navigation steps; Pe
+is the rotational certainty from the robot's characteristic model; the traversing part is
+not accounted for; Pl decreases as the robot travels and is reset to the Pv of a landmark
+sighting". We read it as a certainty that shrinks geometrically with the rotation::
+
+    Pl_k = Pl_{k-1} · Pe^{|Δθ_k|}        (Δθ_k: rotation in control step k, rad)
+
+(the traversing term d is dropped as the text says). The true odometry error grows the same
+way: the heading estimate gains N(0, (σ_r |Δθ|)²) per step and the position estimate
+integrates the true displacement along the estimated heading, with N(0, (σ_t d)²) on its
+length. A landmark in view whose Pv is at least the current Pl re-localises the robot: the
+estimate is set to the truth plus that sighting's measurement error and Pl = Pv.
+
+**Occlusion**: the field is a convex walled rectangle, so walls hide nothing inside it;
+robots (discs) hide what lies behind them. Targets are points and hide nothing.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from teamgym.envs.foraging.grid import GridSpec
+
+__all__ = [
+    "PV_TABLE",
+    "ROBOT",
+    "SENDER",
+    "TARGET",
+    "Odometry",
+    "VisionModel",
+    "landmark_positions",
+    "packet_bytes",
+    "visibility",
+]
+
+#: Tuple classes (the first element of a perception tuple).
+TARGET, ROBOT, SENDER = 0, 1, 2
+
+#: Pv by distance bin (rows: [0, ¼), [¼, ½), [½, ¾), [¾, 1] of the camera range) and |bearing|
+#: bin (columns: [0, ⅓), [⅓, ⅔), [⅔, 1] of half the opening).
+PV_TABLE = np.array(
+    [
+        [0.95, 0.92, 0.88],
+        [0.90, 0.86, 0.80],
+        [0.80, 0.75, 0.68],
+        [0.65, 0.60, 0.50],
+    ]
+)
+#: Measurement errors per unit of (1 − Pv) at ``vision_noise`` = 1: metres and radians.
+DISTANCE_ERROR, BEARING_ERROR = 0.3, 0.2
+
+
+def packet_bytes(n_tuples: int, grid: GridSpec) -> int:
+    """Bytes of a perception packet (section 4.3): the sender's tuple plus ``n_tuples`` objects.
+
+    Three object lists (sender, robots, targets) with a one-byte header each; a tuple is its
+    cell (one byte on the paper's 180-cell grid, :attr:`GridSpec.location_bytes`) plus one
+    byte of confidence. Two robots seeing three targets and each other: 3 + 5·2 = 13 bytes,
+    the paper's "around 12 bytes".
+    """
+    return 3 + (1 + int(n_tuples)) * (grid.location_bytes + 1)
+
+
+def landmark_positions(width: float, height: float, spacing: float) -> np.ndarray:
+    """Landmarks along the walls: the corners and points about ``spacing`` m apart between them."""
+    points = []
+    corners = [(0.0, 0.0), (width, 0.0), (width, height), (0.0, height)]
+    for (x0, y0), (x1, y1) in zip(corners, corners[1:] + corners[:1]):
+        n = max(1, round(math.hypot(x1 - x0, y1 - y0) / spacing))
+        for k in range(n):
+            t = k / n
+            points.append((x0 + t * (x1 - x0), y0 + t * (y1 - y0)))
+    return np.array(points)
+
+
+def visibility(
+    poses: np.ndarray,
+    points: np.ndarray,
+    camera_range: float,
+    camera_fov: float,
+    occluders: np.ndarray,
+    occluder_radius: float,
+    skip: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Which ``points`` (m, 2) each camera of ``poses`` (n, 3) sees, and their true distances and bearings.
+
+    A point is seen if it lies within ``camera_range`` and half of ``camera_fov`` of the heading
+    and no occluder disc (centres ``occluders`` (k, 2), radius ``occluder_radius``) other than
+    the viewer crosses the line of sight before the point. ``skip[i, j]`` = occluder index to
+    ignore for viewer i and point j (the point's own robot), −1 for none. Returns bool (n, m),
+    distances (n, m), bearings (n, m).
+    """
+    rel = points[None, :, :] - poses[:, None, :2]
+    distance = np.hypot(rel[..., 0], rel[..., 1])
+    bearing = np.arctan2(rel[..., 1], rel[..., 0]) - poses[:, None, 2]
+    bearing = (bearing + math.pi) % (2 * math.pi) - math.pi
+    seen = (distance <= camera_range) & (np.abs(bearing) <= 0.5 * camera_fov)
+    if not seen.any() or len(occluders) < 2:
+        return seen, distance, bearing
+    # Occluder k relative to viewer i: projection on the sight line to point j.
+    occ = occluders[None, :, :] - poses[:, None, :2]  # (n, k, 2)
+    safe = np.maximum(distance, 1e-12)
+    unit = rel / safe[..., None]  # (n, m, 2)
+    along = np.einsum("nmd,nkd->nmk", unit, occ)
+    across2 = np.einsum("nkd,nkd->nk", occ, occ)[:, None, :] - along**2
+    blocks = (along > 0) & (along < distance[..., None] - occluder_radius) & (across2 < occluder_radius**2)
+    n, k = len(poses), len(occluders)
+    if k == n:  # occluders are the viewers themselves: a robot does not hide its own view
+        blocks[np.arange(n), :, np.arange(n)] = False
+    if skip is not None:
+        rows, cols = np.nonzero(skip >= 0)
+        blocks[rows, cols, skip[rows, cols]] = False
+    return seen & ~blocks.any(axis=-1), distance, bearing
+
+
+@dataclass(frozen=True)
+class VisionModel:
+    """Pv by distance and bearing (:data:`PV_TABLE`) and the measurement errors it implies."""
+
+    camera_range: float
+    camera_fov: float
+    noise: float = 1.0
+
+    def pv(self, distance: np.ndarray, bearing: np.ndarray) -> np.ndarray:
+        """Pv of objects at ``distance`` (m) and ``bearing`` (rad) from the camera."""
+        rows = np.minimum((np.asarray(distance) / self.camera_range * 4).astype(np.int64), 3)
+        cols = np.minimum((np.abs(bearing) / (0.5 * self.camera_fov) * 3).astype(np.int64), 2)
+        return PV_TABLE[rows, cols]
+
+    def measure(
+        self, distance: np.ndarray, bearing: np.ndarray, pv: np.ndarray, rng: np.random.Generator
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Measured ``(distance, bearing)`` with errors N(0, σ_d²), N(0, σ_b²) set by ``pv``."""
+        if self.noise == 0.0:
+            return np.asarray(distance, dtype=float), np.asarray(bearing, dtype=float)
+        spread = self.noise * (1.0 - pv)
+        noise = rng.standard_normal((2, *np.shape(distance)))
+        return np.maximum(0.0, distance + DISTANCE_ERROR * spread * noise[0]), bearing + BEARING_ERROR * spread * noise[1]
+
+
+class Odometry:
+    """Every robot's pose estimate and localisation certainty Pl (eq. 2, see the module docstring)."""
+
+    def __init__(self, true_poses: np.ndarray, rotational_certainty: float, rotation_noise: float, distance_noise: float):
+        self.estimate = np.array(true_poses, dtype=float)
+        self.certainty = np.ones(len(true_poses))
+        self.pe = rotational_certainty
+        self.rotation_noise = rotation_noise
+        self.distance_noise = distance_noise
+
+    def advance(self, before: np.ndarray, after: np.ndarray, rng: np.random.Generator) -> None:
+        """Integrate one control step of the true motion ``before`` → ``after`` (rows x, y, θ)."""
+        turn = (after[:, 2] - before[:, 2] + math.pi) % (2 * math.pi) - math.pi
+        step = after[:, :2] - before[:, :2]
+        c, s = np.cos(before[:, 2]), np.sin(before[:, 2])
+        forward, lateral = c * step[:, 0] + s * step[:, 1], -s * step[:, 0] + c * step[:, 1]
+        length = np.hypot(forward, lateral)
+        noise = rng.standard_normal((2, len(before)))
+        est = self.estimate
+        scale = 1.0 + self.distance_noise * noise[1] * (length > 0)
+        ce, se = np.cos(est[:, 2]), np.sin(est[:, 2])
+        est[:, 0] += scale * (ce * forward - se * lateral)
+        est[:, 1] += scale * (se * forward + ce * lateral)
+        est[:, 2] = (est[:, 2] + turn + self.rotation_noise * np.abs(turn) * noise[0] + math.pi) % (2 * math.pi) - math.pi
+        self.certainty *= self.pe ** np.abs(turn)
+
+    def relocalise(self, robot: int, true_pose: np.ndarray, pv: float, error: tuple[float, float, float]) -> None:
+        """A landmark sighting: the estimate becomes the truth plus ``error`` (dx, dy, dθ) and Pl = Pv."""
+        self.estimate[robot] = true_pose + np.asarray(error)
+        self.estimate[robot, 2] = (self.estimate[robot, 2] + math.pi) % (2 * math.pi) - math.pi
+        self.certainty[robot] = pv
