@@ -24,6 +24,9 @@ _POLICIES: dict[str, tuple[str, dict[str, Any]]] = {
     "bidir-astar-opt": ("baselines.rendezvous.protocol:RendezvousProtocol", {"planner": "bidir-astar-opt"}),
     "astar-protocol": ("baselines.rendezvous.protocol:RendezvousProtocol", {"planner": "astar"}),
     "centralized": ("baselines.rendezvous.centralized:CentralizedRendezvous", {}),
+    "dmaps": ("baselines.foraging.dmaps:DMAPS", {}),
+    "dmaps-nocomm": ("baselines.foraging.dmaps:DMAPS", {"communication": False}),
+    "random-walk": ("baselines.foraging.random_walk:RandomWalk", {}),
 }
 
 

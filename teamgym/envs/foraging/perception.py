@@ -117,11 +117,12 @@ def visibility(
     if not seen.any() or len(occluders) < 2:
         return seen, distance, bearing
     # Occluder k relative to viewer i: projection on the sight line to point j.
-    occ = occluders[None, :, :] - poses[:, None, :2]  # (n, k, 2)
+    ox = occluders[None, :, 0] - poses[:, 0, None]  # (n, k)
+    oy = occluders[None, :, 1] - poses[:, 1, None]
     safe = np.maximum(distance, 1e-12)
-    unit = rel / safe[..., None]  # (n, m, 2)
-    along = np.einsum("nmd,nkd->nmk", unit, occ)
-    across2 = np.einsum("nkd,nkd->nk", occ, occ)[:, None, :] - along**2
+    ux, uy = rel[..., 0] / safe, rel[..., 1] / safe  # (n, m)
+    along = ux[:, :, None] * ox[:, None, :] + uy[:, :, None] * oy[:, None, :]
+    across2 = (ox * ox + oy * oy)[:, None, :] - along**2
     blocks = (along > 0) & (along < distance[..., None] - occluder_radius) & (across2 < occluder_radius**2)
     n, k = len(poses), len(occluders)
     if k == n:  # occluders are the viewers themselves: a robot does not hide its own view

@@ -31,11 +31,11 @@ the sector. Robots move, so the robot layer outside the sector decays with the h
 blobs are max-combined into the decayed memory of that teammate's grid (half-lives
 :attr:`~WorldModelParams.teammate_target_half_life` for targets, ``robot_half_life`` for
 robots). Negative information is inferred twice: cells the receiver itself sees empty now
-are cleared in every teammate's grid, and cells within
-:attr:`~WorldModelParams.sender_clear_radius` of the teammate's reported location are
-cleared in its target layer unless its packet reports a target there (a robot notices a
-target at its own feet; this is how a target the teammate consumed leaves the receiver's
-copy).
+are cleared in every teammate's grid, and the target layer within
+:attr:`~WorldModelParams.sender_clear_radius` cells of the teammate's reported location is
+overwritten by its current packet (cleared, then the packet's blobs max-combined): a robot's
+own cell is always in its view and a robot notices a target at its feet, so this is how a
+target the teammate consumed leaves the receiver's copy.
 
 **Fusion (eqs. 4 and 5).** ``P(X_ij) = Σ_r P(X_ij | R = r) P(R = r)`` with
 ``Σ_r P(R = r) = 1``; by default equal weights ``1/n`` over the robots that have contributed.
@@ -46,6 +46,12 @@ they still sum to 1 in every cell (:meth:`GridWorldModel.weights`).
 
 **Staleness.** ``last_seen`` (s, ``-inf`` = never) per cell: the owner's sector cells get the
 current time; a teammate's reported location and its 8 neighbours get the packet's time.
+
+**Helpers.** :class:`ViewSector` computes viewing sectors like
+:meth:`GridSpec.sector_mask` (exactly, or pasted from a per-(sub-cell, heading) cache) and
+the cells hidden behind robots in view (:meth:`ViewSector.shadow`); :func:`local_maxima`
+finds the peaks of a layer. Cost: a few dozen numpy calls per robot and step on
+``(2, ny, nx)`` arrays, no Python loop over cells (only over tuples and peaks).
 """
 
 from __future__ import annotations
@@ -130,6 +136,12 @@ class BlobKernels:
         kernels = pc[:, None, None] * np.exp(-d2[None] * pc[:, None, None] / (2.0 * self.k))
         kernels[pc < self.min_pc - 1e-12] = 0.0
         self.kernels = kernels
+        #: Per level: the kernel cut to its own radius ``ceil(3σ)`` and that radius (faster to stamp).
+        self.trimmed: list[tuple[np.ndarray, int]] = []
+        for q in range(self.levels + 1):
+            r = min(self.radius, int(math.ceil(3.0 * self.sigma(pc[q])))) if pc[q] >= self.min_pc - 1e-12 else 0
+            c = self.radius
+            self.trimmed.append((np.ascontiguousarray(kernels[q, c - r : c + r + 1, c - r : c + r + 1]), r))
 
     @property
     def size(self) -> int:
@@ -145,26 +157,23 @@ class BlobKernels:
 
 
 class ViewSector:
-    """Fast viewing-sector masks on a grid: the same cells as :meth:`GridSpec.sector_mask`.
+    """Viewing-sector masks on a grid: the same cells as :meth:`GridSpec.sector_mask`.
 
-    Cell centres are precomputed; a cell is in the sector iff its centre is within
-    ``camera_range`` of the camera and ``u · h ≥ |u| cos(fov / 2)`` (u: camera → centre,
-    h: heading), which is the bearing test ``|bearing| ≤ fov / 2`` without ``arctan2``. The
+    :meth:`mask` is exact: cell centres are precomputed and a cell is in the sector iff its
+    centre is within ``camera_range`` of the camera and ``u · h ≥ |u| cos(fov / 2)`` (u: camera
+    → centre, h: heading), the bearing test ``|bearing| ≤ fov / 2`` without ``arctan2``; the
     camera's own cell counts as seen.
 
-    :meth:`cached` quantises the pose (position to ``position_step`` m, heading to
-    ``heading_steps`` per turn) and keeps the masks of the poses met (at most ``cache_size``;
-    the cache is emptied when full): a robot that stands still or moves slowly reuses them.
+    :meth:`cached` is the fast path for a planner: the pose is quantised (position to the
+    centre of its ``1/subdivisions``-cell bin, heading to ``heading_steps`` per turn) and the
+    sector of the quantised pose, relative to the camera's cell, is computed once per
+    (bin, heading) and pasted into the grid. It equals :meth:`mask` at the quantised pose;
+    near a partial edge column or row (a field not a whole number of cells) it computes that
+    exactly instead of pasting.
     """
 
     def __init__(
-        self,
-        grid: GridSpec,
-        camera_range: float,
-        camera_fov: float,
-        position_step: float | None = None,
-        heading_steps: int = 128,
-        cache_size: int = 50_000,
+        self, grid: GridSpec, camera_range: float, camera_fov: float, subdivisions: int = 4, heading_steps: int = 128
     ) -> None:
         self.grid = grid
         centres = grid.centres()
@@ -173,10 +182,12 @@ class ViewSector:
         self.range2 = float(camera_range) ** 2
         self.cos_half = math.cos(0.5 * float(camera_fov))
         self.nx, self.ny, self.cell = grid.nx, grid.ny, grid.cell_size
-        self.position_step = float(position_step) if position_step is not None else grid.cell_size / 8
-        self.heading_steps = int(heading_steps)
-        self.cache_size = int(cache_size)
-        self._cache: dict[tuple[int, int, int], np.ndarray] = {}
+        self.subdivisions, self.heading_steps = int(subdivisions), int(heading_steps)
+        self.reach = int(math.ceil(float(camera_range) / self.cell)) + 1  # window half-width (cells)
+        # Last column/row narrower than a cell: their centres are not on the regular lattice.
+        self._partial_x = self.nx * self.cell > grid.width + 1e-9
+        self._partial_y = self.ny * self.cell > grid.height + 1e-9
+        self._windows: dict[tuple[int, int, int], np.ndarray] = {}
 
     def mask(self, x: float, y: float, theta: float) -> np.ndarray:
         """Cells ``(ny, nx)`` bool in the sector of a camera at ``(x, y, θ)``."""
@@ -185,49 +196,113 @@ class ViewSector:
         d2 = dx * dx + dy * dy
         along = dx * math.cos(theta) + dy * math.sin(theta)
         seen = (d2 <= self.range2) & (along >= np.sqrt(d2) * self.cos_half)
-        gx = min(self.nx - 1, max(0, math.floor(x / self.cell)))
-        gy = min(self.ny - 1, max(0, math.floor(y / self.cell)))
+        gx = min(self.nx - 1, max(0, math.floor(x / self.cell + 1e-9)))
+        gy = min(self.ny - 1, max(0, math.floor(y / self.cell + 1e-9)))
         seen[gy, gx] = True
         return seen
 
+    def shadow(self, x: float, y: float, theta: float, polar: np.ndarray, radius: float) -> np.ndarray:
+        """Cells ``(ny, nx)`` bool hidden behind robots seen at ``polar`` ``(k, 2)`` (distance m, bearing rad).
+
+        A robot is a disc of ``radius``; a cell is hidden when its centre lies at least as far
+        as the disc's near edge and within ``atan((radius + cell / 2) / distance)`` of the
+        robot's direction (half a cell of margin: a partly hidden cell is not "seen"). The
+        camera's own cell is never hidden. Used to take occluded cells out of a viewing
+        sector, so that they keep their memory instead of being "seen empty".
+        """
+        hidden = np.zeros((self.ny, self.nx), dtype=bool)
+        polar = np.asarray(polar, dtype=float).reshape(-1, 2)
+        if len(polar) == 0:
+            return hidden
+        dx, dy = self.cx - x, self.cy - y
+        distance = np.hypot(dx, dy)
+        bearing = np.arctan2(dy, dx)
+        for d, b in polar.tolist():
+            d = max(d, 1e-6)
+            width = math.atan((radius + 0.5 * self.cell) / d)
+            off = np.abs((bearing - (theta + b) + math.pi) % (2 * math.pi) - math.pi)
+            hidden |= (distance >= d - radius) & (off <= width)
+        gx = min(self.nx - 1, max(0, math.floor(x / self.cell + 1e-9)))
+        gy = min(self.ny - 1, max(0, math.floor(y / self.cell + 1e-9)))
+        hidden[gy, gx] = False
+        return hidden
+
+    def quantised(self, x: float, y: float, theta: float) -> tuple[float, float, float]:
+        """The pose :meth:`cached` uses for ``(x, y, θ)``."""
+        step, turns = self.cell / self.subdivisions, self.heading_steps
+        return (
+            (math.floor(x / step) + 0.5) * step,
+            (math.floor(y / step) + 0.5) * step,
+            (round(theta / (2 * math.pi) * turns) % turns) * 2 * math.pi / turns,
+        )
+
+    def _window(self, fx: int, fy: int, heading: int) -> np.ndarray:
+        step, w = self.cell / self.subdivisions, self.reach
+        theta = heading * 2 * math.pi / self.heading_steps
+        offsets = (np.arange(-w, w + 1) + 0.5) * self.cell
+        dx = offsets[None, :] - (fx + 0.5) * step
+        dy = offsets[:, None] - (fy + 0.5) * step
+        d2 = dx * dx + dy * dy
+        along = dx * math.cos(theta) + dy * math.sin(theta)
+        window = (d2 <= self.range2) & (along >= np.sqrt(d2) * self.cos_half)
+        window[w, w] = True
+        return window
+
     def cached(self, x: float, y: float, theta: float) -> np.ndarray:
-        """:meth:`mask` at the quantised pose (read-only; shared between calls)."""
-        step, turns = self.position_step, self.heading_steps
-        key = (round(x / step), round(y / step), round(theta / (2 * math.pi) * turns) % turns)
-        seen = self._cache.get(key)
-        if seen is None:
-            if len(self._cache) >= self.cache_size:
-                self._cache.clear()
-            seen = self.mask(key[0] * step, key[1] * step, key[2] * 2 * math.pi / turns)
-            seen.flags.writeable = False
-            self._cache[key] = seen
+        """:meth:`mask` at the quantised pose (see the class docstring); a new array."""
+        sub, turns, w = self.subdivisions, self.heading_steps, self.reach
+        bx, by = math.floor(x / self.cell * sub), math.floor(y / self.cell * sub)
+        gx, gy = bx // sub, by // sub
+        heading = round(theta / (2 * math.pi) * turns) % turns
+        inside = 0 <= gx < self.nx and 0 <= gy < self.ny
+        near_partial = (self._partial_x and gx + w >= self.nx - 1) or (self._partial_y and gy + w >= self.ny - 1)
+        if not inside or near_partial:
+            return self.mask(*self.quantised(x, y, theta))
+        key = (bx - gx * sub, by - gy * sub, heading)
+        window = self._windows.get(key)
+        if window is None:
+            window = self._windows[key] = self._window(*key)
+        seen = np.zeros((self.ny, self.nx), dtype=bool)
+        x0, y0 = max(0, gx - w), max(0, gy - w)
+        x1, y1 = min(self.nx, gx + w + 1), min(self.ny, gy + w + 1)
+        seen[y0:y1, x0:x1] = window[y0 - gy + w : y1 - gy + w, x0 - gx + w : x1 - gx + w]
         return seen
 
 
-def local_maxima(layer: np.ndarray, threshold: float) -> tuple[np.ndarray, np.ndarray]:
-    """Peaks of a grid ``(ny, nx)``: cells ``(k, 2)`` as ``(gx, gy)`` and their values, strongest first.
+def local_maxima(
+    layer: np.ndarray, threshold: float, buffer: np.ndarray | None = None, separation: int = 1
+) -> tuple[np.ndarray, np.ndarray]:
+    """Peaks of a grid ``(ny, nx)`` of probabilities: cells ``(k, 2)`` as ``(gx, gy)`` and their values, strongest first.
 
     A peak is a cell at least ``threshold`` (and > 0) and no lower than any of its 8
-    neighbours; of peaks within one cell of each other (a plateau) only the first (strongest,
-    then lowest flat index) is kept.
+    neighbours; of peaks within ``separation`` cells (Chebyshev) of each other only the first
+    (strongest, then lowest flat index) is kept — 1 merges plateaus, 2 also merges two hills of
+    one object reported at cells two apart. ``buffer``: an optional ``(ny + 2, nx + 2)`` array
+    with a zero border, reused to avoid an allocation.
     """
     ny, nx = layer.shape
-    padded = np.zeros((ny + 2, nx + 2))  # values are probabilities (>= 0); peaks must be > 0
+    threshold = max(threshold, 1e-12)
+    if layer.max() < threshold:  # nothing to find (cheap early exit)
+        return np.zeros((0, 2), dtype=np.int64), np.zeros(0)
+    padded = np.zeros((ny + 2, nx + 2)) if buffer is None else buffer
     padded[1:-1, 1:-1] = layer
     rows = np.maximum(np.maximum(padded[:, :-2], padded[:, 1:-1]), padded[:, 2:])
-    around = np.maximum(np.maximum(rows[:-2], rows[1:-1]), rows[2:])
+    around = np.maximum(np.maximum(rows[:-2], rows[1:-1]), rows[2:], out=rows[1:-1])
     peak = layer >= around
-    peak &= layer >= max(threshold, 1e-12)
+    peak &= layer >= threshold
     flat = np.flatnonzero(peak).tolist()
     if not flat:
         return np.zeros((0, 2), dtype=np.int64), np.zeros(0)
     values = layer.ravel()[flat].tolist()
+    if len(flat) == 1:
+        gy, gx = divmod(flat[0], nx)
+        return np.array([[gx, gy]], dtype=np.int64), np.array(values)
     found = sorted(zip(values, flat), key=lambda vf: (-vf[0], vf[1]))
     kept: list[tuple[int, int]] = []
     kept_values: list[float] = []
     for value, index in found:
         gy, gx = divmod(index, nx)
-        if all(abs(gx - kx) > 1 or abs(gy - ky) > 1 for kx, ky in kept):
+        if all(abs(gx - kx) > separation or abs(gy - ky) > separation for kx, ky in kept):
             kept.append((gx, gy))
             kept_values.append(value)
     return np.array(kept, dtype=np.int64), np.array(kept_values)
@@ -266,14 +341,18 @@ class GridWorldModel:
         # 1 / half-life (s⁻¹) per robot and layer; 0 means no decay (the owner's target layer).
         self._inv_half_life = [[1.0 / p.teammate_target_half_life, 1.0 / p.robot_half_life] for _ in range(self.n_robots)]
         self._inv_half_life[self.owner][TARGET_LAYER] = 0.0
-        self._kernels = list(self.blobs.kernels)
+        self._kernels = self.blobs.trimmed
+        self._coef = np.ones((N_CLASSES, 1, 1))
+        self._peaks_buffer = np.zeros((ny + 2, nx + 2))
         self.reset()
 
     # -- state ------------------------------------------------------------------------
     def reset(self) -> None:
         """Forget everything (a new episode)."""
         ny, nx = self.shape
-        self._models = np.zeros((self.n_robots, N_CLASSES, ny, nx))
+        r = self.blobs.radius  # grids are stored with a border of r cells so that blobs stamp without clipping
+        self._padded = np.zeros((self.n_robots, N_CLASSES, ny + 2 * r, nx + 2 * r))
+        self._models = self._padded[:, :, r : r + ny, r : r + nx]
         self._stamp = [0.0] * self.n_robots  # time each stored grid is valid at (decay is lazy)
         self.contributed = np.zeros(self.n_robots, dtype=bool)
         self.contributed[self.owner] = True
@@ -284,24 +363,21 @@ class GridWorldModel:
         self._keep_now = self._keep
         self._empty_time = -math.inf
         self.time = 0.0
-        self._sender_cell = [(-1, -1)] * self.n_robots
-        self._sender_time = [-math.inf] * self.n_robots
-        self._sender_pl = [0.0] * self.n_robots
+        #: Per robot: latest reported cell ``(gx, gy)`` (``(-1, -1)``: none yet; the owner's stays so),
+        #: the time (s) of that report (−inf: none) and the reported certainty Pl (plain lists).
+        self.sender_cells: list[tuple[int, int]] = [(-1, -1)] * self.n_robots
+        self.sender_times: list[float] = [-math.inf] * self.n_robots
+        self.sender_pls: list[float] = [0.0] * self.n_robots
 
     @property
     def sender_cell(self) -> np.ndarray:
-        """Latest reported cell ``(gx, gy)`` of every robot ``(n, 2)`` (−1: none yet; the owner's stays −1)."""
-        return np.array(self._sender_cell, dtype=np.int64)
+        """:attr:`sender_cells` as an ``(n, 2)`` array."""
+        return np.array(self.sender_cells, dtype=np.int64)
 
     @property
     def sender_time(self) -> np.ndarray:
-        """Time (s) of every robot's latest reported cell ``(n,)`` (−inf: none)."""
-        return np.array(self._sender_time)
-
-    @property
-    def sender_pl(self) -> np.ndarray:
-        """Localisation certainty Pl of every robot's latest report ``(n,)``."""
-        return np.array(self._sender_pl)
+        """:attr:`sender_times` as an ``(n,)`` array."""
+        return np.array(self.sender_times)
 
     @property
     def n_contributors(self) -> int:
@@ -314,10 +390,13 @@ class GridWorldModel:
     def _decay_to_now(self, r: int) -> None:
         """Apply robot ``r``'s grid decay up to :attr:`time` (decay is kept lazy between writes)."""
         if self.time > self._stamp[r]:
-            for layer in (TARGET_LAYER, ROBOT_LAYER):
-                factor = self._factor(r, layer)
-                if factor != 1.0:
-                    self._models[r, layer] *= factor
+            if r == self.owner:  # the owner's target layer does not decay
+                self._padded[r, ROBOT_LAYER] *= self._factor(r, ROBOT_LAYER)
+            else:  # (the padded grid is contiguous: faster than its interior view)
+                coef = self._coef
+                coef[0, 0, 0] = self._factor(r, TARGET_LAYER)
+                coef[1, 0, 0] = self._factor(r, ROBOT_LAYER)
+                self._padded[r] *= coef
             self._stamp[r] = self.time
 
     def partial(self, r: int) -> np.ndarray:
@@ -337,19 +416,21 @@ class GridWorldModel:
         """The max-combined blobs ``(2, ny, nx)`` of ``tuples``; a view of a scratch buffer (overwritten by the next call)."""
         scratch = self._scratch
         scratch.fill(0.0)
-        self._stamp_rows(_rows(tuples))
+        self._stamp_rows(_rows(tuples), scratch)
         return self._interior
 
-    def _stamp_rows(self, rows: list[list[float]]) -> None:
-        scratch, kernels, size, levels = self._scratch, self._kernels, self.blobs.size, self.blobs.levels
+    def _stamp_rows(self, rows: list[list[float]], padded: np.ndarray) -> None:
+        """Max-combine the blobs of ``rows`` into ``padded`` ``(2, ny + 2R, nx + 2R)`` (R: the kernels' radius)."""
+        kernels, levels, pad = self._kernels, self.blobs.levels, self.blobs.radius
         ny, nx = self.shape
         for cls, gx, gy, pc in rows:
-            level = round(min(1.0, max(0.0, pc)) * levels)
-            if level == 0:
+            kernel, r = kernels[round(min(1.0, max(0.0, pc)) * levels)]
+            if r == 0:  # below min_pc
                 continue
-            x, y = min(nx - 1, max(0, int(gx))), min(ny - 1, max(0, int(gy)))
-            window = scratch[LAYER_OF_CLASS[min(2, max(0, int(cls)))], y : y + size, x : x + size]
-            np.maximum(window, kernels[level], out=window)
+            x = min(nx - 1, max(0, int(gx))) + pad
+            y = min(ny - 1, max(0, int(gy))) + pad
+            window = padded[LAYER_OF_CLASS[min(2, max(0, int(cls)))], y - r : y + r + 1, x - r : x + r + 1]
+            np.maximum(window, kernel, out=window)
 
     def observe_own(self, tuples, sector: np.ndarray, time: float) -> None:
         """The owner's own perception tuples ``(m, 4)`` this step and its viewing ``sector`` ``(ny, nx)`` bool."""
@@ -358,13 +439,12 @@ class GridWorldModel:
         rows = _rows(tuples)
         self.sector = sector
         if rows:
-            seen = self.blob_grid(rows)
             own = self._models[self.owner]
-            np.maximum(own, seen, out=own)  # outside the sector: memory, max-combined with blob tails
-            np.copyto(own, seen, where=sector)  # inside: overwritten by the current view
-            keep = self._keep
-            np.greater_equal(seen, self.params.empty_threshold, out=keep, casting="unsafe")
-            np.maximum(keep, ~sector, out=keep)  # kept: seen occupied, or outside the sector
+            np.copyto(own, 0.0, where=sector)  # inside the sector: replaced by the current view ...
+            self._stamp_rows(rows, self._padded[self.owner])  # ... outside: memory max-combined with blob tails
+            empty = np.less(own, self.params.empty_threshold)
+            empty &= sector
+            keep = np.logical_not(empty, out=self._keep, casting="unsafe")
         else:  # nothing seen: the whole sector is empty
             keep = np.logical_not(sector, out=self._keep[0], casting="unsafe")
         self._models *= keep  # seen empty now: cleared in every partial model
@@ -373,7 +453,11 @@ class GridWorldModel:
         np.copyto(self.last_seen, self.time, where=sector)
 
     def receive(self, sender: int, tuples, time: float) -> None:
-        """Tuples of one packet of teammate ``sender`` (its ``SENDER`` tuple first) at ``time``."""
+        """Tuples of a packet of teammate ``sender`` (its ``SENDER`` tuple first) at ``time``.
+
+        Several packets of one sender may come in one call (in order, each with its ``SENDER``
+        tuple); the last ``SENDER`` tuple gives the sender's latest cell.
+        """
         sender = int(sender)
         rows = _rows(tuples)
         if sender == self.owner or not 0 <= sender < self.n_robots or not rows:
@@ -384,24 +468,21 @@ class GridWorldModel:
         if not self.contributed[sender]:
             self.contributed[sender] = True
             self._contributors = np.flatnonzero(self.contributed).tolist()
-        blobs = self.blob_grid(rows)
         model = self._models[sender]
-        np.maximum(model, blobs, out=model)
-        head = next((row for row in rows if int(row[0]) == SENDER), None)
-        if head is not None:
-            ny, nx = self.shape
+        ny, nx = self.shape
+        for head in rows:  # normally one SENDER tuple; several when packets of one sender queue up
+            if int(head[0]) != SENDER:
+                continue
             gx, gy = min(nx - 1, max(0, int(head[1]))), min(ny - 1, max(0, int(head[2])))
-            self._sender_cell[sender] = (gx, gy)
-            self._sender_time[sender] = self.time
-            self._sender_pl[sender] = float(head[3])
+            self.sender_cells[sender] = (gx, gy)  # the last one is the latest
+            self.sender_times[sender] = self.time
+            self.sender_pls[sender] = float(head[3])
             s = p.sender_seen_radius
-            near = self.last_seen[max(0, gy - s) : gy + s + 1, max(0, gx - s) : gx + s + 1]
-            np.maximum(near, self.time, out=near)
+            self.last_seen[max(0, gy - s) : gy + s + 1, max(0, gx - s) : gx + s + 1] = self.time  # none is later
             c = p.sender_clear_radius
-            if c >= 0:
-                ys, xs = slice(max(0, gy - c), gy + c + 1), slice(max(0, gx - c), gx + c + 1)
-                reported = blobs[TARGET_LAYER, ys, xs] >= p.empty_threshold
-                model[TARGET_LAYER, ys, xs] *= reported
+            if c >= 0:  # the sender's surroundings: overwritten by this report (cleared, then stamped)
+                model[TARGET_LAYER, max(0, gy - c) : gy + c + 1, max(0, gx - c) : gx + c + 1] = 0.0
+        self._stamp_rows(rows, self._padded[sender])
         if self._empty_time >= self.time:  # the owner sees these cells empty at this very time
             model *= self._keep_now
 
@@ -419,9 +500,11 @@ class GridWorldModel:
         """Eq. (4) with equal weights over the contributors, each partial grid decayed to :attr:`time`."""
         weight = 1.0 / len(self._contributors)
         out = np.empty((N_CLASSES, *self.shape))
+        coef = self._coef
         first = True
         for r in self._contributors:
-            coef = np.array([[[weight * self._factor(r, TARGET_LAYER)]], [[weight * self._factor(r, ROBOT_LAYER)]]])
+            coef[0, 0, 0] = weight * self._factor(r, TARGET_LAYER)
+            coef[1, 0, 0] = weight * self._factor(r, ROBOT_LAYER)
             if first:
                 np.multiply(self._models[r], coef, out=out)
                 first = False
@@ -432,7 +515,8 @@ class GridWorldModel:
     def self_biased(self, fused_equal: np.ndarray | None = None) -> np.ndarray:
         """Cells ``(2, ny, nx)`` bool where the weights are self-biased (section 3.2, see the module docstring)."""
         fused = self._fused_equal() if fused_equal is None else fused_equal
-        biased = np.abs(self._models[self.owner] - fused) > self.params.self_bias_threshold
+        diff = np.subtract(self._models[self.owner], fused)
+        biased = np.abs(diff, out=diff) > self.params.self_bias_threshold
         biased &= self.sector
         return biased
 
@@ -456,12 +540,15 @@ class GridWorldModel:
             w[self.owner, biased] = 1.0
         return w
 
-    def known(self, layer: int, threshold: float, fused: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    def known(
+        self, layer: int, threshold: float, fused: np.ndarray | None = None, separation: int = 1
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Peaks ``(gx, gy)`` and values of a fused layer above ``threshold / n_contributors``.
 
         Equal weights divide a peak seen by one robot of n by n, so the threshold is meant
         per partial model: a peak counts if, on average, the contributors' evidence reaches
-        ``threshold / n``. ``fused`` defaults to the self-biased fused map.
+        ``threshold / n``. ``fused`` defaults to the self-biased fused map; ``separation``: see
+        :func:`local_maxima`.
         """
         grid = self.fused_map(self_bias=True)[layer] if fused is None else fused[layer]
-        return local_maxima(grid, threshold / self.n_contributors)
+        return local_maxima(grid, threshold / self.n_contributors, self._peaks_buffer, separation)

@@ -1,0 +1,228 @@
+"""Reproduce section 5 of paper 002 (DMAPS) on ``Foraging-v0`` and go past it.
+
+    python experiments/paper002_foraging.py all --out results/paper002 [--games 2000] [--workers 2]
+
+Subcommands (each writes ``<sweep>.json``, ``<sweep>.md`` and ``<sweep>.png`` into ``--out``):
+
+* ``consume`` (section 5.1, Figs. 6-8): 2 robots, 3 targets; for ``comm_throughput`` in
+  :data:`THROUGHPUTS`: success %, TL, TT1-TT3 over ``--games`` games.
+* ``surround`` (section 5.2, Figs. 8-9): 2 robots, 1 target: success %, TL, TG, DG.
+* ``search`` (section 5.2's "about 25 s for one robot to search the whole field"): one robot
+  running DMAPS's search behaviour only (``search_only``); the time until its camera has
+  covered 90 % and 100 % of the cells (true poses).
+* ``robots``: the consume and surround sweeps with 4 and 8 robots (surround keeps
+  ``robots_per_target`` = 2).
+* ``large``: both sweeps on a field four times larger (6.0 m × 4.8 m).
+* ``all``: every sweep above.
+
+Times are means over the successful games (as in section 4.5) with 95 % confidence intervals
+(1.96 standard errors); success rates carry Wilson 95 % intervals. Games use seeds
+``--first-seed`` .. ``--first-seed + games - 1`` (the same seeds for every throughput) and run
+in ``--workers`` processes through :func:`baselines.evaluate.evaluate`, so the numbers do not
+depend on the worker count.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+import teamgym
+from baselines.episode import Step, run_episode
+from baselines.evaluate import evaluate, markdown_table
+from baselines.registry import make_policy
+
+THROUGHPUTS = (0.0, 0.25, 0.5, 0.75, 1.0)
+#: Sweeps: name -> (Foraging-v0 config, metrics reported).
+CONSUME = {"task": "consume", "n_robots": 2, "n_targets": 3}
+SURROUND = {"task": "surround", "n_robots": 2, "n_targets": 1, "robots_per_target": 2}
+LARGE_FIELD = {"field_size": (6.0, 4.8)}
+CONSUME_METRICS = ("TL", "TT1", "TT2", "TT3", "DG")
+SURROUND_METRICS = ("TL", "TG", "DG")
+
+
+def sweeps(name: str) -> dict[str, tuple[dict[str, Any], tuple[str, ...]]]:
+    """The throughput sweeps of subcommand ``name``: sweep id -> (config, metrics)."""
+    if name == "consume":
+        return {"consume": (CONSUME, CONSUME_METRICS)}
+    if name == "surround":
+        return {"surround": (SURROUND, SURROUND_METRICS)}
+    if name == "robots":
+        out = {}
+        for n in (4, 8):
+            out[f"consume-{n}robots"] = ({**CONSUME, "n_robots": n}, CONSUME_METRICS)
+            out[f"surround-{n}robots"] = ({**SURROUND, "n_robots": n}, SURROUND_METRICS)
+        return out
+    if name == "large":
+        return {
+            "consume-large": ({**CONSUME, **LARGE_FIELD}, CONSUME_METRICS),
+            "surround-large": ({**SURROUND, **LARGE_FIELD}, SURROUND_METRICS),
+        }
+    raise ValueError(f"unknown sweep {name!r}")
+
+
+def wilson(successes: int, n: int, z: float = 1.96) -> tuple[float, float]:
+    """Wilson score interval of a proportion (fractions)."""
+    if n == 0:
+        return (math.nan, math.nan)
+    p = successes / n
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
+    return (centre - half, centre + half)
+
+
+def mean_ci(values: Sequence[float]) -> dict[str, float]:
+    """Mean, 95 % half-width (1.96 standard errors) and count of the finite ``values``."""
+    array = np.asarray([v for v in values if math.isfinite(v)], dtype=float)
+    if array.size == 0:
+        return {"mean": math.nan, "ci95": math.nan, "n": 0}
+    half = 1.96 * float(np.std(array, ddof=1)) / math.sqrt(array.size) if array.size > 1 else math.nan
+    return {"mean": float(np.mean(array)), "ci95": half, "n": int(array.size)}
+
+
+def run_setting(config: dict[str, Any], metrics: Sequence[str], games: int, first_seed: int, workers: int, policy: str) -> dict:
+    """One throughput setting: success and the metrics' means over the successful games."""
+    results = evaluate("Foraging-v0", policy, episodes=games, seed=first_seed, config=config, workers=workers)
+    wins = [r for r in results if r.success]
+    row: dict[str, Any] = {"games": games, "successes": len(wins)}
+    low, high = wilson(len(wins), games)
+    row["success"] = {"rate": len(wins) / games, "low": low, "high": high}
+    for name in metrics:
+        row[name] = mean_ci([r.metric_means().get(name, math.nan) for r in wins])
+    dt = teamgym.env_class("Foraging-v0").config_class.from_kwargs(**config).dt
+    row["bytes_sent_per_robot_s"] = mean_ci([r.metric_means().get("bytes_sent", math.nan) / (r.length * dt) for r in wins])
+    return row
+
+
+def run_sweep(name: str, config: dict, metrics: Sequence[str], args: argparse.Namespace) -> dict:
+    """Every throughput of one sweep, for ``args.policy``."""
+    rows = {}
+    for throughput in THROUGHPUTS:
+        start = time.perf_counter()
+        rows[str(throughput)] = run_setting(
+            {**config, "comm_throughput": throughput}, metrics, args.games, args.first_seed, args.workers, args.policy
+        )
+        rows[str(throughput)]["seconds"] = time.perf_counter() - start
+        if not args.quiet:
+            row = rows[str(throughput)]
+            shown = ", ".join(f"{m} {row[m]['mean']:.1f}±{row[m]['ci95']:.1f}" for m in metrics)
+            print(f"{name} throughput {throughput}: success {100 * row['success']['rate']:.1f}%, {shown}", file=sys.stderr)
+    return {"sweep": name, "policy": args.policy, "config": config, "metrics": list(metrics), "rows": rows}
+
+
+def table(result: dict) -> str:
+    """Markdown table of one sweep."""
+    lines = []
+    for throughput, row in result["rows"].items():
+        s = row["success"]
+        line = {"throughput": throughput, "success %": f"{100 * s['rate']:.1f} [{100 * s['low']:.1f}, {100 * s['high']:.1f}]"}
+        for m in result["metrics"]:
+            unit = "m" if m == "DG" else "s"
+            line[f"{m} ({unit})"] = f"{row[m]['mean']:.2f} ± {row[m]['ci95']:.2f}"
+        lines.append(line)
+    return markdown_table(lines)
+
+
+def plot(result: dict, path: Path) -> None:
+    """Success rate and the time/distance measures against throughput, with 95 % bands."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    x = np.array([float(t) for t in result["rows"]])
+    rows = list(result["rows"].values())
+    fig, (ax_s, ax_t) = plt.subplots(1, 2, figsize=(10, 3.8))
+    rate = np.array([100 * r["success"]["rate"] for r in rows])
+    ax_s.errorbar(
+        x,
+        rate,
+        yerr=[rate - [100 * r["success"]["low"] for r in rows], [100 * r["success"]["high"] for r in rows] - rate],
+        marker="o",
+        capsize=3,
+    )
+    ax_s.set(xlabel="communication throughput", ylabel="successful games (%)", title=result["sweep"])
+    for m in result["metrics"]:
+        mean = np.array([r[m]["mean"] for r in rows])
+        half = np.array([r[m]["ci95"] for r in rows])
+        target = ax_t.twinx() if m == "DG" else ax_t
+        target.plot(x, mean, marker="o", label=f"{m} ({'m' if m == 'DG' else 's'})", color=None if m != "DG" else "grey")
+        target.fill_between(x, mean - half, mean + half, alpha=0.2, color=None if m != "DG" else "grey")
+        if m == "DG":
+            target.set_ylabel("DG (m per robot)")
+            target.legend(loc="upper right")
+    ax_t.set(xlabel="communication throughput", ylabel="time (s), successful games")
+    ax_t.legend(loc="upper left")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def search_time(games: int, first_seed: int, config: dict | None = None) -> dict:
+    """One robot searching with DMAPS (search behaviour only): time to see 90 % and 100 % of the cells."""
+    env = teamgym.make("Foraging-v0", task="surround", n_robots=1, robots_per_target=1, n_targets=1, **(config or {}))
+    policy = make_policy("dmaps", env, search_only=True)
+    c, grid = env.config, env.config.grid
+    times: dict[str, list[float]] = {"90": [], "100": []}
+    covered = np.zeros(grid.shape, dtype=bool)
+    reached: dict[str, float] = {}
+
+    def watch(step: Step) -> None:
+        x, y, theta = step.env.state()[:3]
+        covered[:] |= grid.sector_mask(x, y, theta, c.camera_range, c.camera_fov)
+        share = covered.mean()
+        for key, level in (("90", 0.9), ("100", 1.0)):
+            if key not in reached and share >= level - 1e-12:
+                reached[key] = step.env.world.time
+
+    for seed in range(first_seed, first_seed + games):
+        covered[:] = False
+        reached.clear()
+        run_episode(env, policy, seed, on_step=watch, on_reset=watch, record_trajectories=False)
+        for key in times:
+            times[key].append(reached.get(key, math.nan))
+    return {key: {**mean_ci(values), "never": int(np.sum(np.isnan(values)))} for key, values in times.items()}
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description="Paper 002 (DMAPS): throughput sweeps on Foraging-v0.")
+    parser.add_argument("experiment", choices=["consume", "surround", "search", "robots", "large", "all"])
+    parser.add_argument("--out", type=Path, default=Path("results/paper002"))
+    parser.add_argument("--games", type=int, default=2000, help="games per setting (default 2000, as in the paper)")
+    parser.add_argument("--first-seed", type=int, default=0)
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--policy", default="dmaps", help="dmaps (default), dmaps-nocomm or random-walk")
+    parser.add_argument("--quiet", action="store_true")
+    args = parser.parse_args(argv)
+    if args.games < 2 or args.workers < 1 or args.first_seed < 0:
+        parser.error("--games must be >= 2, --workers >= 1 and --first-seed >= 0")
+    args.out.mkdir(parents=True, exist_ok=True)
+    names = ["consume", "surround", "search", "robots", "large"] if args.experiment == "all" else [args.experiment]
+    suffix = "" if args.policy == "dmaps" else f"-{args.policy}"
+    for name in names:
+        if name == "search":
+            result = {"search": search_time(min(args.games, 200), args.first_seed)}
+            (args.out / f"search{suffix}.json").write_text(json.dumps(result, indent=2) + "\n")
+            if not args.quiet:
+                print(f"search: {result['search']}", file=sys.stderr)
+            continue
+        for sweep, (config, metrics) in sweeps(name).items():
+            result = run_sweep(sweep, config, metrics, args)
+            (args.out / f"{sweep}{suffix}.json").write_text(json.dumps(result, indent=2) + "\n")
+            (args.out / f"{sweep}{suffix}.md").write_text(table(result) + "\n")
+            plot(result, args.out / f"{sweep}{suffix}.png")
+            if not args.quiet:
+                print(table(result))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
