@@ -12,7 +12,12 @@
   sector), ``random-admissible`` (a random admissible operator);
 * BoxPushing-v0 (paper 004, :mod:`baselines.box_pushing`): ``sbs`` (situated behaviour
   sets with a per-robot situation recognizer), ``sbs1`` (SBS-1 in every situation),
-  ``sbs-oracle`` (diagnostic: other robots recognized from the simulator's state).
+  ``sbs-oracle`` (diagnostic: other robots recognized from the simulator's state);
+* Rendezvous-v0 (paper 003, :mod:`baselines.rendezvous`): ``bidir-astar``, ``bidir-astar-opt``,
+  ``astar-protocol`` (the paper's protocol with three planners), ``centralized`` (reference);
+* Foraging-v0 (paper 002, :mod:`baselines.foraging`, go-to-cell actions): ``dmaps`` (grid world
+  model fused from shared perception tuples, MAPS potential field, shortest-distance
+  allocation), ``dmaps-nocomm`` (communication ignored), ``random-walk``.
 
 ``run_episode(env, policy, seed, on_step=...)`` plays one episode (:mod:`baselines.episode`).
 """

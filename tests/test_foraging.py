@@ -4,6 +4,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import teamgym
 from teamgym.envs.config import ConfigError
@@ -314,3 +316,65 @@ def test_world_model_observation_is_a_bounded_grid():
     model = obs["robot_0"]["world_model"]
     assert model.shape == (2, 12, 15) and env.observation_space("robot_0").contains(obs["robot_0"])
     assert model.max() > 0  # robot_1 (and possibly targets) are in it
+
+
+# -- both tasks through PettingZoo's tests; input handling under hypothesis ----------------------
+SURROUND_CASES = [
+    pytest.param({"action_type": kind, "obs_format": fmt}, id=f"surround-{kind}-{fmt}")
+    for kind in ("goto_cell", "velocity")
+    for fmt in ("flat", "dict")
+]
+
+
+@pytest.mark.parametrize("config", SURROUND_CASES)
+def test_surround_passes_the_pettingzoo_api_seed_and_render_tests(config):
+    from pettingzoo.test import parallel_api_test, parallel_seed_test, render_test, seed_test
+
+    settings = {"task": "surround", "n_targets": 1, "max_cycles": 25, **config}
+    parallel_api_test(teamgym.make("Foraging-v0", **settings), num_cycles=30)
+    parallel_seed_test(lambda: teamgym.make("Foraging-v0", **settings), num_cycles=15)
+    seed_test(lambda: teamgym.make_aec("Foraging-v0", **settings), num_cycles=10)
+
+    def aec(render_mode=None):
+        env = teamgym.make_aec("Foraging-v0", render_mode=render_mode, **settings)
+        env.metadata = {**env.metadata, "render_modes": ["rgb_array"]}  # "human" is tested in test_env_api
+        return env
+
+    render_test(aec)
+
+
+HYPOTHESIS = settings(max_examples=60, deadline=None, database=None)
+
+
+@HYPOTHESIS
+@given(cell=st.integers().filter(lambda v: not 0 <= v < 180), warmup=st.integers(0, 5), seed=st.integers(0, 2**16))
+def test_any_cell_outside_the_grid_is_rejected_and_harmless(cell, warmup, seed):
+    env = teamgym.make("Foraging-v0")
+    env.reset(seed=seed)
+    for _ in range(warmup):
+        env.step({a: 90 for a in env.agents})
+    before, cycles = env.state(), env.cycles
+    with pytest.raises(ValueError, match="robot_1"):
+        env.step({"robot_0": 90, "robot_1": cell})
+    assert np.array_equal(env.state(), before) and env.cycles == cycles
+
+
+@HYPOTHESIS
+@given(
+    v=st.floats(allow_nan=True, allow_infinity=True, width=32),
+    w=st.floats(allow_nan=True, allow_infinity=True, width=32),
+    seed=st.integers(0, 2**16),
+)
+def test_velocity_actions_are_accepted_exactly_when_the_space_contains_them(v, w, seed):
+    env = velocity_env()
+    env.reset(seed=seed)
+    action = np.array([v, w], dtype=np.float32)
+    before = env.state()
+    actions = {"robot_0": action, "robot_1": np.zeros(2, dtype=np.float32)}
+    if env.action_space("robot_0").contains(action):
+        env.step(actions)
+        assert env.cycles == 1
+    else:
+        with pytest.raises(ValueError, match="robot_0"):
+            env.step(actions)
+        assert np.array_equal(env.state(), before) and env.cycles == 0

@@ -213,8 +213,9 @@ class Foraging(TeamEnv):
         self._target_rows = np.zeros((n, d), dtype=bool)
         self.models = {}
         if c.observe_world_model:
-            from teamgym.envs.foraging.world_model import GridWorldModel
+            from teamgym.envs.foraging.world_model import GridWorldModel, ViewSector
 
+            self._view = ViewSector(self.grid, c.camera_range, c.camera_fov)
             self.models = {a: GridWorldModel(self.grid, n, i) for i, a in enumerate(self.possible_agents)}
         self._sense()
 
@@ -418,8 +419,13 @@ class Foraging(TeamEnv):
                 view(obs, "world_model")[:] = model.fused()
 
     def _sector(self, i: int) -> np.ndarray:
+        """Cells robot i sees now by its estimate: the camera's sector minus the shadows of the robots in view."""
         x, y, theta = self.odometry.estimate[i]
-        return self.grid.sector_mask(x, y, theta, self.config.camera_range, self.config.camera_fov)
+        seen = self.grid.sector_mask(x, y, theta, self.config.camera_range, self.config.camera_fov)
+        robots = (self._detections[i, :, 0] == ROBOT) & (np.arange(self.n_detections) < self._detection_count[i])
+        if robots.any():
+            seen &= ~self._view.shadow(x, y, theta, self._polar[i, robots], self.spec.radius)
+        return seen
 
     def _metrics(self, agent: str) -> dict[str, Any]:
         i = self._row[agent]
