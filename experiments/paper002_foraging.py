@@ -14,6 +14,8 @@ Subcommands (each writes ``<sweep>.json``, ``<sweep>.md`` and ``<sweep>.png`` in
   ``robots_per_target`` = 2).
 * ``large``: both sweeps on a field four times larger (6.0 m × 4.8 m).
 * ``all``: every sweep above.
+* ``report``: the tables of the sweeps found in ``--out`` and the paper's trends checked
+  (differences between no and full communication against their 95 % intervals).
 
 Times are means over the successful games (as in section 4.5) with 95 % confidence intervals
 (1.96 standard errors); success rates carry Wilson 95 % intervals. Games use seeds
@@ -192,9 +194,45 @@ def search_time(games: int, first_seed: int, config: dict | None = None) -> dict
     return {key: {**mean_ci(values), "never": int(np.sum(np.isnan(values)))} for key, values in times.items()}
 
 
+def difference(result: dict, metric: str, low: str = "0.0", high: str = "1.0") -> dict[str, float]:
+    """``metric`` at throughput ``low`` minus at ``high``, with the 95 % half-width of the difference."""
+    a, b = result["rows"][low][metric], result["rows"][high][metric]
+    return {"drop": a["mean"] - b["mean"], "ci95": math.hypot(a["ci95"], b["ci95"])}
+
+
+def report(out: Path, suffix: str = "") -> str:
+    """Markdown summary of the sweeps found in ``out``: tables and the paper's trends checked."""
+    lines = []
+    for path in sorted(out.glob(f"*{suffix}.json")):
+        result = json.loads(path.read_text())
+        if "rows" not in result:
+            continue
+        games = next(iter(result["rows"].values()))["games"]
+        title = f"**{result['sweep']}** ({games} games per throughput, `{json.dumps(result['config'])}`)"
+        lines += [title, "", table(result), ""]
+        for metric in ("TT2", "TT3", "TG", "DG"):
+            if metric in result["metrics"]:
+                d = difference(result, metric)
+                verdict = "more than" if d["drop"] > d["ci95"] else "within"
+                lines.append(
+                    f"- {metric}: full communication is {d['drop']:.2f} s{'' if metric != 'DG' else ' (m)'} lower than none "
+                    f"(95 % half-width of the difference {d['ci95']:.2f}: {verdict} the interval)"
+                )
+        lines.append("")
+    search = out / f"search{suffix}.json"
+    if search.exists():
+        s = json.loads(search.read_text())["search"]
+        lines.append(
+            f"**search** (one robot, DMAPS search only, {s['100']['n'] + s['100']['never']} games): 90 % of the cells seen after "
+            f"{s['90']['mean']:.1f} ± {s['90']['ci95']:.1f} s, all cells after {s['100']['mean']:.1f} ± {s['100']['ci95']:.1f} s "
+            f"({s['100']['never']} games never saw every cell in 200 s)"
+        )
+    return "\n".join(lines)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description="Paper 002 (DMAPS): throughput sweeps on Foraging-v0.")
-    parser.add_argument("experiment", choices=["consume", "surround", "search", "robots", "large", "all"])
+    parser.add_argument("experiment", choices=["consume", "surround", "search", "robots", "large", "all", "report"])
     parser.add_argument("--out", type=Path, default=Path("results/paper002"))
     parser.add_argument("--games", type=int, default=2000, help="games per setting (default 2000, as in the paper)")
     parser.add_argument("--first-seed", type=int, default=0)
@@ -205,8 +243,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.games < 2 or args.workers < 1 or args.first_seed < 0:
         parser.error("--games must be >= 2, --workers >= 1 and --first-seed >= 0")
     args.out.mkdir(parents=True, exist_ok=True)
-    names = ["consume", "surround", "search", "robots", "large"] if args.experiment == "all" else [args.experiment]
     suffix = "" if args.policy == "dmaps" else f"-{args.policy}"
+    if args.experiment == "report":
+        print(report(args.out, suffix))
+        return 0
+    names = ["consume", "surround", "search", "robots", "large"] if args.experiment == "all" else [args.experiment]
     for name in names:
         if name == "search":
             result = {"search": search_time(min(args.games, 200), args.first_seed)}
