@@ -220,7 +220,7 @@ def report(out: Path, suffix: str = "") -> str:
                 d = difference(result, metric)
                 verdict = "more than" if d["drop"] > d["ci95"] else "within"
                 lines.append(
-                    f"- {metric}: full communication is {d['drop']:.2f} s{'' if metric != 'DG' else ' (m)'} lower than none "
+                    f"- {metric}: full communication is {d['drop']:.2f} {'m' if metric == 'DG' else 's'} lower than none "
                     f"(95 % half-width of the difference {d['ci95']:.2f}: {verdict} the interval)"
                 )
         lines.append("")
