@@ -144,10 +144,14 @@ def plot(result: dict, path: Path) -> None:
     rows = list(result["rows"].values())
     fig, (ax_s, ax_t) = plt.subplots(1, 2, figsize=(10, 3.8))
     rate = np.array([100 * r["success"]["rate"] for r in rows])
+    low = np.array([100 * r["success"]["low"] for r in rows])
+    high = np.array([100 * r["success"]["high"] for r in rows])
     ax_s.errorbar(
         x,
         rate,
-        yerr=[rate - [100 * r["success"]["low"] for r in rows], [100 * r["success"]["high"] for r in rows] - rate],
+        yerr=np.maximum(
+            0.0, [rate - [100 * r["success"]["low"] for r in rows], [100 * r["success"]["high"] for r in rows] - rate]
+        ),
         marker="o",
         capsize=3,
     )
