@@ -149,9 +149,7 @@ def plot(result: dict, path: Path) -> None:
     ax_s.errorbar(
         x,
         rate,
-        yerr=np.maximum(
-            0.0, [rate - [100 * r["success"]["low"] for r in rows], [100 * r["success"]["high"] for r in rows] - rate]
-        ),
+        yerr=np.maximum(0.0, [rate - low, high - rate]),  # a rate of 100 % may round above its interval
         marker="o",
         capsize=3,
     )
