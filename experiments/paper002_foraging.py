@@ -15,7 +15,8 @@ Subcommands (each writes ``<sweep>.json``, ``<sweep>.md`` and ``<sweep>.png`` in
 * ``large``: both sweeps on a field four times larger (6.0 m × 4.8 m).
 * ``all``: every sweep above.
 * ``report``: the tables of the sweeps found in ``--out`` and the paper's trends checked
-  (differences between no and full communication against their 95 % intervals).
+  (differences between no and full communication against their 95 % intervals); redraws
+  every sweep's plot from its JSON.
 
 Times are means over the successful games (as in section 4.5) with 95 % confidence intervals
 (1.96 standard errors); success rates carry Wilson 95 % intervals. Games use seeds
@@ -154,12 +155,13 @@ def plot(result: dict, path: Path) -> None:
         capsize=3,
     )
     ax_s.set(xlabel="communication throughput", ylabel="successful games (%)", title=result["sweep"])
+    ax_s.set_ylim(max(0.0, float(low.min()) - 5.0), 100.5)
     for m in result["metrics"]:
         mean = np.array([r[m]["mean"] for r in rows])
         half = np.array([r[m]["ci95"] for r in rows])
         target = ax_t.twinx() if m == "DG" else ax_t
         target.plot(x, mean, marker="o", label=f"{m} ({'m' if m == 'DG' else 's'})", color=None if m != "DG" else "grey")
-        target.fill_between(x, mean - half, mean + half, alpha=0.2, color=None if m != "DG" else "grey")
+        target.fill_between(x, mean - half, mean + half, alpha=0.2 if m != "DG" else 0.08, color=None if m != "DG" else "grey")
         if m == "DG":
             target.set_ylabel("DG (m per robot)")
             target.legend(loc="upper right")
@@ -214,6 +216,7 @@ def report(out: Path, suffix: str = "") -> str:
         result = json.loads(path.read_text())
         if "rows" not in result:
             continue
+        plot(result, path.with_suffix(".png"))
         games = next(iter(result["rows"].values()))["games"]
         title = f"**{result['sweep']}** ({games} games per throughput, `{json.dumps(result['config'])}`)"
         lines += [title, "", table(result), ""]
