@@ -223,19 +223,21 @@ def report(out: Path, suffix: str = "") -> str:
         for metric in ("TT2", "TT3", "TG", "DG"):
             if metric in result["metrics"]:
                 d = difference(result, metric)
-                verdict = "more than" if d["drop"] > d["ci95"] else "within"
-                lines.append(
-                    f"- {metric}: full communication is {d['drop']:.2f} {'m' if metric == 'DG' else 's'} lower than none "
-                    f"(95 % half-width of the difference {d['ci95']:.2f}: {verdict} the interval)"
-                )
+                unit = "m" if metric == "DG" else "s"
+                if abs(d["drop"]) <= d["ci95"]:
+                    verdict = f"no difference beyond the 95 % interval (no − full = {d['drop']:.2f} ± {d['ci95']:.2f} {unit})"
+                else:
+                    side = "lower" if d["drop"] > 0 else "higher"
+                    verdict = f"{abs(d['drop']):.2f} {unit} {side} with full communication than without (± {d['ci95']:.2f})"
+                lines.append(f"- {metric}: {verdict}")
         lines.append("")
     search = out / f"search{suffix}.json"
     if search.exists():
         s = json.loads(search.read_text())["search"]
         lines.append(
-            f"**search** (one robot, DMAPS search only, {s['100']['n'] + s['100']['never']} games): 90 % of the cells seen after "
-            f"{s['90']['mean']:.1f} ± {s['90']['ci95']:.1f} s, all cells after {s['100']['mean']:.1f} ± {s['100']['ci95']:.1f} s "
-            f"({s['100']['never']} games did not see every cell within 60 s)"
+            f"**search** (one robot, DMAPS search only, {s['100']['n'] + s['100']['never']} games cut at 60 s): 90 % of cells "
+            f"seen after {s['90']['mean']:.1f} ± {s['90']['ci95']:.1f} s ({s['90']['n']} games), all cells after "
+            f"{s['100']['mean']:.1f} ± {s['100']['ci95']:.1f} s ({s['100']['n']} games)"
         )
     return "\n".join(lines)
 
