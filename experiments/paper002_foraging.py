@@ -42,6 +42,7 @@ import teamgym
 from baselines.episode import Step, run_episode
 from baselines.evaluate import evaluate, markdown_table
 from baselines.registry import make_policy
+from baselines.stats import mean_ci, wilson
 
 THROUGHPUTS = (0.0, 0.25, 0.5, 0.75, 1.0)
 #: Sweeps: name -> (Foraging-v0 config, metrics reported).
@@ -70,25 +71,6 @@ def sweeps(name: str) -> dict[str, tuple[dict[str, Any], tuple[str, ...]]]:
             "surround-large": ({**SURROUND, **LARGE_FIELD}, SURROUND_METRICS),
         }
     raise ValueError(f"unknown sweep {name!r}")
-
-
-def wilson(successes: int, n: int, z: float = 1.96) -> tuple[float, float]:
-    """Wilson score interval of a proportion (fractions)."""
-    if n == 0:
-        return (math.nan, math.nan)
-    p = successes / n
-    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
-    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
-    return (centre - half, centre + half)
-
-
-def mean_ci(values: Sequence[float]) -> dict[str, float]:
-    """Mean, 95 % half-width (1.96 standard errors) and count of the finite ``values``."""
-    array = np.asarray([v for v in values if math.isfinite(v)], dtype=float)
-    if array.size == 0:
-        return {"mean": math.nan, "ci95": math.nan, "n": 0}
-    half = 1.96 * float(np.std(array, ddof=1)) / math.sqrt(array.size) if array.size > 1 else math.nan
-    return {"mean": float(np.mean(array)), "ci95": half, "n": int(array.size)}
 
 
 def run_setting(config: dict[str, Any], metrics: Sequence[str], games: int, first_seed: int, workers: int, policy: str) -> dict:

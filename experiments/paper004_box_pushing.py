@@ -1,7 +1,11 @@
 """Reproduce the experiments of paper 004 (section 4) with the ``sbs`` baseline and the ``sbs1`` ablation.
 
     python experiments/paper004_box_pushing.py all --out results/paper004 --figures docs/figures/paper004 \\
-        [--seeds 30] [--workers 2]
+        [--seeds 30] [--workers 2] [--env BoxPushing-v1] [--set noise=0] [--policies sbs,sbs1]
+
+``--env`` picks the env id (default ``BoxPushing-v0``, the paper's reading; ``BoxPushing-v1``
+has the coupled table friction and Khepera-like noise) and ``--set key=value`` (repeatable)
+overrides its config for every run, e.g. ``--set noise=0`` for v1 without noise.
 
 Subcommands (each writes JSON and a Markdown table into ``--out``; figures also into ``--figures``):
 
@@ -40,17 +44,29 @@ import teamgym
 from baselines.episode import Step, run_episode
 from baselines.evaluate import markdown_table
 from baselines.registry import make_policy, required_config
+from baselines.stats import mean_text, rate_text
+from teamgym.envs.config import parse_value
 
 SITUATIONS = ("S1", "S2", "S3", "S4")
-POLICIES = ("sbs", "sbs1")
+POLICIES = ("sbs", "sbs1", "cooperative-push", "random")
+#: The env of every run: (env id, config overrides); ``--env`` and ``--set``.
+EnvChoice = tuple[str, dict[str, Any]]
+DEFAULT_ENV: EnvChoice = ("BoxPushing-v0", {})
 
 
-def run_static(args: tuple[str, str, int]) -> dict[str, Any]:
+def make_env(env: EnvChoice, **config: Any):
+    """``teamgym.make`` of the chosen env id with its overrides, then ``config``."""
+    env_id, overrides = env
+    return teamgym.make(env_id, **{**overrides, **config})
+
+
+def run_static(args: tuple[str, str, int, EnvChoice]) -> dict[str, Any]:
     """One episode of ``policy`` in ``situation`` with ``seed``."""
-    situation, policy_name, seed = args
-    env = teamgym.make("BoxPushing-v0", situation=situation, **required_config(policy_name))
+    situation, policy_name, seed, choice = args
+    env = make_env(choice, situation=situation, **required_config(policy_name))
     policy = make_policy(policy_name, env)
-    result = run_episode(env, policy, seed, record_trajectories=False)
+    first_box = _FirstDelivery()
+    result = run_episode(env, policy, seed, on_step=first_box.check, record_trajectories=False)
     final = result.metrics
     first = next(iter(final.values()))
     starts = env.object_trajectories()
@@ -59,16 +75,30 @@ def run_static(args: tuple[str, str, int]) -> dict[str, Any]:
         "policy": policy_name,
         "seed": seed,
         "success": result.success,
+        "boxes": len(env.box_names()),
         "boxes_delivered": first["boxes_delivered"],
         "time_to_goal": first.get("time_to_goal"),
+        "first_box_s": first_box.seconds,
         "steps": env.cycles,
-        "activations": {str(k): v for k, v in sorted(policy.activations.items())},
-        "situation_steps": dict(policy.situation_steps),
+        "activations": {str(k): v for k, v in sorted(getattr(policy, "activations", {}).items())},
+        "situation_steps": dict(getattr(policy, "situation_steps", {})),
         "path_length": float(np.mean([m["path_length"] for m in final.values()])),
         "trajectories": env.trajectories(),
         "box_starts": [list(starts[b][0]) for b in env.box_names()],
         "box_ends": [list(env.world[b].position) for b in env.box_names()],
     }
+
+
+class _FirstDelivery:
+    """Episode hook: seconds until a box first touched the goal wall (the paper's success), or ``None``."""
+
+    def __init__(self) -> None:
+        self.seconds: float | None = None
+
+    def check(self, step: Step) -> None:
+        env = step.env
+        if self.seconds is None and any(env.is_delivered(b) for b in env.box_names()):
+            self.seconds = env.cycles * env.config.dt
 
 
 def _pool_map(fn, jobs: list, workers: int) -> list:
@@ -78,14 +108,24 @@ def _pool_map(fn, jobs: list, workers: int) -> list:
         return list(pool.map(fn, jobs))
 
 
-def experiment_static(out: Path, figures: Path | None, seeds: int, workers: int) -> list[dict]:
-    jobs = [(s, p, seed) for s in SITUATIONS for p in POLICIES for seed in range(seeds)]
+def experiment_static(
+    out: Path,
+    figures: Path | None,
+    seeds: int,
+    workers: int,
+    env: EnvChoice = DEFAULT_ENV,
+    policies: tuple[str, ...] = POLICIES,
+    first_seed: int = 0,
+    tag: str = "",
+) -> list[dict]:
+    """Section 4.1 for every policy on seeds ``first_seed`` … ``first_seed + seeds - 1``; files ``static{tag}.*``."""
+    seed_range = range(first_seed, first_seed + seeds)
+    jobs = [(s, p, seed, env) for s in SITUATIONS for p in policies for seed in seed_range]
     results = _pool_map(run_static, jobs, workers)
     rows, activation_rows = [], []
     for situation in SITUATIONS:
-        for policy in POLICIES:
+        for policy in policies:
             runs = [r for r in results if r["situation"] == situation and r["policy"] == policy]
-            times = [r["time_to_goal"] for r in runs if r["time_to_goal"] is not None]
             steps = Counter()
             for r in runs:
                 steps.update(r["situation_steps"])
@@ -95,30 +135,54 @@ def experiment_static(out: Path, figures: Path | None, seeds: int, workers: int)
                     "situation": situation,
                     "policy": policy,
                     "episodes": len(runs),
-                    "success": float(np.mean([r["success"] for r in runs])),
-                    "≥1 box": float(np.mean([r["boxes_delivered"] >= 1 for r in runs])),
-                    "mean time (s)": float(np.mean(times)) if times else float("nan"),
-                    "recognized S1/S2/S3/S4": "/".join(f"{steps[s] / total:.2f}" for s in SITUATIONS),
+                    "every box": rate_text(sum(r["success"] for r in runs), len(runs)),
+                    "a box touches the goal": rate_text(sum(r["first_box_s"] is not None for r in runs), len(runs)),
+                    "time, every box (s)": mean_text([r["time_to_goal"] for r in runs if r["success"]]),
+                    "time, a box (s)": mean_text([r["first_box_s"] for r in runs if r["first_box_s"] is not None]),
+                    "recognized S1/S2/S3/S4": "/".join(f"{steps[s] / total:.2f}" for s in SITUATIONS) if total else "–",
                 }
             )
             counts = Counter()
             for r in runs:
                 counts.update({int(k): v for k, v in r["activations"].items()})
-            activation_rows.append(
-                {"situation": situation, "policy": policy}
-                | {f"B-{k}" if k else "none": round(counts[k] / len(runs)) for k in range(20)}
-            )
-    _write(out, "static", {"rows": rows, "activations": activation_rows, "episodes": _strip(results)})
-    (out / "static.md").write_text(
-        markdown_table(rows) + "\n\nBehaviour activations per episode (mean):\n\n" + markdown_table(activation_rows) + "\n"
+            if counts:
+                activation_rows.append(
+                    {"situation": situation, "policy": policy}
+                    | {f"B-{k}" if k else "none": round(counts[k] / len(runs)) for k in range(20)}
+                )
+    name = f"static{tag}"
+    _write(
+        out,
+        name,
+        {
+            "env": env[0],
+            "config": env[1],
+            "first_seed": first_seed,
+            "rows": rows,
+            "activations": activation_rows,
+            "episodes": _strip(results),
+        },
     )
-    s3 = [r for r in results if r["situation"] == "S3" and r["policy"] == "sbs" and r["success"]]
-    if s3:
-        _plot_episode(min(s3, key=lambda r: r["steps"]), out, figures, "s3_trajectories.png")
+    header = f"{env[0]} {env[1] or ''}, seeds {first_seed}–{first_seed + seeds - 1}\n\n"
+    activations = "\n\nBehaviour activations per episode (mean):\n\n" + markdown_table(activation_rows) if activation_rows else ""
+    (out / f"{name}.md").write_text(header + markdown_table(rows) + activations + "\n")
+    for policy in policies:
+        s3 = [r for r in results if r["situation"] == "S3" and r["policy"] == policy]
+        _plot_typical(s3, out, figures, f"s3_{policy}{tag}")
     return rows
 
 
-def run_dynamic(args: tuple[str, int]) -> dict[str, Any]:
+def _plot_typical(runs: list[dict], out: Path, figures: Path | None, stem: str) -> None:
+    """Trajectories of a typical success (the median time) and a typical failure (the lowest seed)."""
+    wins = sorted((r for r in runs if r["success"]), key=lambda r: (r["time_to_goal"], r["seed"]))
+    losses = [r for r in runs if not r["success"]]
+    if wins:
+        _plot_episode(wins[len(wins) // 2], out, figures, f"{stem}_success.png")
+    if losses:
+        _plot_episode(min(losses, key=lambda r: r["seed"]), out, figures, f"{stem}_failure.png")
+
+
+def run_dynamic(args: tuple[str, int, EnvChoice]) -> dict[str, Any]:
     """Scenario ``"add_heavy"`` or ``"remove_robot"`` with ``seed``; situations from the recognizers.
 
     As in the paper's experiments, the experimenter intervenes once the robots are in the
@@ -126,13 +190,13 @@ def run_dynamic(args: tuple[str, int]) -> dict[str, Any]:
     which both robots recognize S2; robot_1 is removed (``env.remove_robot``) in the first
     step in which robot_0 recognizes another robot (S2 or S3). Nothing is told to the robots.
     """
-    scenario, seed = args
+    scenario, seed, choice = args
     dt = 0.1
     if scenario == "add_heavy":
         config = dict(n_robots=2, n_light_boxes=2, n_spare_boxes=1, boxes_to_goal=3)
     else:  # the survivor cannot finish alone (the heavy box), so the episode runs on
         config = dict(n_robots=2, n_light_boxes=1, n_heavy_boxes=1, boxes_to_goal=2)
-    env = teamgym.make("BoxPushing-v0", **config)
+    env = make_env(choice, **config)
     policy = make_policy("sbs", env)
     timeline: dict[str, list[str]] = {a: [] for a in env.possible_agents}
     event: dict[str, Any] = {"at": None, "heavy": None, "both_on_heavy": 0}
@@ -173,8 +237,9 @@ def _robots_touching(env, box_name: str) -> int:
     return len({s.entity.name for shapes in touching for s in shapes if getattr(getattr(s, "entity", None), "kind", None) == 1})
 
 
-def experiment_dynamic(out: Path, figures: Path | None, seeds: int, workers: int) -> list[dict]:
-    results = _pool_map(run_dynamic, [(s, seed) for s in ("add_heavy", "remove_robot") for seed in range(seeds)], workers)
+def experiment_dynamic(out: Path, figures: Path | None, seeds: int, workers: int, env: EnvChoice = DEFAULT_ENV) -> list[dict]:
+    jobs = [(s, seed, env) for s in ("add_heavy", "remove_robot") for seed in range(seeds)]
+    results = _pool_map(run_dynamic, jobs, workers)
     add = [r for r in results if r["scenario"] == "add_heavy" and r["event_step"] is not None]
     rem = [r for r in results if r["scenario"] == "remove_robot" and r["event_step"] is not None]
     switched = [r for r in add if all(v is not None for v in r["s3_after_s"].values())]
@@ -204,6 +269,95 @@ def experiment_dynamic(out: Path, figures: Path | None, seeds: int, workers: int
     return rows
 
 
+#: Policy-independent dynamic scenarios (section 4.2 for every policy): config and event time (s).
+DYNAMIC_SCENARIOS: dict[str, dict[str, Any]] = {
+    "add_heavy": {"n_robots": 2, "n_light_boxes": 2, "n_spare_boxes": 1, "boxes_to_goal": 3},
+    "remove_robot": {"n_robots": 2, "n_light_boxes": 1, "n_heavy_boxes": 1, "boxes_to_goal": 2},
+}
+DYNAMIC_EVENT_S = 30.0
+
+
+def run_dynamic_policy(args: tuple[str, str, int, EnvChoice]) -> dict[str, Any]:
+    """Scenario ``"add_heavy"`` or ``"remove_robot"`` for any policy, the change at ``DYNAMIC_EVENT_S``.
+
+    ``add_heavy``: two robots, two light boxes; a heavy box is added at a random free spot;
+    success is every box (three) at the goal wall. ``remove_robot``: two robots, a light and
+    a heavy box; robot_1 is removed, so "every box" is out of reach by design (one robot
+    cannot move the heavy box) and only "a box touches the goal" can be won.
+    """
+    scenario, policy_name, seed, choice = args
+    env = make_env(choice, **DYNAMIC_SCENARIOS[scenario], **required_config(policy_name))
+    policy = make_policy(policy_name, env)
+    event_cycle = round(DYNAMIC_EVENT_S / env.config.dt)
+    first_box = _FirstDelivery()
+
+    def after_step(step: Step) -> None:
+        first_box.check(step)
+        if env.cycles == event_cycle and env.agents:
+            if scenario == "add_heavy":
+                env.add_box(heavy=True)
+            elif "robot_1" in env.agents:
+                env.remove_robot("robot_1")
+
+    result = run_episode(env, policy, seed, on_step=after_step, record_trajectories=False)
+    first = next(iter(result.metrics.values()))
+    return {
+        "scenario": scenario,
+        "policy": policy_name,
+        "seed": seed,
+        "success": result.success,
+        "first_box_s": first_box.seconds,
+        "time_to_goal": first.get("time_to_goal"),
+        "boxes_delivered": first["boxes_delivered"],
+    }
+
+
+def experiment_dynamic_policies(
+    out: Path,
+    seeds: int,
+    workers: int,
+    env: EnvChoice = DEFAULT_ENV,
+    policies: tuple[str, ...] = POLICIES,
+    first_seed: int = 0,
+    tag: str = "",
+) -> list[dict]:
+    """Every policy in both dynamic scenarios, the change at a fixed time; files ``dynamic_policies{tag}.*``."""
+    seed_range = range(first_seed, first_seed + seeds)
+    jobs = [(s, p, seed, env) for s in DYNAMIC_SCENARIOS for p in policies for seed in seed_range]
+    results = _pool_map(run_dynamic_policy, jobs, workers)
+    rows = []
+    for scenario in DYNAMIC_SCENARIOS:
+        for policy in policies:
+            runs = [r for r in results if r["scenario"] == scenario and r["policy"] == policy]
+            rows.append(
+                {
+                    "scenario": scenario,
+                    "policy": policy,
+                    "episodes": len(runs),
+                    "every box": rate_text(sum(r["success"] for r in runs), len(runs)),
+                    "a box touches the goal": rate_text(sum(r["first_box_s"] is not None for r in runs), len(runs)),
+                    "time, every box (s)": mean_text([r["time_to_goal"] for r in runs if r["success"]]),
+                    "boxes delivered": mean_text([r["boxes_delivered"] for r in runs], digits=2),
+                }
+            )
+    name = f"dynamic_policies{tag}"
+    _write(
+        out,
+        name,
+        {
+            "env": env[0],
+            "config": env[1],
+            "first_seed": first_seed,
+            "event_s": DYNAMIC_EVENT_S,
+            "rows": rows,
+            "episodes": results,
+        },
+    )
+    header = f"{env[0]} {env[1] or ''}, seeds {first_seed}–{first_seed + seeds - 1}, change at {DYNAMIC_EVENT_S:.0f} s\n\n"
+    (out / f"{name}.md").write_text(header + markdown_table(rows) + "\n")
+    return rows
+
+
 #: ``diagnose`` variants: (label, policy name, extra policy keyword arguments).
 DIAGNOSE_VARIANTS: tuple[tuple[str, str, dict[str, Any]], ...] = (
     ("sbs", "sbs", {}),
@@ -229,11 +383,11 @@ class _TogetherOnBox:
             self.steps += _robots_touching(step.env, self.box) >= 2
 
 
-def run_diagnose(args: tuple[int, int]) -> dict[str, Any]:
+def run_diagnose(args: tuple[int, int, EnvChoice]) -> dict[str, Any]:
     """One S3 episode of variant ``DIAGNOSE_VARIANTS[index]`` with ``seed``."""
-    index, seed = args
+    index, seed, choice = args
     label, policy_name, kwargs = DIAGNOSE_VARIANTS[index]
-    env = teamgym.make("BoxPushing-v0", situation="S3", **required_config(policy_name))
+    env = make_env(choice, situation="S3", **required_config(policy_name))
     policy = make_policy(policy_name, env, **kwargs)
     together = _TogetherOnBox()
     result = run_episode(env, policy, seed, on_step=together.count, on_reset=together.count, record_trajectories=False)
@@ -247,8 +401,8 @@ def run_diagnose(args: tuple[int, int]) -> dict[str, Any]:
     }
 
 
-def experiment_diagnose(out: Path, seeds: int, first_seed: int, workers: int) -> list[dict]:
-    jobs = [(i, seed) for i in range(len(DIAGNOSE_VARIANTS)) for seed in range(first_seed, first_seed + seeds)]
+def experiment_diagnose(out: Path, seeds: int, first_seed: int, workers: int, env: EnvChoice = DEFAULT_ENV) -> list[dict]:
+    jobs = [(i, seed, env) for i in range(len(DIAGNOSE_VARIANTS)) for seed in range(first_seed, first_seed + seeds)]
     results = _pool_map(run_diagnose, jobs, workers)
     rows = []
     for label, _, _ in DIAGNOSE_VARIANTS:
@@ -304,7 +458,8 @@ def _plot_episode(result: dict, out: Path, figures: Path | None, name: str) -> N
         ax.annotate("", xy=end, xytext=start, arrowprops={"arrowstyle": "->", "lw": 2.5, "color": "saddlebrown"})
     ax.set_aspect("equal")
     title = f"{result['situation']} · {result['policy']} · seed {result['seed']}"
-    ax.set_title(f"{title} · {result['time_to_goal']:.0f} s (box: arrow)")
+    outcome = f"success after {result['time_to_goal']:.0f} s" if result["success"] else f"failed ({result['steps'] * 0.1:.0f} s)"
+    ax.set_title(f"{title} · {outcome} (box: arrow)", fontsize=9)
     ax.legend(fontsize=7, loc="lower left")
     _save(fig, name, out, figures)
 
@@ -337,14 +492,40 @@ def main() -> None:
     parser.add_argument("--figures", type=Path, default=None)
     parser.add_argument("--seeds", type=int, default=30)
     parser.add_argument("--workers", type=int, default=2)
-    parser.add_argument("--first-seed", type=int, default=100, help="first seed of `diagnose` (held-out seeds)")
+    parser.add_argument("--first-seed", type=int, default=None, help="first seed (default: 0; `diagnose`: 100, held out)")
+    parser.add_argument("--env", default=DEFAULT_ENV[0], help="env id (BoxPushing-v0 or BoxPushing-v1)")
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="env config override (repeatable)")
+    parser.add_argument("--policies", default=",".join(POLICIES), help="policies of `static` and `dynamic`, comma-separated")
+    parser.add_argument("--tag", default="", help="suffix of the output files (e.g. _v1_noise0)")
     args = parser.parse_args()
+    if args.seeds < 1 or args.workers < 1 or (args.first_seed is not None and args.first_seed < 0):
+        parser.error("--seeds and --workers must be >= 1 and --first-seed >= 0")
+    overrides = {}
+    for item in args.set:
+        key, sep, value = item.partition("=")
+        if not sep:
+            parser.error(f"--set needs KEY=VALUE, got {item!r}")
+        overrides[key] = parse_value(value)
+    env = (args.env, overrides)
+    policies = tuple(p for p in args.policies.split(",") if p)
+    try:
+        make_env(env)  # an unknown id or a bad override fails here, before any run
+        for policy in policies:
+            make_policy(policy, make_env(env, **required_config(policy)))
+    except (KeyError, ValueError, TypeError) as error:
+        parser.error(str(error).strip("'\""))
     if args.experiment == "diagnose":
-        print(markdown_table(experiment_diagnose(args.out, args.seeds, args.first_seed, args.workers)))
+        first = 100 if args.first_seed is None else args.first_seed
+        print(markdown_table(experiment_diagnose(args.out, args.seeds, first, args.workers, env)))
+        return
+    first = args.first_seed or 0
     if args.experiment in ("static", "all"):
-        print(markdown_table(experiment_static(args.out, args.figures, args.seeds, args.workers)))
+        rows = experiment_static(args.out, args.figures, args.seeds, args.workers, env, policies, first, args.tag)
+        print(markdown_table(rows))
     if args.experiment in ("dynamic", "all"):
-        print(markdown_table(experiment_dynamic(args.out, args.figures, args.seeds, args.workers)))
+        print(markdown_table(experiment_dynamic_policies(args.out, args.seeds, args.workers, env, policies, first, args.tag)))
+        if "sbs" in policies:
+            print(markdown_table(experiment_dynamic(args.out, args.figures, args.seeds, args.workers, env)))
 
 
 if __name__ == "__main__":

@@ -52,6 +52,7 @@ def make_aec(env_id: str, render_mode: str | None = None, **config: Any):
 
 register("Navigation-v0", "teamgym.envs.navigation:Navigation")
 register("BoxPushing-v0", "teamgym.envs.box_pushing:BoxPushing")
+register("BoxPushing-v1", "teamgym.envs.box_pushing:BoxPushingV1")
 register("Exploration-v0", "teamgym.envs.exploration:Exploration")
 register("Rendezvous-v0", "teamgym.envs.rendezvous:Rendezvous")
 register("Foraging-v0", "teamgym.envs.foraging:Foraging")

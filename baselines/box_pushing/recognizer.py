@@ -3,7 +3,8 @@
 Each robot recognizes its own situation from its own sensors; nothing is communicated.
 
 * **M** (another robot exists) becomes true when the proximity readings change (by more than
-  ``change_threshold``) while the robot stands still, its wheels not having turned during
+  ``change_threshold`` plus ``change_relative`` times the distance, a margin above the
+  sensors' noise on noisy robots, BoxPushing-v1) while the robot stands still, its wheels not having turned during
   the step: only robots move (AS-1). **¬M** when no such change was seen for ``tm`` s.
   The paper does not say when a robot stops to check; ours stops for a *look* of
   1..``look_cycles`` steps (uniform, from the policy's seeded stream) whenever something
@@ -68,6 +69,7 @@ class RecognizerParams:
     tm: float = 60.0
     tt: int = 10
     change_threshold: float = 0.004
+    change_relative: float = 0.0
     stall_slip: float = 0.8
     stall_cycles: int = 3
     push_cycles: int = 10
@@ -212,7 +214,9 @@ class SituationRecognizer:
         """
         p = self.params
         previous = self._previous
-        changed = (np.abs(proximity - previous) > p.change_threshold) & (np.minimum(proximity, previous) < p.sensor_range)
+        nearest = np.minimum(proximity, previous)
+        margin = p.change_threshold + p.change_relative * nearest if p.change_relative else p.change_threshold
+        changed = (np.abs(proximity - previous) > margin) & (nearest < p.sensor_range)
         seen = set()
         for ray in np.flatnonzero(changed).tolist():
             self.m = True

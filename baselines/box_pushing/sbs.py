@@ -17,6 +17,7 @@ each recognized situation) and ``recognizers[agent].transitions``.
 
 from __future__ import annotations
 
+import math
 from collections import Counter
 from dataclasses import fields, replace
 from typing import Any
@@ -35,7 +36,7 @@ class SituatedBehaviourSets(Policy):
     Parameters
     ----------
     env:
-        A ``BoxPushing-v0`` env with ``action_type="primitives"``.
+        A ``BoxPushing-v0`` or ``-v1`` env with ``action_type="primitives"``.
     fixed_sbs:
         Use this SBS whatever the situation (``1`` for the ``sbs1`` ablation); ``None`` adapts.
     recognition:
@@ -46,14 +47,14 @@ class SituatedBehaviourSets(Policy):
     """
 
     name = "sbs"
-    env_ids = ("BoxPushing-v0",)
+    env_ids = ("BoxPushing-v0", "BoxPushing-v1")
     observation_fields = ("proximity", "light", "encoders", "busy")
     required_config = {"action_type": "primitives"}
 
     def __init__(self, env, fixed_sbs: int | None = None, recognition: str = "sensors", **recognizer: Any) -> None:
         super().__init__(env)
         if not isinstance(getattr(env, "action_type", None), PrimitiveAction):
-            raise TypeError(f"{type(self).__name__} needs BoxPushing-v0 with action_type='primitives'")
+            raise TypeError(f"{type(self).__name__} needs BoxPushing-v0 or -v1 with action_type='primitives'")
         if fixed_sbs not in (None, 1, 2, 3, 4):
             raise ValueError(f"fixed_sbs must be None or 1..4, got {fixed_sbs!r}")
         if recognition not in ("sensors", "oracle"):
@@ -63,8 +64,13 @@ class SituatedBehaviourSets(Policy):
         if unknown:
             raise TypeError(f"unknown recognizer parameter(s) {unknown}; known: {sorted(known)}")
         c = env.config
+        # A change counts only beyond the readings' noise: 3 standard deviations of the
+        # difference of two noisy readings (√2 σ), additive and relative (BoxPushing-v1).
+        spread = 3 * math.sqrt(2)
         base = RecognizerParams(
             dt=c.dt,
+            change_threshold=RecognizerParams.change_threshold + spread * c.noise_level("sensor_noise"),
+            change_relative=spread * c.noise_level("sensor_noise_relative"),
             object_threshold=env.object_threshold,
             sensor_range=c.sensor_range,
             wheel_radius=env.spec_robot.wheel_radius,

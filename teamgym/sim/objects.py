@@ -122,6 +122,149 @@ def regular_polygon(n_sides: int, radius: float, rotation: float = 0.0) -> list[
     return [(radius * math.cos(a), radius * math.sin(a)) for a in angles]
 
 
+#: Friction coefficient of the surface of boxes and moving polygons (contacts multiply the two surfaces' values).
+SURFACE_FRICTION = 0.4
+
+#: Share of a body's mass carried by its support feet (:func:`add_support_feet`).
+FOOT_MASS_SHARE = 0.5
+
+#: Ground models of boxes: ``"joint"`` (one force and one torque limit) or support feet laid out by :func:`footprint_support`.
+SUPPORT_LAYOUTS = ("joint", "corners", "perimeter", "area")
+
+
+def footprint_support(size: tuple[float, float], layout: str, n: int = 3) -> list[Point]:
+    """Support points of a ``w × h`` rectangle centred on the origin, in its local frame.
+
+    ``"corners"``: the four corners (a box standing on four feet). ``"perimeter"``: ``n``
+    points per side at the centres of ``n`` equal segments (a box of boards resting on
+    their lower edges). ``"area"``: the centres of an ``n × n`` grid of equal cells (uniform
+    pressure over the footprint).
+    """
+    w, h = float(size[0]), float(size[1])
+    if not (isinstance(n, int) and n >= 1):
+        raise ValueError(f"footprint_support: n must be an int >= 1, got {n!r}")
+    cells = (np.arange(n) + 0.5) / n - 0.5
+    if layout == "corners":
+        return [(-w / 2, -h / 2), (w / 2, -h / 2), (w / 2, h / 2), (-w / 2, h / 2)]
+    if layout == "perimeter":
+        points = [(float(t * w), -h / 2) for t in cells] + [(w / 2, float(t * h)) for t in cells]
+        return points + [(float(-t * w), h / 2) for t in cells] + [(-w / 2, float(-t * h)) for t in cells]
+    if layout == "area":
+        return [(float(x * w), float(y * h)) for y in cells for x in cells]
+    raise ValueError(f"footprint_support: layout must be one of 'corners', 'perimeter', 'area', got {layout!r}")
+
+
+def push_threshold(points: Sequence[Point], at: Point, direction: Point) -> float:
+    """Smallest force that slides a body resting on ``points`` when pushed at ``at`` along ``direction``.
+
+    In units of the total friction ``μ m g``, the weight shared equally by the support
+    points (local frame, as ``at``). The friction wrenches ``(f_x, f_y, τ)`` the support can
+    exert form a convex set whose boundary is the limit surface (Goyal, Ruina and
+    Papadopoulos 1991); the push ``λ·(u, at × u)`` first leaves it at
+    ``λ = min_q h(q) / (q · d)``, where ``h(q) = Σ_i |(q_x − q_τ y_i, q_y + q_τ x_i)| / k`` is
+    the set's support function. Minimised over ``q`` on a sphere grid, then refined.
+    """
+    pts = np.asarray(points, dtype=float)
+    ux, uy = direction
+    norm = math.hypot(ux, uy)
+    d = np.array([ux / norm, uy / norm, (at[0] * uy - at[1] * ux) / norm])
+
+    def ratio(q: np.ndarray) -> np.ndarray:
+        q = np.atleast_2d(q)
+        gx = q[:, :1] - q[:, 2:] * pts[:, 1]
+        gy = q[:, 1:2] + q[:, 2:] * pts[:, 0]
+        along = q @ d
+        return np.where(along > 1e-12, np.hypot(gx, gy).mean(axis=1) / np.maximum(along, 1e-12), np.inf)
+
+    scale = max(float(np.abs(pts).max()), 1e-9)  # torque rows scaled to the body's size
+    n = 4000
+    z = 1 - (2 * np.arange(n) + 1) / n
+    phi = np.arange(n) * math.pi * (3 - math.sqrt(5))
+    grid = np.stack([np.sqrt(1 - z * z) * np.cos(phi), np.sqrt(1 - z * z) * np.sin(phi), z / scale], axis=1)
+    values = ratio(grid)
+    best = grid[int(np.argmin(values))]
+    value = float(values.min())
+    step = 0.05
+    for _ in range(200):
+        trial = best + step * np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1 / scale], [0, 0, -1 / scale]])
+        values = ratio(trial)
+        k = int(np.argmin(values))
+        if values[k] < value:
+            best, value = trial[k], float(values[k])
+        else:
+            step /= 2
+            if step < 1e-7:
+                break
+    return value
+
+
+def weakest_push(points: Sequence[Point], size: tuple[float, float], contact_friction: float) -> float:
+    """The smallest :func:`push_threshold` of one pusher on a face of a ``w × h`` box (units of ``μ m g``).
+
+    The pusher may touch any point of the ``x = -w/2`` face or its corner and push along the
+    face normal tilted by up to the contact's friction angle, or touch the corner and push
+    between the two face normals; by symmetry this covers every face. The worst case is a
+    push at a corner (docs/box_pushing.md).
+    """
+    w, h = float(size[0]), float(size[1])
+    tilt = math.atan(max(contact_friction, 0.0))
+    worst = math.inf
+    for e in np.linspace(0.0, h / 2, 5):
+        for a in (-tilt, 0.0, tilt):
+            worst = min(worst, push_threshold(points, (-w / 2, float(e)), (math.cos(a), math.sin(a))))
+    for a in np.linspace(-math.pi / 2 - tilt, tilt, 13):
+        worst = min(worst, push_threshold(points, (-w / 2, h / 2), (math.cos(a), math.sin(a))))
+    return worst
+
+
+def add_support_feet(
+    body: pymunk.Body,
+    ground: pymunk.Body,
+    points: Sequence[Point],
+    foot_mass: float,
+    max_force: float,
+) -> tuple[list[pymunk.Body], list[pymunk.Constraint], list[pymunk.PivotJoint]]:
+    """Planar Coulomb friction at support points: one *foot* per point, pinned to ``body``.
+
+    Each foot is a point mass (no rotational inertia) at a support point, held to ``body``
+    by a stiff pivot joint and to ``ground`` (a kinematic body: at rest for table friction,
+    moving for a wheel's drive) by a pivot joint with ``max_bias = 0`` and ``max_force`` —
+    a velocity constraint whose impulse is clamped to a disc, i.e. Coulomb friction
+    ``|f_i| ≤ max_force`` at that point, opposing its sliding. Sliding and turning are then
+    coupled as on a real table (the limit surface of the support points): an off-centre
+    push turns a sliding body. Why feet: Chipmunk clamps each joint's accumulated impulse to
+    a disc in the plain Euclidean norm; a joint anchored directly on the body has an
+    anisotropic effective mass (its lever arm couples rotation) and the solver then settles
+    on forces that are not Coulomb's (with 12 points a pure push slid the body at 0.93 μmg).
+    A foot without rotational inertia has an isotropic effective mass, and the thresholds
+    measured in simulation match the limit surface to 0.2 % (``docs/box_pushing.md``).
+
+    Returns the feet, every new constraint (pins and ground joints, for the space) and the
+    ground joints (in the order of ``points``); the ground joints' anchors on ``ground`` are
+    at its origin (set them for a moving ``ground``). ``body``'s mass is not changed: give it
+    the rest of the total mass.
+    """
+    feet, constraints, grips = [], [], []
+    for x, y in points:
+        foot = pymunk.Body(foot_mass, math.inf)
+        foot.position = body.local_to_world((x, y))
+        pin = pymunk.PivotJoint(body, foot, (x, y), (0.0, 0.0))
+        grip = pymunk.PivotJoint(ground, foot, (0.0, 0.0), (0.0, 0.0))
+        grip.max_bias = 0.0
+        grip.max_force = max_force
+        feet.append(foot)
+        constraints += [pin, grip]
+        grips.append(grip)
+    return feet, constraints, grips
+
+
+def place_feet(body: pymunk.Body, feet: Sequence[pymunk.Body], points: Sequence[Point]) -> None:
+    """Put ``feet`` back under ``body`` at their support ``points`` (after moving ``body``), at ``body``'s velocity."""
+    for foot, point in zip(feet, points):
+        foot.position = body.local_to_world(point)
+        foot.velocity = body.velocity_at_local_point(point)
+
+
 class _DrivenBody(Entity):
     """A dynamic polygon held to a kinematic control body by force-limited joints.
 
@@ -152,7 +295,7 @@ class _DrivenBody(Entity):
         self.body = pymunk.Body(self.mass, pymunk.moment_for_poly(self.mass, self.local_vertices))
         self.body.position = position
         self.shape = self._own(pymunk.Poly(self.body, self.local_vertices), mask=collides_with)
-        self.shape.friction = 0.4
+        self.shape.friction = SURFACE_FRICTION
         self.control = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
         self.control.position = position
         self.pivot = pymunk.PivotJoint(self.control, self.body, (0.0, 0.0), (0.0, 0.0))
@@ -245,10 +388,18 @@ class MovingPolygon(_DrivenBody):
 class Box(_DrivenBody):
     """A box with mass and Coulomb ground friction ``μ m g``.
 
-    Ground friction is a pivot and a gear joint to a resting kinematic body with force limit
-    ``μ m g`` and torque limit ``μ m g · (2/3) r_eq`` (r_eq: radius of the disc of equal
-    area, the friction torque of a uniformly loaded disc). A robot moves the box only if
-    its motor force exceeds the friction force.
+    ``support="joint"`` (the default, ``BoxPushing-v0``): ground friction is a pivot and a
+    gear joint to a resting kinematic body with force limit ``μ m g`` and torque limit
+    ``μ m g · (2/3) r_eq`` (r_eq: radius of the disc of equal area, the friction torque of a
+    uniformly loaded disc). Sliding and turning are resisted independently: a box pushed
+    hard enough to slide turns only if the push's torque alone exceeds the torque limit.
+
+    ``support="corners"``, ``"perimeter"`` or ``"area"``: planar Coulomb friction at the
+    support points of :func:`footprint_support` (``support_n`` = ``n``), each carrying an
+    equal share of the weight, ``μ m g / k`` (:func:`add_support_feet`; half of the mass
+    sits in the feet). Sliding and turning share the friction (the limit surface), so an
+    off-centre push turns a sliding box. In both models a robot moves the box only if its
+    push lies outside the friction limits.
     """
 
     kind = Category.BOX
@@ -262,25 +413,57 @@ class Box(_DrivenBody):
         mass: float,
         ground_friction: float = 0.5,
         angle: float = 0.0,
+        support: str = "joint",
+        support_n: int = 3,
     ) -> None:
         w, h = float(size[0]), float(size[1])
         if not (w > 0 and h > 0):
             raise ValueError(f"{name}: box size must be positive, got {size!r}")
         if not ground_friction >= 0:
             raise ValueError(f"{name}: ground friction must be >= 0, got {ground_friction!r}")
+        if support not in SUPPORT_LAYOUTS:
+            raise ValueError(f"{name}: support must be one of {SUPPORT_LAYOUTS}, got {support!r}")
         vertices = [(-w / 2, -h / 2), (w / 2, -h / 2), (w / 2, h / 2), (-w / 2, h / 2)]
         force = ground_friction * mass * GRAVITY
         r_eq = math.sqrt(w * h / math.pi)
         super().__init__(name, vertices, position, mass, force, force * 2.0 / 3.0 * r_eq)
         self.size = (w, h)
         self.ground_friction = float(ground_friction)
+        self.support = support
         self.body.angle = angle
         self.control.angle = angle
+        #: Support points (local), their feet and the feet's ground joints; empty for ``"joint"``.
+        self.support_points: list[Point] = []
+        self.feet: list[pymunk.Body] = []
+        self.grips: list[pymunk.PivotJoint] = []
+        if support != "joint":
+            self.support_points = footprint_support((w, h), support, support_n)
+            k = len(self.support_points)
+            carried = self.mass * (1.0 - FOOT_MASS_SHARE)
+            self.body.mass = carried
+            self.body.moment = pymunk.moment_for_poly(carried, self.local_vertices)
+            self.feet, self.constraints, self.grips = add_support_feet(
+                self.body, self.control, self.support_points, self.mass * FOOT_MASS_SHARE / k, force / k
+            )
+            self.bodies = [self.body, self.control, *self.feet]
+            self.pivot = self.gear = None
 
     @property
     def friction_force(self) -> float:
         """Force needed to slide the box, μ m g (N)."""
         return self.ground_friction * self.mass * GRAVITY
+
+    def teleport(self, position: Point, angle: float | None = None) -> None:
+        """Place the box (and its ground anchor and feet) at rest."""
+        for body in (self.body, self.control):
+            body.position = position
+            if angle is not None:
+                body.angle = angle
+            body.velocity = (0.0, 0.0)
+            body.angular_velocity = 0.0
+        place_feet(self.body, self.feet, self.support_points)
+        if self.space is not None:
+            self.space.reindex_shapes_for_body(self.body)
 
 
 class Target(PointEntity):

@@ -9,6 +9,13 @@ limits. This is pymunk's top-down friction technique: the robot follows the comm
 motion unless something resists harder than its motors can push, so robots push light
 boxes, stall against heavy ones and are stopped by walls instead of teleporting.
 
+Ground contact (``RobotSpec.ground_contact``): ``"centre"`` (the default) is the pivot and
+gear pair above, a force limit and an independent torque limit. ``"wheels"`` holds each
+wheel's contact point to the commanded motion with half the motor force (one support foot
+per wheel, :func:`teamgym.sim.objects.add_support_feet`): the same planar Coulomb model as
+a box's support points, so a push off the robot's centre line turns it as well as shoving
+it (a push along the heading at one wheel meets one wheel's motor, half the force).
+
 To make the robot follow the exact arc of a constant command ``(v, ω)`` over a control step
 without Python work in every physics substep, the control body is placed at the
 instantaneous centre of curvature and spun at ω; the pivot's anchor on the control body is
@@ -29,7 +36,7 @@ from __future__ import annotations
 import itertools
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 import pymunk
@@ -38,6 +45,7 @@ from teamgym.sim.canvas import Canvas, Layer, robot_colour
 from teamgym.sim.categories import RAY_HITS, Category
 from teamgym.sim.chipmunk import set_kinematic_motion, set_pivot_anchor_a
 from teamgym.sim.entity import Entity
+from teamgym.sim.objects import FOOT_MASS_SHARE, add_support_feet, place_feet
 
 if TYPE_CHECKING:
     from teamgym.sim.world import World
@@ -62,12 +70,15 @@ class RobotSpec:
     max_motor_force: float = 0.6
     friction: float = 0.4
     elasticity: float = 0.0
+    ground_contact: Literal["centre", "wheels"] = "centre"
 
     def __post_init__(self) -> None:
         for field in ("radius", "wheel_base", "wheel_radius", "max_wheel_speed", "mass", "max_motor_force"):
             value = getattr(self, field)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise ValueError(f"RobotSpec.{field} must be a finite number > 0, got {value!r}")
+        if self.ground_contact not in ("centre", "wheels"):
+            raise ValueError(f"RobotSpec.ground_contact must be 'centre' or 'wheels', got {self.ground_contact!r}")
         if self.wheel_base > 2 * self.radius:
             raise ValueError(f"RobotSpec.wheel_base ({self.wheel_base}) cannot exceed the robot's diameter ({2 * self.radius})")
 
@@ -125,6 +136,9 @@ class EncoderReading:
     commanded_right: float = 0.0
     actual_left: float = 0.0
     actual_right: float = 0.0
+    #: Total actual rotation of each wheel since the robot was made, this step included (rad).
+    total_left: float = 0.0
+    total_right: float = 0.0
 
     @property
     def slip(self) -> float:
@@ -161,8 +175,10 @@ class DiffDriveRobot(Entity):
         self.group = next(_group_ids)
         #: Filter for this robot's own sensors: sees every solid except the robot itself.
         self.sensor_filter = pymunk.ShapeFilter(group=self.group, mask=RAY_HITS)
-        moment = pymunk.moment_for_circle(s.mass, 0.0, s.radius)
-        self.body = pymunk.Body(s.mass, moment)
+        wheels = s.ground_contact == "wheels"
+        carried = s.mass * (1.0 - FOOT_MASS_SHARE) if wheels else s.mass
+        moment = pymunk.moment_for_circle(carried, 0.0, s.radius)
+        self.body = pymunk.Body(carried, moment)
         self.body.position = position
         self.body.angle = angle
         shape = self._own(pymunk.Circle(self.body, s.radius), group=self.group)
@@ -171,14 +187,27 @@ class DiffDriveRobot(Entity):
         self.control = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
         self.control.position = position
         self.control.angle = angle
-        self.pivot = pymunk.PivotJoint(self.control, self.body, (0.0, 0.0), (0.0, 0.0))
-        self.pivot.max_bias = 0.0
-        self.pivot.max_force = s.max_motor_force
-        self.gear = pymunk.GearJoint(self.control, self.body, 0.0, 1.0)
-        self.gear.max_bias = 0.0
-        self.gear.max_force = s.max_motor_torque
-        self.bodies = [self.body, self.control]
-        self.constraints = [self.pivot, self.gear]
+        #: ``"wheels"`` ground contact: wheel contact points (left, right; local), their feet and drive joints.
+        self.wheel_points: list[tuple[float, float]] = []
+        self.wheels: list[pymunk.Body] = []
+        self.drives: list[pymunk.PivotJoint] = []
+        if wheels:
+            half = s.wheel_base / 2
+            self.wheel_points = [(0.0, half), (0.0, -half)]
+            self.wheels, self.constraints, self.drives = add_support_feet(
+                self.body, self.control, self.wheel_points, s.mass * FOOT_MASS_SHARE / 2, s.max_motor_force / 2
+            )
+            self.pivot = self.gear = None
+            self.bodies = [self.body, self.control, *self.wheels]
+        else:
+            self.pivot = pymunk.PivotJoint(self.control, self.body, (0.0, 0.0), (0.0, 0.0))
+            self.pivot.max_bias = 0.0
+            self.pivot.max_force = s.max_motor_force
+            self.gear = pymunk.GearJoint(self.control, self.body, 0.0, 1.0)
+            self.gear.max_bias = 0.0
+            self.gear.max_force = s.max_motor_torque
+            self.bodies = [self.body, self.control]
+            self.constraints = [self.pivot, self.gear]
         self.command = (0.0, 0.0)
         self.applied_command = (0.0, 0.0)
         self.actuation_delay = 0.0
@@ -218,17 +247,30 @@ class DiffDriveRobot(Entity):
             x, y, theta = state[0], state[1], state[2]
         if abs(omega) < 1e-9:
             set_kinematic_motion(self.control, (x, y), theta, (v * math.cos(theta), v * math.sin(theta)), 0.0)
-            set_pivot_anchor_a(self.pivot, (0.0, 0.0))
+            anchor = (0.0, 0.0)
         else:
             radius = v / omega
             centre = (x - radius * math.sin(theta), y + radius * math.cos(theta))
             set_kinematic_motion(self.control, centre, theta, (0.0, 0.0), omega)
-            set_pivot_anchor_a(self.pivot, (0.0, -radius))
+            anchor = (0.0, -radius)
+        if self.pivot is not None:
+            set_pivot_anchor_a(self.pivot, anchor)
+        else:  # each wheel's contact point, in the control body's frame
+            for drive, (wx, wy) in zip(self.drives, self.wheel_points):
+                set_pivot_anchor_a(drive, (anchor[0] + wx, anchor[1] + wy))
 
     def disable(self) -> None:
         """Break down: stop the motors for good; the robot stays in the world as an obstacle."""
         self.enabled = False
         self.command = (0.0, 0.0)
+
+    def brake(self, factor: float) -> None:
+        """Hold the robot to the ground with ``factor`` times the motors' force and torque limits (locked wheels)."""
+        if self.pivot is not None:
+            self.pivot.max_force = factor * self.spec.max_motor_force
+            self.gear.max_force = factor * self.spec.max_motor_torque
+        for drive in self.drives:
+            drive.max_force = factor * self.spec.max_motor_force / 2
 
     # -- bookkeeping around a control step ------------------------------------------
     def begin_step(self, state: list[float] | None = None) -> None:
@@ -261,11 +303,15 @@ class DiffDriveRobot(Entity):
             v = share * self.applied_command[0] + (1 - share) * v
             omega = share * self.applied_command[1] + (1 - share) * omega
         self.applied_command = self.command
+        actual_left, actual_right = (ds - half_base * da) / r, (ds + half_base * da) / r
+        before = self.encoders
         self.encoders = EncoderReading(
             commanded_left=(v - half_base * omega) * dt / r,
             commanded_right=(v + half_base * omega) * dt / r,
-            actual_left=(ds - half_base * da) / r,
-            actual_right=(ds + half_base * da) / r,
+            actual_left=actual_left,
+            actual_right=actual_right,
+            total_left=before.total_left + actual_left,
+            total_right=before.total_right + actual_right,
         )
         self.odometer += math.hypot(dx, dy)
 
@@ -314,6 +360,7 @@ class DiffDriveRobot(Entity):
             self.body.angle = angle
         self.body.velocity = (0.0, 0.0)
         self.body.angular_velocity = 0.0
+        place_feet(self.body, self.wheels, self.wheel_points)
         if self.space is not None:
             self.space.reindex_shapes_for_body(self.body)
 

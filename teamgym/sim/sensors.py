@@ -73,19 +73,57 @@ def _check_rows(sensor: Sensor, robots: Sequence[DiffDriveRobot], poses: np.ndar
 class NoisyRowSensor:
     """Shared reading logic of the per-robot sensors (proximity ring, light sensor).
 
-    A subclass gives ``width``, ``noise_std``, :meth:`_read_one` (the noise-free values of one
-    robot) and :meth:`_clip` (the valid range after noise). Noise is one normal draw per value,
-    robot after robot, so reading rows equals reading the robots one by one.
+    A subclass gives ``width``, :meth:`_read_one` (the noise-free values of one robot) and
+    :meth:`_clip` (the valid range after noise). Three kinds of error, each off at 0:
+
+    * ``gain_spread``: every sensor of every robot has its own sensitivity, a gain
+      ``exp(N(0, gain_spread²))`` drawn once by :meth:`calibrate` (a robot never calibrated
+      has gain 1) — fixed per robot, so averaging readings does not remove it;
+    * ``relative_noise``: each reading is multiplied by ``1 + N(0, relative_noise²)``;
+    * ``noise_std``: then ``N(0, noise_std²)`` is added (sensor units).
+
+    :meth:`_noise_mask` may exempt readings from the gain and the relative noise (a
+    proximity ray that hits nothing). Noise is drawn robot after robot (``(k, 2, width)``
+    standard normals when both kinds are on, else one ``(k, width)`` draw), so reading rows
+    equals reading the robots one by one.
     """
 
     width: int
-    noise_std: float
+    noise_std: float = 0.0
+    relative_noise: float = 0.0
+    gain_spread: float = 0.0
 
     def _read_one(self, robot: DiffDriveRobot, space: pymunk.Space, x: float, y: float, theta: float, out: np.ndarray) -> None:
         raise NotImplementedError
 
     def _clip(self, out: np.ndarray) -> None:
         raise NotImplementedError
+
+    def _noise_mask(self, out: np.ndarray) -> np.ndarray | None:
+        """Readings that the gain and the relative noise apply to (``None``: all)."""
+        return None
+
+    def _set_noise(self, noise_std: float, relative_noise: float, gain_spread: float) -> None:
+        for key, value in (("noise_std", noise_std), ("relative_noise", relative_noise), ("gain_spread", gain_spread)):
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
+                raise ValueError(f"{type(self).__name__}.{key} must be a finite number >= 0, got {value!r}")
+        self.noise_std = float(noise_std)
+        self.relative_noise = float(relative_noise)
+        self.gain_spread = float(gain_spread)
+        self._gains: dict[str, np.ndarray] = {}
+
+    def calibrate(self, robot: DiffDriveRobot, rng: np.random.Generator) -> None:
+        """Draw ``robot``'s sensor gains (``width`` values from ``rng``; nothing is drawn if ``gain_spread`` is 0)."""
+        if self.gain_spread > 0:
+            self._gains[robot.name] = np.exp(rng.normal(0.0, self.gain_spread, size=self.width))
+
+    def gains(self, robot: DiffDriveRobot) -> np.ndarray:
+        """``robot``'s sensor gains (ones if it was never calibrated)."""
+        return self._gains.get(robot.name, np.ones(self.width)).copy()
+
+    def forget_calibrations(self) -> None:
+        """Drop every robot's gains (a new episode's robots are calibrated anew)."""
+        self._gains.clear()
 
     def read(
         self,
@@ -100,7 +138,7 @@ class NoisyRowSensor:
             out = np.empty(self.width, dtype=np.float32)
         x, y, theta = pose if pose is not None else (*robot.body.position, robot.body.angle)
         self._read_one(robot, space, x, y, theta, out)
-        self._add_noise(rng, out)
+        self._add_noise(rng, out[None, :], [robot])
         return out
 
     def read_rows(
@@ -114,24 +152,52 @@ class NoisyRowSensor:
         space = world.space
         for robot, (x, y, theta), row in zip(robots, _check_rows(self, robots, poses, out), out):
             self._read_one(robot, space, x, y, theta, row)
-        self._add_noise(rng, out)
+        self._add_noise(rng, out, robots)
 
-    def _add_noise(self, rng: np.random.Generator | None, out: np.ndarray) -> None:
-        if self.noise_std > 0 and rng is not None:
-            out += rng.normal(0.0, self.noise_std, size=out.shape)
-            self._clip(out)
+    def _add_noise(self, rng: np.random.Generator | None, out: np.ndarray, robots: Sequence[DiffDriveRobot]) -> None:
+        """Gains, relative and additive noise on the rows ``out`` of ``robots`` (see the class docstring)."""
+        relative = self.relative_noise > 0 and rng is not None
+        additive = self.noise_std > 0 and rng is not None
+        if not (relative or additive or self._gains):
+            return
+        mask = self._noise_mask(out) if (relative or self._gains) else None
+        if self._gains:
+            gains = np.stack([self._gains.get(r.name, np.ones(self.width)) for r in robots])
+            out[...] = np.where(mask, out * gains, out) if mask is not None else out * gains
+        if relative and additive:
+            z = rng.standard_normal((len(out), 2, self.width))
+            factor, shift = 1.0 + self.relative_noise * z[:, 0], self.noise_std * z[:, 1]
+        elif relative:
+            factor, shift = 1.0 + rng.normal(0.0, self.relative_noise, size=out.shape), None
+        else:
+            factor, shift = None, rng.normal(0.0, self.noise_std, size=out.shape) if additive else None
+        if factor is not None:
+            out[...] = np.where(mask, out * factor, out) if mask is not None else out * factor
+        if shift is not None:
+            out += shift
+        self._clip(out)
 
 
 class ProximityRing(NoisyRowSensor):
     """Ray-cast distance sensors around the robot's rim.
 
     A reading is the distance (m) from the robot's surface along the ray to the first solid
-    object, or ``max_range`` when nothing is within range. Before casting, one bounding-box
+    object, or ``max_range`` when nothing is within range. Noise (:class:`NoisyRowSensor`):
+    ``relative_noise`` scales the distance of rays that hit something (a Khepera's infrared
+    reading falls steeply with distance, so a fixed noise on the reading is a distance error
+    growing with distance; a ray that hits nothing stays at ``max_range``); ``noise_std``
+    (m) is added to every ray. Readings are clipped to ``[0, max_range]``. Before casting, one bounding-box
     query checks whether anything at all lies within range; if not, the eight casts are
     skipped (they dominate the cost of a simulation step).
     """
 
-    def __init__(self, angles: Iterable[float] = KHEPERA_RING, max_range: float = 0.1, noise_std: float = 0.0) -> None:
+    def __init__(
+        self,
+        angles: Iterable[float] = KHEPERA_RING,
+        max_range: float = 0.1,
+        noise_std: float = 0.0,
+        relative_noise: float = 0.0,
+    ) -> None:
         self.angles = np.asarray(list(angles), dtype=float)
         if self.angles.ndim != 1 or len(self.angles) == 0:
             raise ValueError(f"ProximityRing needs at least one ray angle, got {angles!r}")
@@ -140,7 +206,7 @@ class ProximityRing(NoisyRowSensor):
         if not noise_std >= 0:
             raise ValueError(f"ProximityRing.noise_std must be >= 0, got {noise_std!r}")
         self.max_range = float(max_range)
-        self.noise_std = float(noise_std)
+        self._set_noise(noise_std, relative_noise, 0.0)
         self._cos = np.cos(self.angles).tolist()
         self._sin = np.sin(self.angles).tolist()
         self._caster = RayCaster()
@@ -155,6 +221,10 @@ class ProximityRing(NoisyRowSensor):
 
     def _clip(self, out: np.ndarray) -> None:
         np.clip(out, 0.0, self.max_range, out=out)
+
+    def _noise_mask(self, out: np.ndarray) -> np.ndarray:
+        """Relative noise applies to rays that hit something: a free ray reads the sensor's noise floor, beyond range."""
+        return out < self.max_range
 
     def _read_one(self, robot: DiffDriveRobot, space: pymunk.Space, x: float, y: float, theta: float, out: np.ndarray) -> None:
         """Noise-free distances of one robot into ``out``."""
@@ -184,7 +254,9 @@ class LightSensor(NoisyRowSensor):
     lamp that every robot sees from anywhere, as in paper 004, section 2.1).
 
     ``lamp`` is a point or an entity (a :class:`~teamgym.sim.objects.Lamp`), which the sensor
-    then follows when it moves.
+    then follows when it moves. Noise (:class:`NoisyRowSensor`): per-sensor gains
+    (``gain_spread``, drawn by :meth:`~NoisyRowSensor.calibrate`), ``relative_noise`` per
+    reading and additive ``noise_std``; readings are clipped at 0.
     """
 
     def __init__(
@@ -195,12 +267,14 @@ class LightSensor(NoisyRowSensor):
         min_distance: float = 0.05,
         noise_std: float = 0.0,
         blockers: int = OPAQUE,
+        relative_noise: float = 0.0,
+        gain_spread: float = 0.0,
     ) -> None:
         self.lamp = lamp
         self.intensity = float(intensity)
         self.angles = np.asarray(list(angles), dtype=float)
         self.min_distance = float(min_distance)
-        self.noise_std = float(noise_std)
+        self._set_noise(noise_std, relative_noise, gain_spread)
         self.blockers = int(blockers)
 
     @property
@@ -361,9 +435,24 @@ class Camera:
 
 class WheelEncoders:
     """The wheel encoders' last control step: commanded left, commanded right, actual left,
-    actual right wheel rotation (rad), from :attr:`DiffDriveRobot.encoders`; no noise."""
+    actual right wheel rotation (rad), from :attr:`DiffDriveRobot.encoders`.
+
+    The commanded values are exact (what the motors were asked). With ``resolution`` > 0
+    (rad per tick) the actual rotation is what an incremental encoder counts: the difference
+    of the tick counts of the total wheel rotation before and after the step (the error
+    stays under one tick and does not accumulate). With ``noise_std`` > 0 it is then
+    multiplied by ``1 + N(0, noise_std²)`` per wheel (the wheel slips a little on the
+    table; two draws per robot). Both 0: the exact rotation, as before.
+    """
 
     width = 4
+
+    def __init__(self, noise_std: float = 0.0, resolution: float = 0.0) -> None:
+        for key, value in (("noise_std", noise_std), ("resolution", resolution)):
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
+                raise ValueError(f"WheelEncoders.{key} must be a finite number >= 0, got {value!r}")
+        self.noise_std = float(noise_std)
+        self.resolution = float(resolution)
 
     def read_rows(
         self,
@@ -375,9 +464,18 @@ class WheelEncoders:
     ) -> None:
         if out.shape != (len(robots), self.width):
             raise ValueError(f"WheelEncoders.read_rows: out must have shape {(len(robots), self.width)}, got {out.shape}")
+        res = self.resolution
+        noisy = self.noise_std > 0 and rng is not None
         for robot, row in zip(robots, out):
             e = robot.encoders
-            row[:] = (e.commanded_left, e.commanded_right, e.actual_left, e.actual_right)
+            left, right = e.actual_left, e.actual_right
+            if res > 0:
+                left = (math.floor(e.total_left / res) - math.floor((e.total_left - left) / res)) * res
+                right = (math.floor(e.total_right / res) - math.floor((e.total_right - right) / res)) * res
+            if noisy:
+                a, b = rng.normal(1.0, self.noise_std, size=2).tolist()
+                left, right = left * a, right * b
+            row[:] = (e.commanded_left, e.commanded_right, left, right)
 
 
 class SensorSuite:

@@ -8,12 +8,14 @@ even turn it by pushing a corner), and two robots pushing together can.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import Any, ClassVar, Literal
 
 from teamgym.envs.config import ConfigError, EnvConfig, require
-from teamgym.sim.objects import GRAVITY
+from teamgym.sim.objects import GRAVITY, SURFACE_FRICTION, footprint_support, weakest_push
+from teamgym.sim.robot import RobotSpec
 
 #: The paper's four static situations (section 4.1) as (n_robots, n_light_boxes, n_heavy_boxes).
 SITUATIONS: dict[str, tuple[int, int, int]] = {
@@ -43,12 +45,33 @@ class Event:
     args: tuple
 
 
+@functools.lru_cache(maxsize=32)
+def weakest_push_ratio(table_friction: str, support_points: int) -> float:
+    """The weakest single push that moves a square box on support points, in units of ``μ m g``.
+
+    :func:`~teamgym.sim.objects.weakest_push` for a robot (``RobotSpec.friction``) against a
+    box surface (``SURFACE_FRICTION``); the ratio does not depend on the box's size or mass.
+    """
+    points = footprint_support((1.0, 1.0), table_friction, support_points)
+    return weakest_push(points, (1.0, 1.0), RobotSpec.friction * SURFACE_FRICTION)
+
+
 @dataclass(frozen=True)
 class BoxPushingConfig(EnvConfig):
     """Configuration of ``BoxPushing-v0`` (SI units; the few angles in config are radians)."""
 
     body_speed_keys: ClassVar[tuple[str, ...]] = ("max_wheel_speed",)
     default_body_speed: ClassVar[float] = 0.0
+    #: The noise levels that ``noise`` scales.
+    NOISE_KEYS: ClassVar[tuple[str, ...]] = (
+        "light_noise",
+        "light_noise_relative",
+        "light_gain_spread",
+        "sensor_noise",
+        "sensor_noise_relative",
+        "encoder_noise",
+        "motor_noise",
+    )
 
     max_cycles: int = 6000
     situation: Literal["custom", "S1", "S2", "S3", "S4"] = "custom"
@@ -61,9 +84,15 @@ class BoxPushingConfig(EnvConfig):
     table_height: float = 0.90
     lamp: tuple[float, float] = (1.15, 0.45)
     light_shadows: bool = False
+    noise: float = 1.0
     light_noise: float = 0.0
+    light_noise_relative: float = 0.0
+    light_gain_spread: float = 0.0
     sensor_range: float = 0.1
     sensor_noise: float = 0.0
+    sensor_noise_relative: float = 0.0
+    encoder_noise: float = 0.0
+    encoder_resolution: float = 0.0
     motor_noise: float = 0.0
     object_threshold: float = 0.02
     max_wheel_speed: float = 0.4
@@ -73,6 +102,8 @@ class BoxPushingConfig(EnvConfig):
     heavy_box_size: float = 0.16
     heavy_box_mass: float = 0.2
     box_friction: float = 0.5
+    table_friction: Literal["joint", "corners", "perimeter", "area"] = "joint"
+    support_points: int = 3
     box_margin: float = 0.08
     box_orientation: Literal["aligned", "random"] = "random"
     boxes_to_goal: int = 0
@@ -116,11 +147,12 @@ class BoxPushingConfig(EnvConfig):
         require(self, "n_heavy_boxes", self.n_light_boxes + self.n_heavy_boxes >= 1, "leaves no box (need at least one)")
         require(self, "n_spare_robots", 0 <= self.n_spare_robots <= 16, "must be in [0, 16]")
         require(self, "n_spare_boxes", 0 <= self.n_spare_boxes <= 8, "must be in [0, 8]")
+        require(self, "support_points", 1 <= self.support_points <= 16, "must be in [1, 16]")
         require(self, "table_width", 0.4 <= self.table_width <= 10, "must be in [0.4, 10] m")
         require(self, "table_height", 0.4 <= self.table_height <= 10, "must be in [0.4, 10] m")
         for key in ("sensor_range", "object_threshold", "max_wheel_speed", "max_motor_force", "box_friction"):
             require(self, key, getattr(self, key) > 0, "must be > 0")
-        non_negative = ("light_noise", "sensor_noise", "motor_noise", "box_margin", "goal_tolerance")
+        non_negative = ("noise", *self.NOISE_KEYS, "encoder_resolution", "box_margin", "goal_tolerance")
         non_negative += ("time_penalty", "success_bonus")
         for key in non_negative:
             require(self, key, getattr(self, key) >= 0, "must be >= 0")
@@ -163,14 +195,24 @@ class BoxPushingConfig(EnvConfig):
             force < heavy < 2 * force,
             f"gives friction {heavy:.2f} N; it must be in ({force}, {2 * force}) N",
         )
-        # A robot pushing a corner exerts torque F·s/2; the ground's torque limit is μmg·⅔·r_eq (objects.Box).
-        r_eq = math.sqrt(self.heavy_box_size**2 / math.pi)
-        require(
-            self,
-            "heavy_box_mass",
-            heavy * 2 / 3 * r_eq > force * self.heavy_box_size / 2,
-            "lets one robot spin the box at a corner",
-        )
+        if self.table_friction == "joint":
+            # A robot pushing a corner exerts torque F·s/2; the ground's torque limit is μmg·⅔·r_eq (objects.Box).
+            r_eq = math.sqrt(self.heavy_box_size**2 / math.pi)
+            require(
+                self,
+                "heavy_box_mass",
+                heavy * 2 / 3 * r_eq > force * self.heavy_box_size / 2,
+                "lets one robot spin the box at a corner",
+            )
+        else:
+            weakest = heavy * weakest_push_ratio(self.table_friction, self.support_points)
+            require(
+                self,
+                "heavy_box_mass",
+                weakest > force,
+                f"lets one robot turn the box at a corner ({weakest:.2f} N of friction there, {force} N of motor force;"
+                f" table_friction={self.table_friction!r})",
+            )
 
     def _check_lamp(self) -> None:
         x, y = self.lamp
@@ -180,6 +222,17 @@ class BoxPushingConfig(EnvConfig):
         require(self, "lamp", -1 <= x <= w + 1 and -1 <= y <= h + 1, "must be within 1 m of the table")
         outside = sorted(gap for gap in (x - w, -x, y - h, -y) if gap > 0)
         require(self, "lamp", len(outside) == 1, "must face one wall (the goal), not a corner of the table")
+
+    def noise_level(self, key: str) -> float:
+        """The noise level ``key`` in effect: the config's value times the ``noise`` scale."""
+        if key not in self.NOISE_KEYS:
+            raise KeyError(f"{key!r} is not a noise level; noise levels are {self.NOISE_KEYS}")
+        return self.noise * float(getattr(self, key))
+
+    @property
+    def effective_encoder_resolution(self) -> float:
+        """``encoder_resolution`` when ``noise`` > 0, else 0 (exact encoders)."""
+        return self.encoder_resolution if self.noise > 0 else 0.0
 
     def goal_side(self) -> str:
         """The wall nearest the lamp: ``"east"``, ``"west"``, ``"north"`` or ``"south"``."""
@@ -219,3 +272,32 @@ class BoxPushingConfig(EnvConfig):
         if added_boxes > self.n_spare_boxes:
             raise ConfigError(f"{type(self).__name__}: events add {added_boxes} box(es) but n_spare_boxes={self.n_spare_boxes}")
         return sorted(events, key=lambda e: e.cycle)
+
+
+#: Encoder resolution of a Khepera: 600 ticks per wheel turn (rad per tick).
+KHEPERA_ENCODER_RESOLUTION = 2 * math.pi / 600
+
+
+@dataclass(frozen=True)
+class BoxPushingV1Config(BoxPushingConfig):
+    """Configuration of ``BoxPushing-v1``: ``BoxPushing-v0``'s keys with a truthful table and Khepera-like noise.
+
+    Only defaults differ (``docs/box_pushing.md``, *Version history*): boxes stand on their
+    four corners and robots on their two wheels, each point with its own Coulomb friction
+    (``table_friction="corners"``), so an off-centre push turns a sliding box; and the
+    sensors and motors are noisy (``noise=0`` switches every noise off):
+
+    * proximity: ``sensor_noise_relative=0.05`` (5 % of the distance, rays that hit something);
+    * light: ``light_noise_relative=0.1`` per reading (Webots' Khepera model) and
+      ``light_gain_spread=0.2`` (each sensor's own sensitivity, log-normal, fixed per robot);
+    * encoders: Khepera ticks (600 per wheel turn) and ``encoder_noise=0.04`` per wheel;
+    * motors: ``motor_noise=0.06`` per wheel and step (Webots' ±10 % uniform slip noise).
+    """
+
+    table_friction: Literal["joint", "corners", "perimeter", "area"] = "corners"
+    light_noise_relative: float = 0.1
+    light_gain_spread: float = 0.2
+    sensor_noise_relative: float = 0.05
+    encoder_noise: float = 0.04
+    encoder_resolution: float = KHEPERA_ENCODER_RESOLUTION
+    motor_noise: float = 0.06

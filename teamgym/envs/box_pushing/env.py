@@ -58,7 +58,7 @@ from teamgym.control.primitives import PrimitiveExecutor, PrimitiveParams
 from teamgym.envs.actions import ActionType, WheelSpeedAction
 from teamgym.envs.base import EpisodeOverError, TeamEnv
 from teamgym.envs.box_pushing.actions import PrimitiveAction
-from teamgym.envs.box_pushing.config import SITUATIONS, BoxPushingConfig, Event
+from teamgym.envs.box_pushing.config import SITUATIONS, BoxPushingConfig, BoxPushingV1Config, Event
 from teamgym.envs.box_pushing.scene import GoalWall, Placer
 from teamgym.envs.spaces import ObservationLayout
 from teamgym.sim.categories import OPAQUE, Category
@@ -68,7 +68,7 @@ from teamgym.sim.robot import DiffDriveRobot, RobotSpec, body_command, wheel_spe
 from teamgym.sim.sensors import KHEPERA_RING, LightSensor, ProximityRing, SensorSuite, WheelEncoders
 from teamgym.sim.world import World
 
-__all__ = ["SITUATIONS", "BoxPushing", "BoxPushingConfig", "env", "parallel_env"]
+__all__ = ["SITUATIONS", "BoxPushing", "BoxPushingConfig", "BoxPushingV1", "BoxPushingV1Config", "env", "parallel_env"]
 
 _ROBOT_WALL_GAP = 0.005
 _ROBOT_CLEARANCE = 0.01
@@ -86,11 +86,22 @@ class BoxPushing(TeamEnv):
 
     def _setup(self) -> None:
         c = self.config
-        self.spec_robot = RobotSpec(max_wheel_speed=c.max_wheel_speed, max_motor_force=c.max_motor_force)
-        self.ring = ProximityRing(KHEPERA_RING, c.sensor_range, c.sensor_noise)
+        contact = "centre" if c.table_friction == "joint" else "wheels"
+        self.spec_robot = RobotSpec(max_wheel_speed=c.max_wheel_speed, max_motor_force=c.max_motor_force, ground_contact=contact)
+        level = c.noise_level
+        self.ring = ProximityRing(KHEPERA_RING, c.sensor_range, level("sensor_noise"), level("sensor_noise_relative"))
         blockers = OPAQUE & ~Category.WALL.bit if c.light_shadows else 0
-        self.light = LightSensor(c.lamp, 1.0, KHEPERA_RING, noise_std=c.light_noise, blockers=blockers)
-        self.sensors = SensorSuite({"proximity": self.ring, "light": self.light, "encoders": WheelEncoders()})
+        self.light = LightSensor(
+            c.lamp,
+            1.0,
+            KHEPERA_RING,
+            noise_std=level("light_noise"),
+            blockers=blockers,
+            relative_noise=level("light_noise_relative"),
+            gain_spread=level("light_gain_spread"),
+        )
+        encoders = WheelEncoders(level("encoder_noise"), c.effective_encoder_resolution)
+        self.sensors = SensorSuite({"proximity": self.ring, "light": self.light, "encoders": encoders})
         self.goal = GoalWall(c.goal_side(), c.table_width, c.table_height)
         self.object_threshold = c.object_threshold
         self.primitive_params = PrimitiveParams(
@@ -141,6 +152,7 @@ class BoxPushing(TeamEnv):
         n = len(self.possible_agents)
         self.robots = {}
         self.executors = {a: PrimitiveExecutor(self.primitive_params) for a in self.possible_agents}
+        self.light.forget_calibrations()
         self.boxes: list[Box | None] = [None] * self.box_capacity
         self._heavy = np.zeros(self.box_capacity, dtype=bool)
         self._half = np.zeros(self.box_capacity)
@@ -176,8 +188,8 @@ class BoxPushing(TeamEnv):
         self._read_sensors(self.agents)
 
     def _before_physics(self) -> None:
-        """Motor noise: each wheel's commanded speed is scaled by 1 + N(0, ``motor_noise``²)."""
-        noise = self.config.motor_noise
+        """Motor noise: each wheel's commanded speed is scaled by 1 + N(0, σ²), σ = ``noise`` × ``motor_noise``."""
+        noise = self.config.noise_level("motor_noise")
         if noise <= 0:
             return
         base = self.spec_robot.wheel_base
@@ -341,6 +353,7 @@ class BoxPushing(TeamEnv):
         name = self.possible_agents[self._n_robots_used]
         self._n_robots_used += 1
         self.robots[name] = self.world.add(DiffDriveRobot(name, (x, y), heading, self.spec_robot))
+        self.light.calibrate(self.robots[name], self.np_random)
         self._rows = None
         self._admit(name)
         return name
@@ -356,8 +369,7 @@ class BoxPushing(TeamEnv):
         robot.disable()
         # Motors off, wheels locked by the gearbox (a Khepera's is not back-drivable): the
         # robot resists pushing harder than any one robot can push.
-        robot.pivot.max_force = _BRAKE_FACTOR * robot.spec.max_motor_force
-        robot.gear.max_force = _BRAKE_FACTOR * robot.spec.max_motor_torque
+        robot.brake(_BRAKE_FACTOR)
         self.executors[agent].cancel()
         self._leaving[agent] = "broken_down"
 
@@ -366,7 +378,8 @@ class BoxPushing(TeamEnv):
         slot = self._n_boxes
         self._n_boxes += 1
         size, mass = (c.heavy_box_size, c.heavy_box_mass) if heavy else (c.light_box_size, c.light_box_mass)
-        box = self.world.add(Box(f"box_{slot}", (size, size), (x, y), mass, c.box_friction, angle))
+        box = Box(f"box_{slot}", (size, size), (x, y), mass, c.box_friction, angle, c.table_friction, c.support_points)
+        self.world.add(box)
         self.boxes[slot] = box
         self._heavy[slot], self._half[slot] = heavy, size / 2
         self._gap[slot] = float(self.goal.gaps(np.array([[x, y, angle]]), self._half[slot : slot + 1])[0])
@@ -534,6 +547,26 @@ class BoxPushing(TeamEnv):
                 overlay.paths.append(([tuple(corners[0]), tuple(corners[2])], (90, 50, 20)))
                 overlay.paths.append(([tuple(corners[1]), tuple(corners[3])], (90, 50, 20)))
         return overlay
+
+
+class BoxPushingV1(BoxPushing):
+    """``BoxPushing-v1``: :class:`BoxPushing` with :class:`BoxPushingV1Config`'s defaults.
+
+    Version history (``docs/box_pushing.md``):
+
+    * **v0**: ground friction of a box is one force limit and one independent torque limit
+      (a pushed box slides or turns, never both in proportion); robots hold to the ground
+      at their centre; sensors, encoders and motors are exact by default.
+    * **v1**: planar Coulomb friction at support points (boxes on their four corners,
+      robots on their two wheels), so an off-centre push turns a sliding box; Khepera-like
+      noise on proximity, light, encoders and wheel speeds (``noise=0``: none). The same
+      keys as v0; only defaults differ, so ``make("BoxPushing-v1", table_friction="joint",
+      noise=0)`` is v0.
+    """
+
+    metadata = {**BoxPushing.metadata, "name": "box_pushing_v1"}
+    config_class = BoxPushingV1Config
+    config: BoxPushingV1Config
 
 
 def _finite(value: Any, what: str) -> float:
