@@ -237,8 +237,11 @@ def _robots_touching(env, box_name: str) -> int:
     return len({s.entity.name for shapes in touching for s in shapes if getattr(getattr(s, "entity", None), "kind", None) == 1})
 
 
-def experiment_dynamic(out: Path, figures: Path | None, seeds: int, workers: int, env: EnvChoice = DEFAULT_ENV) -> list[dict]:
-    jobs = [(s, seed, env) for s in ("add_heavy", "remove_robot") for seed in range(seeds)]
+def experiment_dynamic(
+    out: Path, figures: Path | None, seeds: int, workers: int, env: EnvChoice = DEFAULT_ENV, first_seed: int = 0, tag: str = ""
+) -> list[dict]:
+    """Section 4.2 with ``sbs``: the changes triggered by the robots' own recognizers; files ``dynamic{tag}.*``."""
+    jobs = [(s, seed, env) for s in ("add_heavy", "remove_robot") for seed in range(first_seed, first_seed + seeds)]
     results = _pool_map(run_dynamic, jobs, workers)
     add = [r for r in results if r["scenario"] == "add_heavy" and r["event_step"] is not None]
     rem = [r for r in results if r["scenario"] == "remove_robot" and r["event_step"] is not None]
@@ -262,8 +265,8 @@ def experiment_dynamic(out: Path, figures: Path | None, seeds: int, workers: int
             "notes": f"M wrongly regained afterwards in {sum(r['m_regained'] for r in lapsed)}",
         },
     ]
-    _write(out, "dynamic", {"rows": rows, "episodes": results})
-    (out / "dynamic.md").write_text(markdown_table(rows) + "\n")
+    _write(out, f"dynamic{tag}", {"env": env[0], "config": env[1], "first_seed": first_seed, "rows": rows, "episodes": results})
+    (out / f"dynamic{tag}.md").write_text(markdown_table(rows) + "\n")
     if switched:
         _plot_timeline(min(switched, key=lambda r: r["seed"]), out, figures)
     return rows
@@ -525,7 +528,7 @@ def main() -> None:
     if args.experiment in ("dynamic", "all"):
         print(markdown_table(experiment_dynamic_policies(args.out, args.seeds, args.workers, env, policies, first, args.tag)))
         if "sbs" in policies:
-            print(markdown_table(experiment_dynamic(args.out, args.figures, args.seeds, args.workers, env)))
+            print(markdown_table(experiment_dynamic(args.out, args.figures, args.seeds, args.workers, env, first, args.tag)))
 
 
 if __name__ == "__main__":
