@@ -88,11 +88,11 @@ def test_a_stall_on_an_unmoved_object_waits_and_a_stall_at_the_goal_leaves():
         assert c.state == expected
     c = controller()
     c._start_push()
-    for _ in range(round(PushParams().wait_time / 0.1) + 10):
+    for _ in range(round(PushParams().shove_unmoved / 0.1) + 10):
         left, right = c.step(touching, lamp_at(0.0), stalled)
         if c.state == WAIT:
             assert left > 0 and right > 0  # both wheels push forward while waiting
-    assert c.state != WAIT  # waited wait_time, then left
+    assert c.state != WAIT  # waited shove_unmoved, then shoved and left
 
 
 def _placed(env_id, heavy, robots, seed=0, **config):

@@ -13,11 +13,16 @@ proximity rays, light intensities and wheel encoders — and drives its wheels (
 * **Go around to the far side.** An object met anywhere else is circled, keeping it on the
   lamp's side, until it lies between the robot and the lamp.
 * **Stall and wait for help.** A robot whose wheels stall against an object it has not moved
-  yet keeps pushing for ``wait_time``: a heavy box needs a second pusher, who arrives in that
-  time. Near the goal wall (bright light) a stall means the goal: the robot leaves.
+  yet keeps pushing, its aim swept left and right after ``block_time``, for
+  ``shove_unmoved`` s: a heavy box needs a second pusher, who arrives in that time. Then it
+  shoves the object aside once and leaves. Near the goal wall (bright light) a stall means
+  the goal: the robot leaves.
+* **Hold the push's direction** (``hold_heading``): by odometry, at an aim within
+  ``aim_spread`` of the lamp, so boxes reach the goal wall beside each other rather than
+  all at the lamp's point.
 * **Blocked after moving a box: push past.** A box that moved and then stopped (against a
-  delivered box, a robot) is pushed aside of the lamp line, alternately left and right, for
-  ``sidestep_time``, then left to others.
+  delivered box, a robot) is pushed with its aim swept aside of the lamp line and, after
+  ``shove_moved`` s, shoved square to the lamp line, then pushed to the lamp again.
 * **Leave, and do not come straight back**: after leaving, objects are avoided for
   ``cooldown`` (no lamp-ward push, no circling).
 
@@ -79,7 +84,6 @@ class PushParams:
     aim_spread: float = math.radians(20.0)
     hold_heading: bool = True
     hold_limit: float = math.radians(35.0)
-    wait_time: float = 60.0
     moved_distance: float = 0.03
     wait_heading: str = "line"
     contact_distance: float = 0.012
@@ -93,7 +97,6 @@ class PushParams:
     sweep_unmoved: bool = True
     sidestep_angle: float = math.radians(25.0)
     sidestep_period: float = 3.0
-    sidestep_time: float = 25.0
     backoff_distance: float = 0.04
     cooldown: float = 8.0
     wander_turn: float = 0.2
