@@ -268,24 +268,39 @@ def minmax_strategies(losses: npt.ArrayLike, *, tol: float = 0.0) -> npt.NDArray
 _PYTHON_COST_LIMIT = 16
 
 
+def _sequential_sum(values: list[float]) -> float:
+    """``values[0] + values[1] + ...`` in float64, left to right, as ``np.add.accumulate`` adds.
+
+    Not the built-in ``sum()``: from Python 3.12 on it adds floats with a compensated
+    (Neumaier) sum, which can differ from plain left-to-right addition in the last bit.
+    """
+    total = values[0]
+    for v in values[1:]:
+        total += v
+    return total
+
+
 def _cost_flat(flat_losses: np.ndarray, flat_idx: npt.NDArray[np.intp]) -> npt.NDArray[np.float64]:
     """Eq. (30) for candidates given by flat joint-action indices into ``flat_losses`` (N, M)."""
     vals = flat_losses[:, flat_idx]  # (N, P): I_i(S_n)
     # Sorting each candidate's loss vector makes C a function of the multiset of losses alone, so
     # candidates whose loss vectors are permutations of each other get bit-identical costs and
     # the lexicographic tie-break of eq. (31) is not decided by floating-point summation order.
-    # Both paths sum in the same (sequential, sorted) order, so they agree to the bit.
+    # Both paths add in the same order (sorted, left to right, no compensation) on every Python
+    # and numpy version, so they agree to the bit: not the built-in sum() (compensated from
+    # Python 3.12 on), and not ndarray.sum(), which sums pairwise (8 partial sums once N >= 8)
+    # along a contiguous axis -- and the gathered (N, P) array here is Fortran-ordered.
     n = vals.shape[0]
     if vals.shape[1] <= _PYTHON_COST_LIMIT:
         costs = []
         for row in vals.T.tolist():
             row.sort()
-            mean = sum(row) / n
-            costs.append(sum([v + abs(v - mean) for v in row]))
+            mean = _sequential_sum(row) / n
+            costs.append(_sequential_sum([v + abs(v - mean) for v in row]))
         return np.array(costs, dtype=np.float64)
     vals = np.sort(vals, axis=0)
-    mean = vals.sum(axis=0) / n
-    return (vals + np.abs(vals - mean)).sum(axis=0)
+    mean = np.add.accumulate(vals, axis=0)[-1] / n
+    return np.add.accumulate(vals + np.abs(vals - mean), axis=0)[-1]
 
 
 def _cost(arr: np.ndarray, candidates: npt.NDArray[np.intp]) -> npt.NDArray[np.float64]:

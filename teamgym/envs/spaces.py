@@ -158,6 +158,8 @@ class MaskedDiscrete(spaces.Discrete):
     def sample(self, mask: np.ndarray | None = None, probability: np.ndarray | None = None) -> np.int64:
         if mask is None and probability is None:
             mask = self.live_mask
+        if probability is None:  # gymnasium 1.0's Discrete.sample has no ``probability``
+            return super().sample(mask=mask)
         return super().sample(mask=mask, probability=probability)
 
 
