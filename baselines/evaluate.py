@@ -3,16 +3,26 @@
 Command line::
 
     python -m baselines.evaluate [--env Navigation-v0] [--policy goto] [--episodes 10] [--seed 0]
-        [--set key=value ...] [--max-cycles M] [--out DIR] [--gif] [--workers W] [--quiet]
+        [--set key=value ...] [--max-cycles M] [--out DIR] [--gif] [--workers W] [--quiet] [--stochastic]
 
 Episode ``i`` resets the env with seed ``S + i`` and the policy with ``policy.reset(S + i)``,
 so results do not depend on ``--workers``. ``--policy sb3:PATH`` evaluates a saved
-Stable-Baselines3 model (see :mod:`baselines.rl.sb3_policy`). Files written to ``DIR``
-(default ``results/<env>_<policy>/``):
+Stable-Baselines3 model (see :mod:`baselines.rl.sb3_policy`), deterministically unless
+``--stochastic``.
+
+A model saved by ``python -m baselines.train`` has a sidecar ``<model>.json`` with the env
+id and config overrides it was trained with. When it exists they are the defaults: the
+env is the sidecar's unless ``--env`` is given, and the config is the sidecar's overrides
+updated with the ``--set``/``--max-cycles`` given (an explicit setting wins, key by key).
+An ``--env`` other than the sidecar's drops the sidecar's overrides and is accepted only if
+the model's spaces fit that env (a note goes to stderr); otherwise it is a one-line error
+naming both envs. Files written to ``DIR`` (default ``results/<env>_<policy>/``):
 
 * ``summary.json``: env, policy, resolved config, episodes, seed, ``success_rate``,
   ``mean_episode_length``, ``mean_return`` and ``mean_<metric>`` for every numeric
-  metric, plus ``metrics`` (mean/std/min/max/count of each);
+  metric, plus ``metrics`` (mean/std/min/max/count of each), ``deterministic`` (false
+  with ``--stochastic``), ``overrides`` (the ``--set`` and sidecar settings, as strings) and, for
+  a model with a sidecar, ``sidecar`` (its path);
 * ``episodes.csv``: one row per episode (seed, length, success, mean return over robots
   and the per-episode mean of every metric over the robots that report it);
 * ``trajectories.png``: the robots' (and moving obstacles' or boxes') paths in the first episode;
@@ -73,10 +83,21 @@ __all__ = [
 ]
 
 
+#: The env evaluated when neither ``--env`` nor an SB3 model's sidecar names one.
+DEFAULT_ENV = "Navigation-v0"
+
+
 class _Runner:
     """An env and a policy built once and reused for many episodes."""
 
-    def __init__(self, env_id: str, policy_name: str, config: Mapping[str, Any] | None, render_mode: str | None = None) -> None:
+    def __init__(
+        self,
+        env_id: str,
+        policy_name: str,
+        config: Mapping[str, Any] | None,
+        render_mode: str | None = None,
+        policy_kwargs: Mapping[str, Any] | None = None,
+    ) -> None:
         import teamgym
         from baselines.registry import make_policy, policy_class, required_config
 
@@ -84,7 +105,11 @@ class _Runner:
             policy_class(policy_name).check_env_id(env_id, policy_name)
         config = {**required_config(policy_name), **dict(config or {})}
         self.env = teamgym.make(env_id, render_mode=render_mode, **config)
-        self.policy = make_policy(policy_name, self.env)
+        try:
+            self.policy = make_policy(policy_name, self.env, **dict(policy_kwargs or {}))
+        except BaseException:
+            self.env.close()
+            raise
 
     def run(self, seed: int, record_frames: bool = False, record_trajectories: bool = False) -> EpisodeResult:
         return run_episode(self.env, self.policy, seed, record_frames=record_frames, record_trajectories=record_trajectories)
@@ -96,11 +121,13 @@ class _Runner:
 _WORKER: _Runner | None = None
 
 
-def _init_worker(env_id: str, policy_name: str, config: Mapping[str, Any] | None) -> None:
+def _init_worker(
+    env_id: str, policy_name: str, config: Mapping[str, Any] | None, policy_kwargs: Mapping[str, Any] | None = None
+) -> None:
     """Process-pool initializer: one env and policy per worker process, single-threaded torch."""
     global _WORKER
     os.environ.setdefault("OMP_NUM_THREADS", "1")
-    _WORKER = _Runner(env_id, policy_name, config)
+    _WORKER = _Runner(env_id, policy_name, config, policy_kwargs=policy_kwargs)
     if "torch" in sys.modules:
         sys.modules["torch"].set_num_threads(1)
 
@@ -140,6 +167,7 @@ def evaluate(
     *,
     progress: bool = False,
     keep_trajectories: bool = False,
+    policy_kwargs: Mapping[str, Any] | None = None,
 ) -> list[EpisodeResult]:
     """Run ``episodes`` episodes (seeds ``seed .. seed+episodes-1``) and return their results in seed order.
 
@@ -147,7 +175,9 @@ def evaluate(
     With ``workers > 1`` episodes run in that many worker processes (forked where possible),
     each with its own env and policy, handed out in chunks of consecutive seeds; results are
     identical to a sequential run. Trajectories are kept for
-    the first episode only unless ``keep_trajectories``. Config, env-id and policy errors
+    the first episode only unless ``keep_trajectories``. ``policy_kwargs`` go to
+    :func:`baselines.registry.make_policy` (e.g. ``{"deterministic": False}`` for an
+    ``sb3:PATH`` policy). Config, env-id and policy errors
     (including a policy that does not fit the env) raise (``ConfigError``/``ValueError``/
     ``KeyError``/``FileNotFoundError``) before any episode runs.
     """
@@ -160,7 +190,7 @@ def evaluate(
     from tqdm import tqdm
 
     config = dict(config or {})
-    runner = _Runner(env_id, policy_name, config)  # validates env id, config and policy here
+    runner = _Runner(env_id, policy_name, config, policy_kwargs=policy_kwargs)  # validates env id, config and policy here
     seeds = [seed + i for i in range(episodes)]
     keep = [keep_trajectories or i == 0 for i in range(episodes)]
     bar = tqdm(total=episodes, desc=f"{env_id} {policy_name}", unit="ep", disable=not progress, leave=False)
@@ -180,7 +210,7 @@ def evaluate(
             max_workers=min(workers, episodes),
             mp_context=_pool_context(),
             initializer=_init_worker,
-            initargs=(env_id, policy_name, config),
+            initargs=(env_id, policy_name, config, policy_kwargs),
         ) as pool:
             futures = {pool.submit(_worker_run_chunk, chunk): i for i, chunk in enumerate(chunks)}
             for future in as_completed(futures):
@@ -365,6 +395,33 @@ def _check_out(out: Path) -> None:
             return
 
 
+def _model_defaults(
+    policy: str, env_id: str | None, config: Mapping[str, str]
+) -> tuple[str, dict[str, str], Path | None, str | None]:
+    """Env id and config for ``policy``, completed from an ``sb3:PATH`` model's sidecar.
+
+    Returns ``(env_id, config, sidecar path or None, env the model was trained on or None)``.
+    The sidecar's overrides apply (explicit settings win) only when the env is the sidecar's.
+    """
+    config = dict(config)
+    if not policy.startswith("sb3:"):
+        return env_id or DEFAULT_ENV, config, None, None
+    from baselines.rl.sb3_policy import read_sidecar, resolve_model
+
+    try:
+        sidecar = read_sidecar(policy[4:])
+    except ValueError as error:
+        raise _UsageError(str(error)) from error
+    trained_on = sidecar.get("env") if sidecar else None
+    if not isinstance(trained_on, str):
+        return env_id or DEFAULT_ENV, config, None, None
+    path = resolve_model(policy[4:]).with_suffix(".json")
+    if env_id is not None and env_id != trained_on:
+        return env_id, config, path, trained_on
+    overrides = sidecar.get("overrides") if isinstance(sidecar.get("overrides"), dict) else {}
+    return trained_on, {**{str(k): str(v) for k, v in overrides.items()}, **config}, path, trained_on
+
+
 def _slug(text: str) -> str:
     if text.startswith("sb3:"):
         text = "sb3-" + Path(text[4:]).stem
@@ -388,7 +445,9 @@ def build_parser() -> argparse.ArgumentParser:
         description="Evaluate a policy on a teamgym env over seeded episodes.",
     )
     count, seed = _at_least(1), _at_least(0)  # episodes and workers; seeds (numpy rejects negative ones)
-    parser.add_argument("--env", default="Navigation-v0", help="env id (default: Navigation-v0)")
+    parser.add_argument(
+        "--env", default=None, help=f"env id (default: an sb3:PATH model's, from its sidecar <model>.json; else {DEFAULT_ENV})"
+    )
     parser.add_argument("--policy", default="goto", help="policy name or sb3:PATH (default: goto)")
     parser.add_argument("--episodes", type=count, default=10, help="number of episodes, >= 1 (default: 10)")
     parser.add_argument("--seed", type=seed, default=0, help="first seed, >= 0; episode i uses seed+i (default: 0)")
@@ -399,6 +458,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--no-plot", action="store_true", help="do not draw trajectories.png (matplotlib is then not loaded)")
     parser.add_argument("--workers", type=count, default=1, help="parallel worker processes, >= 1 (default: 1)")
     parser.add_argument("--quiet", action="store_true", help="no progress bar or table")
+    parser.add_argument(
+        "--stochastic", action="store_true", help="sample an sb3:PATH model's actions instead of taking the most likely"
+    )
     parser.add_argument("--list", action="store_true", help="list env ids and policy names and exit")
     return parser
 
@@ -441,12 +503,27 @@ def _run(args: argparse.Namespace) -> int:
     config = _parse_sets(args.set)
     if args.max_cycles is not None:
         config["max_cycles"] = str(args.max_cycles)
-    out = Path(args.out) if args.out else Path("results") / f"{_slug(args.env)}_{_slug(args.policy)}"
+    if args.stochastic and not args.policy.startswith("sb3:"):
+        raise _UsageError(f"--stochastic applies to sb3:PATH policies only, not {args.policy!r}")
+    env_id, config, sidecar, trained_on = _model_defaults(args.policy, args.env, config)
+    policy_kwargs = {"deterministic": False} if args.stochastic else {}
+    name = _slug(args.policy) + ("-stochastic" if args.stochastic else "")
+    out = Path(args.out) if args.out else Path("results") / f"{_slug(env_id)}_{name}"
     _check_out(out)
     try:
-        probe = _Runner(args.env, args.policy, config)
+        probe = _Runner(env_id, args.policy, config, policy_kwargs=policy_kwargs)
     except (ValueError, TypeError, KeyError, FileNotFoundError, ImportError) as error:
+        if trained_on is not None and trained_on != env_id:
+            raise _UsageError(
+                f"the model was trained on {trained_on} (per {str(sidecar)!r}), not {env_id}: {_message(error)}"
+            ) from error
         raise _UsageError(_message(error)) from error
+    if trained_on is not None and trained_on != env_id:
+        print(
+            f"note: the model was trained on {trained_on} (per {str(sidecar)!r}); its spaces fit {env_id}, "
+            "so it is evaluated there without the sidecar's config",
+            file=sys.stderr,
+        )
     resolved = probe.env.config.as_dict() if hasattr(probe.env.config, "as_dict") else dict(config)
     if "torch" in sys.modules:  # an SB3 policy: tiny batches run fastest single-threaded
         sys.modules["torch"].set_num_threads(1)
@@ -456,16 +533,22 @@ def _run(args: argparse.Namespace) -> int:
     except OSError as error:
         raise _UsageError(f"cannot create --out {str(out)!r}: {error.strerror or error}") from error
 
-    results = evaluate(args.env, args.policy, args.episodes, args.seed, config, args.workers, progress=not args.quiet)
-    summary = {"env": args.env, "policy": args.policy, "config": resolved, "seed": args.seed, "workers": args.workers}
+    results = evaluate(
+        env_id, args.policy, args.episodes, args.seed, config, args.workers, progress=not args.quiet, policy_kwargs=policy_kwargs
+    )
+    summary = {"env": env_id, "policy": args.policy, "config": resolved, "seed": args.seed, "workers": args.workers}
     summary.update(summarise(results))
+    summary["deterministic"] = not args.stochastic
+    summary["overrides"] = {k: str(v) for k, v in config.items()}
+    if sidecar is not None:
+        summary["sidecar"] = str(sidecar)
     written = [write_summary_json(out / "summary.json", summary), write_episodes_csv(out / "episodes.csv", results)]
 
     first = results[0]
     if first.trajectories and not args.no_plot:
         from baselines.plots import plot_trajectories
 
-        title = f"{args.env} · {args.policy} · seed {first.seed} · {'success' if first.success else 'no success'}"
+        title = f"{env_id} · {args.policy} · seed {first.seed} · {'success' if first.success else 'no success'}"
         written.append(
             plot_trajectories(
                 first.trajectories,
@@ -481,7 +564,7 @@ def _run(args: argparse.Namespace) -> int:
     if args.gif:
         from teamgym.sim.render import save_gif
 
-        recorder = _Runner(args.env, args.policy, config, render_mode="rgb_array")
+        recorder = _Runner(env_id, args.policy, config, render_mode="rgb_array", policy_kwargs=policy_kwargs)
         try:
             replay = recorder.run(first.seed, record_frames=True)
             fps = float(recorder.env.metadata.get("render_fps") or 10)
@@ -493,7 +576,8 @@ def _run(args: argparse.Namespace) -> int:
 
     if not args.quiet:
         seeds = f"seed {args.seed}" if args.episodes == 1 else f"seeds {args.seed}-{args.seed + args.episodes - 1}"
-        print(summary_table(summary, title=f"{args.env} | {args.policy} | {args.episodes} episodes ({seeds})"))
+        mode = " (stochastic)" if args.stochastic else ""
+        print(summary_table(summary, title=f"{env_id} | {args.policy}{mode} | {args.episodes} episodes ({seeds})"))
         for path in written:
             print(f"wrote {path}")
     return 0

@@ -1,8 +1,8 @@
 """``python -m baselines.train``: the training CLI of :mod:`baselines.rl.train`."""
 
-from baselines.rl.train import build_parser, default_hyperparameters, main, train
+from baselines.rl.train import Training, build_parser, default_hyperparameters, main, train, train_seeds
 
-__all__ = ["build_parser", "default_hyperparameters", "main", "train"]
+__all__ = ["Training", "build_parser", "default_hyperparameters", "main", "train", "train_seeds"]
 
 if __name__ == "__main__":
     raise SystemExit(main())

@@ -2,7 +2,10 @@
 
 The model (trained with :class:`baselines.rl.sb3_env.TeamVecEnv`, or any model whose
 spaces match one agent's) acts for every robot: the live agents' observations are
-stacked and passed to one deterministic ``model.predict`` call.
+stacked and passed to one ``model.predict`` call (deterministic unless
+``deterministic=False``). ``python -m baselines.train`` writes a sidecar ``<model>.json``
+beside every model it saves (env id, config, algorithm, settings); :func:`read_sidecar`
+reads it.
 
 Stable-Baselines3 (and torch) are imported only when a model is loaded, so
 ``import baselines`` works without them.
@@ -21,7 +24,7 @@ from gymnasium import spaces
 from baselines.policy import Policy
 from teamgym.envs.base import TeamEnv
 
-__all__ = ["ALGORITHMS", "SB3Policy", "algorithm_class", "detect_algorithm"]
+__all__ = ["ALGORITHMS", "SB3Policy", "algorithm_class", "detect_algorithm", "read_sidecar", "resolve_model"]
 
 #: algorithm name -> Stable-Baselines3 class name
 ALGORITHMS: dict[str, str] = {"ppo": "PPO", "a2c": "A2C", "sac": "SAC", "td3": "TD3", "ddpg": "DDPG", "dqn": "DQN"}
@@ -37,13 +40,35 @@ def algorithm_class(name: str) -> type:
     return getattr(stable_baselines3, ALGORITHMS[key])
 
 
-def _resolve(path: str | Path) -> Path:
+def resolve_model(path: str | Path) -> Path:
+    """The saved model file ``path`` names (``.zip`` may be left out); ``FileNotFoundError`` if there is none."""
     path = Path(path)
     if path.is_file():
         return path
     if path.suffix != ".zip" and path.with_name(path.name + ".zip").is_file():
         return path.with_name(path.name + ".zip")
     raise FileNotFoundError(f"no saved SB3 model at {str(path)!r}")
+
+
+def read_sidecar(path: str | Path) -> dict[str, Any] | None:
+    """The settings ``baselines.train`` saved beside the model at ``path`` (``<model>.json``), or ``None``.
+
+    ``None`` when the model or its sidecar does not exist; ``ValueError`` naming the file
+    when the sidecar is not a JSON object.
+    """
+    try:
+        sidecar = resolve_model(path).with_suffix(".json")
+    except FileNotFoundError:
+        return None
+    if not sidecar.is_file():
+        return None
+    try:
+        data = json.loads(sidecar.read_text())
+    except (OSError, ValueError) as error:
+        raise ValueError(f"cannot read the model's sidecar {str(sidecar)!r}: {error}") from None
+    if not isinstance(data, dict):
+        raise ValueError(f"the model's sidecar {str(sidecar)!r} is not a JSON object")
+    return data
 
 
 def detect_algorithm(path: str | Path) -> str | None:
@@ -53,7 +78,7 @@ def detect_algorithm(path: str | Path) -> str | None:
     present, else the saved policy class (SAC/TD3/DDPG/DQN have their own) and, for
     actor-critic policies, PPO-only hyperparameters to tell PPO from A2C.
     """
-    path = _resolve(path)
+    path = resolve_model(path)
     sidecar = path.with_suffix(".json")
     if sidecar.is_file():
         try:
@@ -77,7 +102,14 @@ def detect_algorithm(path: str | Path) -> str | None:
 
 
 class SB3Policy(Policy):
-    """Deterministic actions of one Stable-Baselines3 model shared by every robot."""
+    """Actions of one Stable-Baselines3 model shared by every robot.
+
+    ``deterministic=True`` (the default) takes the model's most likely action. With
+    ``deterministic=False`` actions are sampled, and :meth:`reset` reseeds Python's, numpy's
+    and torch's global generators (which SB3 samples from) and the model's action space
+    with the episode's seed, so a stochastic evaluation is repeatable and does not depend on
+    how episodes are spread over worker processes.
+    """
 
     name = "sb3"
 
@@ -99,7 +131,7 @@ class SB3Policy(Policy):
         detected from the file when omitted (see :func:`detect_algorithm`); if detection
         fails every algorithm is tried in turn.
         """
-        path = _resolve(path)
+        path = resolve_model(path)
         algo = algo or detect_algorithm(path)
         candidates = [algo] if algo else list(ALGORITHMS)
         errors = []
@@ -119,6 +151,15 @@ class SB3Policy(Policy):
             policy.path = path
             return policy
         raise ValueError(f"could not load SB3 model {str(path)!r} ({'; '.join(errors)})")
+
+    def reset(self, seed: int | None = None) -> None:
+        """Start an episode; a stochastic policy reseeds the generators SB3 samples from (see the class docstring)."""
+        super().reset(seed)
+        if not self.deterministic and seed is not None:
+            from stable_baselines3.common.utils import set_random_seed
+
+            set_random_seed(int(seed))
+            self.model.action_space.seed(int(seed))
 
     def _check_spaces(self) -> None:
         env = self.env

@@ -4,28 +4,66 @@ Command line::
 
     python -m baselines.train [--env Navigation-v0] [--algo ppo] [--timesteps 100000] [--seed 0]
         [--out results/models/<env>_<algo>.zip] [--set key=value ...] [--max-cycles M]
-        [--n-envs 4] [--hp key=value ...] [--verbose 0|1|2]
+        [--n-envs 4] [--hp key=value ...] [--verbose 0|1|2] [--threads 1]
+        [--tensorboard DIR] [--progress-bar] [--checkpoint-every N] [--resume PATH]
+        [--eval-every N] [--eval-episodes 10] [--eval-seed 10000]
+        [--seeds 0,1,2] [--jobs 1]
 
 Timesteps count agent transitions (every robot's step is one SB3 step, see
 :class:`baselines.rl.sb3_env.TeamVecEnv`). The model is saved to ``--out`` and a sidecar
 ``<out>.json`` records the env id, its config, the algorithm and the training settings.
-Evaluate it with ``python -m baselines.evaluate --policy sb3:PATH --set ...`` (the same
-config, so the observation size matches). DQN needs a discrete action space
-(``--set action_type=heading``); SAC/TD3/DDPG need a continuous one.
+Evaluate it with ``python -m baselines.evaluate --policy sb3:PATH`` (the env and config come
+from the sidecar). DQN needs a discrete action space (``--set action_type=heading``);
+SAC/TD3/DDPG need a continuous one.
+
+Research tooling (all off by default; see ``docs/training.md``):
+
+* ``--tensorboard DIR``: SB3's TensorBoard logs in ``DIR/<run>_<k>`` (``<run>`` is the
+  model's file stem, ``seed<k>`` with ``--seeds``); ``--progress-bar``: SB3's progress bar.
+* ``--checkpoint-every N``: save ``<out-stem>_<steps>_steps.zip`` (with its sidecar) at the
+  first rollout boundary at or past each multiple of ``N`` timesteps (and at the end if
+  the last rollout crossed one): the model trained on exactly ``<steps>`` transitions.
+* ``--resume PATH``: continue training a saved model for ``--timesteps`` more timesteps
+  (``reset_num_timesteps=False``: the counter, the TensorBoard curve, the checkpoint and
+  evaluation schedules and the eval CSV continue). Env, config, algorithm, ``--n-envs``,
+  seed, TensorBoard, checkpoint and evaluation settings come from the model's sidecar
+  unless given. ``--out`` defaults to the model resumed, or for a checkpoint
+  ``<stem>_<steps>_steps.zip`` or ``<stem>_best.zip`` to ``<stem>.zip``.
+* ``--eval-every N``: evaluate the model on the held-out seeds ``S .. S+K-1``
+  (``--eval-seed S``, ``--eval-episodes K``) at the start, at the first rollout boundary
+  past each multiple of ``N`` and at the end, through the episode loop of ``baselines.evaluate``
+  (:func:`baselines.rl.callbacks.evaluate_model`); rows go to ``<out-stem>_eval.csv`` and
+  to TensorBoard (``eval/...``), and the best model so far (success rate, then mean return)
+  to ``<out-stem>_best.zip``.
+* ``--seeds 0,1,2``: one model per seed in ``<out>/seed<k>/<env>_<algo>.zip`` (``--out`` is
+  then a directory, default ``results/models/<env>_<algo>/``), one after the other or in
+  ``--jobs`` processes; ``<out>/runs.json`` lists them.
+
+Bad arguments exit with code 2 and one ``error: ...`` line before training starts; a
+failure during training exits 1 with one line (``TEAMGYM_TRACEBACK=1`` shows the traceback).
+Ctrl-C saves the model trained so far to ``--out`` (its sidecar says ``"interrupted": true``).
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib.util
+import inspect
 import json
 import math
+import os
+import re
 import sys
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-__all__ = ["default_hyperparameters", "main", "train"]
+__all__ = ["DEFAULT_EVAL_SEED", "Training", "build_parser", "default_hyperparameters", "main", "train", "train_seeds"]
+
+#: The first held-out evaluation seed: far from the training envs' reset seeds ``seed + e·A``.
+DEFAULT_EVAL_SEED = 10_000
+DEFAULT_ENV, DEFAULT_ALGO, DEFAULT_N_ENVS, DEFAULT_EVAL_EPISODES = "Navigation-v0", "ppo", 4, 10
 
 
 def default_hyperparameters(algo: str, num_envs: int) -> dict[str, Any]:
@@ -39,85 +77,490 @@ def default_hyperparameters(algo: str, num_envs: int) -> dict[str, Any]:
     return {}
 
 
+def _zip_path(path: str | Path) -> Path:
+    path = Path(path)
+    return path if path.suffix == ".zip" else path.with_name(path.name + ".zip")
+
+
+def checkpoint_path(out: str | Path, timesteps: int) -> Path:
+    """``<out-stem>_<timesteps>_steps.zip`` beside ``out``."""
+    out = _zip_path(out)
+    return out.with_name(f"{out.stem}_{int(timesteps)}_steps.zip")
+
+
+def best_path(out: str | Path) -> Path:
+    """``<out-stem>_best.zip`` beside ``out``: the best model of the periodic evaluations."""
+    out = _zip_path(out)
+    return out.with_name(f"{out.stem}_best.zip")
+
+
+def eval_csv_path(out: str | Path) -> Path:
+    """``<out-stem>_eval.csv`` beside ``out``: the rows of the periodic evaluations."""
+    out = _zip_path(out)
+    return out.with_name(f"{out.stem}_eval.csv")
+
+
+def continued_path(resume: str | Path) -> Path:
+    """Default ``--out`` of a resumed run: ``<stem>.zip`` for ``<stem>_<N>_steps.zip`` or ``<stem>_best.zip``, else ``resume``."""
+    resume = _zip_path(resume)
+    match = re.fullmatch(r"(.+)_(\d+_steps|best)", resume.stem)
+    return resume.with_name(f"{match.group(1)}.zip") if match else resume
+
+
+def _require(module: str, what: str) -> None:
+    if importlib.util.find_spec(module) is None:
+        raise ImportError(f"{what} needs the {module} package (pip install {module}, or the 'train' extra of teamgym)")
+
+
+def _check_hyperparameters(cls: type, params: Mapping[str, Any]) -> None:
+    """Raise ``ValueError`` for a keyword that ``cls`` (an SB3 algorithm) does not take or that training sets itself."""
+    reserved = {"self", "policy", "env", "seed", "verbose", "device", "tensorboard_log", "_init_setup_model"}
+    accepted = sorted(set(inspect.signature(cls.__init__).parameters) - reserved)
+    for key in params:
+        if key not in accepted:
+            raise ValueError(f"{key!r} is not a hyperparameter of {cls.__name__}; choose from {', '.join(accepted)}")
+
+
+def _write_json(path: Path, data: Mapping[str, Any]) -> Path:
+    from baselines.evaluate import _json_safe
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(_json_safe(data), indent=2, allow_nan=False, default=repr) + "\n")
+    return path
+
+
+class Training:
+    """One training run, built and checked in the constructor, run by :meth:`learn`.
+
+    The constructor validates everything (env id and config, algorithm and
+    hyperparameters, the model to resume, the evaluation seeds) and builds the envs and
+    the model, raising ``ValueError``/``TypeError``/``KeyError``/``FileNotFoundError``/
+    ``ImportError`` before any training; :meth:`close` releases the envs of a run that is
+    not learned. Arguments are those of :func:`train`.
+    """
+
+    def __init__(
+        self,
+        env_id: str = DEFAULT_ENV,
+        algo: str = DEFAULT_ALGO,
+        timesteps: int = 100_000,
+        seed: int = 0,
+        out: str | Path = "model.zip",
+        config: Mapping[str, Any] | None = None,
+        n_envs: int = DEFAULT_N_ENVS,
+        hyperparameters: Mapping[str, Any] | None = None,
+        verbose: int = 0,
+        threads: int | None = 1,
+        *,
+        tensorboard_log: str | Path | None = None,
+        tb_log_name: str | None = None,
+        progress_bar: bool = False,
+        checkpoint_every: int | None = None,
+        eval_every: int | None = None,
+        eval_episodes: int = DEFAULT_EVAL_EPISODES,
+        eval_seed: int = DEFAULT_EVAL_SEED,
+        resume: str | Path | None = None,
+        callback: Any = None,
+    ) -> None:
+        import teamgym
+        from baselines.rl.callbacks import EvalLog
+        from baselines.rl.sb3_env import TeamVecEnv
+        from baselines.rl.sb3_policy import algorithm_class, detect_algorithm, read_sidecar, resolve_model
+
+        for name, value, minimum in [("timesteps", timesteps, 1), ("n_envs", n_envs, 1), ("seed", seed, 0)]:
+            if value < minimum:
+                raise ValueError(f"{name} must be >= {minimum}, got {value}")
+        for name, value in [("checkpoint_every", checkpoint_every), ("eval_every", eval_every)]:
+            if value is not None and value < 1:
+                raise ValueError(f"{name} must be >= 1 (or None: off), got {value}")
+        if eval_every and (eval_episodes < 1 or eval_seed < 0):
+            raise ValueError(f"eval_episodes must be >= 1 and eval_seed >= 0, got {eval_episodes} and {eval_seed}")
+        self.env_id, self.timesteps, self.seed, self.n_envs = env_id, int(timesteps), int(seed), int(n_envs)
+        self.config = dict(config or {})
+        self.out = _zip_path(out)
+        self.checkpoint_every, self.eval_every = checkpoint_every or None, eval_every or None
+        self.eval_episodes, self.eval_seed = int(eval_episodes), int(eval_seed)
+        self.progress_bar, self.callback = progress_bar, callback
+        self.tensorboard_log = str(tensorboard_log) if tensorboard_log is not None else None
+        self.tb_log_name = tb_log_name or self.out.stem
+        self.resume = resolve_model(resume) if resume is not None else None
+        previous = (read_sidecar(self.resume) or {}) if self.resume else {}
+        if self.resume:
+            detected = detect_algorithm(self.resume)
+            if detected and detected != algo.lower():
+                raise ValueError(f"the model {str(self.resume)!r} was trained with {detected}, not {algo.lower()}")
+        self.algo = algo.lower()
+        cls = algorithm_class(self.algo)
+        hyperparameters = dict(hyperparameters or {})
+        _check_hyperparameters(cls, hyperparameters)
+        if progress_bar:
+            _require("tqdm", "the progress bar")
+            _require("rich", "the progress bar")
+        if self.tensorboard_log is not None:
+            _require("tensorboard", "TensorBoard logging")
+        if threads is not None:
+            import torch
+
+            torch.set_num_threads(threads)
+        teamgym.make(env_id, **self.config).close()  # validate id and config before building the VecEnv
+        self.venv = TeamVecEnv(lambda: teamgym.make(env_id, **self.config), n_envs=self.n_envs)
+        self.eval_env = None
+        try:
+            self.agents_per_env = self.venv.agents_per_env
+            if self.resume:
+                try:
+                    self.model = cls.load(str(self.resume), env=self.venv, device="cpu", **hyperparameters)
+                except ValueError:  # SB3's own message, e.g. spaces that do not fit the env
+                    raise
+                except Exception as error:  # noqa: BLE001 - a damaged or foreign file: one clear message
+                    raise ValueError(f"cannot load {str(self.resume)!r} as a {cls.__name__} model: {error}") from None
+                self.resumed_at = int(self.model.num_timesteps)
+                self.model.verbose = verbose
+                self.model.tensorboard_log = self.tensorboard_log
+                self.reset_seed = self.seed + self.resumed_at  # new episodes, not a replay of the first run's
+                self.model.set_random_seed(self.reset_seed)
+                saved = previous.get("hyperparameters")
+                self.params = {**(saved if isinstance(saved, dict) else {}), **{k: repr(v) for k, v in hyperparameters.items()}}
+            else:
+                self.resumed_at, self.reset_seed = None, self.seed
+                params = default_hyperparameters(self.algo, self.venv.num_envs)
+                params.update(hyperparameters)
+                self.model = cls(
+                    "MlpPolicy",
+                    self.venv,
+                    seed=self.seed,
+                    verbose=verbose,
+                    device="cpu",
+                    tensorboard_log=self.tensorboard_log,
+                    **params,
+                )
+                self.params = {k: repr(v) for k, v in params.items()}
+            if self.eval_every:
+                train_seeds = {self.reset_seed + e * self.agents_per_env for e in range(self.n_envs)}
+                clash = sorted(s for s in train_seeds if self.eval_seed <= s < self.eval_seed + self.eval_episodes)
+                if clash:
+                    raise ValueError(
+                        f"the evaluation seeds {self.eval_seed}..{self.eval_seed + self.eval_episodes - 1} include the "
+                        f"training envs' reset seeds {clash}; choose held-out seeds outside them"
+                    )
+                self.eval_env = teamgym.make(env_id, **self.config)
+            # A resumed run continues the eval log and the best model up to its timestep; a new run starts them afresh.
+            upto = self.resumed_at or 0
+            csv_path = eval_csv_path(self.out)
+            self.eval_log = EvalLog.continued(csv_path, upto) if self.resume and self.eval_every else EvalLog(csv_path)
+            self.best: dict[str, Any] | None = None
+            best = read_sidecar(best_path(self.out)) if self.resume and self.eval_every else None
+            if best and isinstance(best.get("best_eval"), dict) and int(best["best_eval"].get("timesteps", upto + 1)) <= upto:
+                self.best = dict(best["best_eval"])
+        except BaseException:
+            self.close()
+            raise
+        self.resolved = self.venv.envs[0].config.as_dict()
+        self.started = time.time()
+
+    # -- saving --------------------------------------------------------------------------
+    def meta(self, kind: str = "final") -> dict[str, Any]:
+        """The sidecar of a model saved now (``kind``: ``final``, ``checkpoint``, ``best`` or ``interrupted``)."""
+        meta: dict[str, Any] = {
+            "env": self.env_id,
+            "config": self.resolved,
+            "overrides": {k: str(v) for k, v in self.config.items()},
+            "algo": self.algo,
+            "timesteps": self.timesteps,
+            "trained_timesteps": int(self.model.num_timesteps),
+            "seed": self.seed,
+            "n_envs": self.n_envs,
+            "agents_per_env": self.agents_per_env,
+            "hyperparameters": self.params,
+            "wall_time_s": round(time.time() - self.started, 3),
+            "kind": "final" if kind == "interrupted" else kind,
+            "model": str(self.out),
+            "resumed_from": str(self.resume) if self.resume else None,
+            "resumed_at": self.resumed_at,
+            "reset_seed": self.reset_seed,
+            "tensorboard": self.tensorboard_log,
+            "tb_log_name": self.tb_log_name,
+            "checkpoint_every": self.checkpoint_every,
+            "eval": (
+                {
+                    "every": self.eval_every,
+                    "episodes": self.eval_episodes,
+                    "seed": self.eval_seed,
+                    "csv": str(self.eval_log.path),
+                    "best": str(best_path(self.out)),
+                }
+                if self.eval_every
+                else None
+            ),
+        }
+        if kind == "interrupted":
+            meta["interrupted"] = True
+        return meta
+
+    def save(self, path: Path, kind: str = "final", **extra: Any) -> Path:
+        """Save the model at ``path`` (``.zip``) with its sidecar ``.json``."""
+        path.parent.mkdir(parents=True, exist_ok=True)
+        self.model.save(str(path))
+        _write_json(path.with_suffix(".json"), {**self.meta(kind), **extra})
+        return path
+
+    def _checkpoint(self, timesteps: int) -> None:
+        self.save(checkpoint_path(self.out, timesteps), "checkpoint")
+
+    def _evaluate(self, timesteps: int) -> None:
+        from baselines.rl.callbacks import evaluate_model, is_better
+
+        assert self.eval_env is not None
+        summary = evaluate_model(self.model, self.eval_env, self.eval_episodes, self.eval_seed)
+        row = self.eval_log.append(timesteps, summary)
+        logger = self.model.logger
+        for key, value in row.items():
+            if key != "timesteps" and math.isfinite(value):
+                logger.record(f"eval/{key}", value)
+        logger.dump(timesteps)
+        if is_better(row, self.best):
+            self.best = {"timesteps": int(timesteps), "success_rate": row["success_rate"], "mean_return": row["mean_return"]}
+            self.save(best_path(self.out), "best", best_eval=self.best)
+
+    # -- running -------------------------------------------------------------------------
+    def callbacks(self) -> list[Any]:
+        """The SB3 callbacks of this run: checkpoints, periodic evaluation, then the caller's."""
+        from baselines.rl.callbacks import EveryTimesteps
+
+        callbacks: list[Any] = []
+        if self.checkpoint_every:
+            callbacks.append(EveryTimesteps(self.checkpoint_every, self._checkpoint))
+        if self.eval_every:
+            callbacks.append(EveryTimesteps(self.eval_every, self._evaluate, at_start=self.resume is None, at_end=True))
+        if self.callback is not None:
+            callbacks += list(self.callback) if isinstance(self.callback, (list, tuple)) else [self.callback]
+        return callbacks
+
+    def learn(self) -> Path:
+        """Train, save the model and its sidecar at :attr:`out` and return that path; the envs are closed after.
+
+        On ``KeyboardInterrupt`` the model trained so far is saved (sidecar ``"interrupted": true``)
+        and the interrupt re-raised.
+        """
+        from stable_baselines3.common.callbacks import CallbackList
+
+        callbacks = self.callbacks()
+        if self.resume and self.tensorboard_log is not None:
+            self._continue_tensorboard_run()
+        self.started = time.time()
+        try:
+            self.model.learn(
+                total_timesteps=self.timesteps,
+                callback=CallbackList(callbacks) if callbacks else None,
+                reset_num_timesteps=self.resume is None,
+                tb_log_name=self.tb_log_name,
+                progress_bar=self.progress_bar,
+            )
+        except KeyboardInterrupt:
+            self.save(self.out, "interrupted")
+            raise
+        finally:
+            self.close()
+        return self.save(self.out, "final")
+
+    def _continue_tensorboard_run(self) -> None:
+        """Log a resumed run into the latest ``<tb_log_name>_<k>`` directory, or ``_1`` if there is none yet.
+
+        (SB3 alone would name a first directory ``_0`` when resuming into a new TensorBoard folder.)
+        """
+        from stable_baselines3.common.logger import configure
+        from stable_baselines3.common.utils import get_latest_run_id
+
+        assert self.tensorboard_log is not None
+        if get_latest_run_id(self.tensorboard_log, self.tb_log_name) == 0:
+            formats = ["stdout", "tensorboard"] if self.model.verbose >= 1 else ["tensorboard"]
+            self.model.set_logger(configure(os.path.join(self.tensorboard_log, f"{self.tb_log_name}_1"), formats))
+
+    def close(self) -> None:
+        """Close the training and evaluation envs."""
+        for env in (getattr(self, "venv", None), getattr(self, "eval_env", None)):
+            if env is not None:
+                env.close()
+
+
 def train(
-    env_id: str = "Navigation-v0",
-    algo: str = "ppo",
+    env_id: str = DEFAULT_ENV,
+    algo: str = DEFAULT_ALGO,
     timesteps: int = 100_000,
     seed: int = 0,
     out: str | Path = "model.zip",
     config: Mapping[str, Any] | None = None,
-    n_envs: int = 4,
+    n_envs: int = DEFAULT_N_ENVS,
     hyperparameters: Mapping[str, Any] | None = None,
     verbose: int = 0,
     threads: int | None = 1,
+    **options: Any,
 ) -> Path:
     """Train ``algo`` with parameter sharing on ``n_envs`` copies of ``env_id`` and save it to ``out``.
 
     Returns the path of the saved ``.zip``; a sidecar ``.json`` with the run's settings is
     written next to it. ``threads`` sets ``torch.set_num_threads`` (small MLPs train
-    fastest single-threaded on CPU; ``None`` leaves torch's setting alone).
+    fastest single-threaded on CPU; ``None`` leaves torch's setting alone). Keyword
+    ``options`` of :class:`Training`: ``tensorboard_log``, ``tb_log_name``,
+    ``progress_bar``, ``checkpoint_every``, ``eval_every``, ``eval_episodes``,
+    ``eval_seed``, ``resume`` (a saved model to continue: ``timesteps`` more, its counter
+    kept; ``env_id``, ``algo`` and ``config`` must fit it) and ``callback`` (extra SB3
+    callbacks); see the module docstring.
     """
-    import teamgym
-    from baselines.rl.sb3_env import TeamVecEnv
-    from baselines.rl.sb3_policy import algorithm_class
+    run = Training(env_id, algo, timesteps, seed, out, config, n_envs, hyperparameters, verbose, threads, **options)
+    return run.learn()
 
-    config = dict(config or {})
-    cls = algorithm_class(algo)
-    if threads is not None:
-        import torch
 
-        torch.set_num_threads(threads)
-    teamgym.make(env_id, **config).close()  # validate id and config before building the VecEnv
-    venv = TeamVecEnv(lambda: teamgym.make(env_id, **config), n_envs=n_envs)
-    params = default_hyperparameters(algo, venv.num_envs)
-    params.update(hyperparameters or {})
-    model = cls("MlpPolicy", venv, seed=seed, verbose=verbose, device="cpu", **params)
-    started = time.time()
-    model.learn(total_timesteps=timesteps)
-    out = Path(out)
-    if out.suffix != ".zip":
-        out = out.with_name(out.name + ".zip")
-    out.parent.mkdir(parents=True, exist_ok=True)
-    model.save(str(out))
-    resolved = venv.envs[0].config.as_dict()
-    venv.close()
-    meta = {
-        "env": env_id,
-        "config": resolved,
-        "overrides": {k: str(v) for k, v in config.items()},
-        "algo": algo.lower(),
-        "timesteps": int(timesteps),
-        "trained_timesteps": int(model.num_timesteps),
-        "seed": seed,
-        "n_envs": n_envs,
-        "agents_per_env": venv.agents_per_env,
-        "hyperparameters": {k: repr(v) for k, v in params.items()},
-        "wall_time_s": round(time.time() - started, 3),
-    }
-    out.with_suffix(".json").write_text(json.dumps(meta, indent=2) + "\n")
-    return out
+def _train_in_process(kwargs: dict[str, Any], log: str) -> str:
+    """Worker of :func:`train_seeds` with ``jobs > 1``: one run, its output to ``log``."""
+    from contextlib import redirect_stderr, redirect_stdout
+
+    with open(log, "w") as handle, redirect_stdout(handle), redirect_stderr(handle):
+        return str(train(**kwargs))
+
+
+def seed_run_path(out_dir: str | Path, seed: int, env_id: str, algo: str) -> Path:
+    """``<out_dir>/seed<seed>/<env>_<algo>.zip``: the model of one seed of :func:`train_seeds`."""
+    return Path(out_dir) / f"seed{seed}" / f"{env_id}_{algo.lower()}.zip"
+
+
+def train_seeds(
+    seeds: Sequence[int],
+    out_dir: str | Path,
+    jobs: int = 1,
+    *,
+    on_done: Callable[[int, Path], None] | None = None,
+    **kwargs: Any,
+) -> list[Path]:
+    """Train one model per seed into ``<out_dir>/seed<k>/`` (see :func:`seed_run_path`); returns the model paths.
+
+    ``kwargs`` are those of :func:`train` except ``seed``, ``out`` and ``resume``; each
+    seed's TensorBoard run is named ``seed<k>``. Runs go one after the other, or with
+    ``jobs > 1`` in that many worker processes (each writes its output to
+    ``<out_dir>/seed<k>/train.log``). ``<out_dir>/runs.json`` lists the seeds and models.
+    ``on_done(seed, path)`` is called as each run finishes.
+    """
+    if not seeds:
+        raise ValueError("seeds must not be empty")
+    if len(set(seeds)) != len(seeds):
+        raise ValueError(f"seeds must be distinct, got {list(seeds)}")
+    if jobs < 1:
+        raise ValueError(f"jobs must be >= 1, got {jobs}")
+    for key in ("seed", "out", "resume"):
+        if key in kwargs:
+            raise ValueError(f"train_seeds() sets {key!r} itself")
+    env_id, algo = kwargs.get("env_id", DEFAULT_ENV), kwargs.get("algo", DEFAULT_ALGO)
+    out_dir = Path(out_dir)
+    paths = {s: seed_run_path(out_dir, s, env_id, algo) for s in seeds}
+    settings = {k: (str(v) if isinstance(v, Path) else v) for k, v in kwargs.items() if k != "callback"}
+    _write_json(
+        out_dir / "runs.json",
+        {"seeds": list(seeds), "models": {str(s): str(p) for s, p in paths.items()}, "settings": settings},
+    )
+    per_seed = {s: {**kwargs, "seed": s, "out": paths[s], "tb_log_name": f"seed{s}"} for s in seeds}
+    if jobs == 1 or len(seeds) == 1:
+        for s in seeds:
+            train(**per_seed[s])
+            if on_done:
+                on_done(s, paths[s])
+        return [paths[s] for s in seeds]
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    if "callback" in kwargs:
+        raise ValueError("callbacks cannot be sent to worker processes; use jobs=1")
+    for path in paths.values():
+        path.parent.mkdir(parents=True, exist_ok=True)
+    context = multiprocessing.get_context("spawn")  # forking after torch's threads start can hang
+    with ProcessPoolExecutor(max_workers=min(jobs, len(seeds)), mp_context=context) as pool:
+        futures = {pool.submit(_train_in_process, per_seed[s], str(paths[s].parent / "train.log")): s for s in seeds}
+        for future in as_completed(futures):
+            future.result()
+            if on_done:
+                on_done(futures[future], paths[futures[future]])
+    return [paths[s] for s in seeds]
+
+
+# -- command line -----------------------------------------------------------------------
+
+
+def _seed_list(text: str) -> list[int]:
+    """An argparse ``type``: comma-separated distinct seeds ``>= 0``."""
+    try:
+        seeds = [int(part) for part in text.split(",") if part.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected comma-separated integers such as 0,1,2, got {text!r}") from None
+    if not seeds or min(seeds) < 0 or len(set(seeds)) != len(seeds):
+        raise argparse.ArgumentTypeError(f"expected distinct seeds >= 0 such as 0,1,2, got {text!r}")
+    return seeds
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """The ``python -m baselines.train`` argument parser."""
+    """The ``python -m baselines.train`` argument parser (a bad command line exits 2 with a one-line error)."""
+    from baselines.evaluate import _at_least, _Parser
     from baselines.rl.sb3_policy import ALGORITHMS
 
-    parser = argparse.ArgumentParser(
-        prog="python -m baselines.train", description="Train a parameter-shared SB3 policy on a teamgym env."
+    parser = _Parser(prog="python -m baselines.train", description="Train a parameter-shared SB3 policy on a teamgym env.")
+    count, natural = _at_least(1), _at_least(0)
+    resumed = "; with --resume: the saved run's"
+    parser.add_argument("--env", default=None, help=f"env id (default: {DEFAULT_ENV}{resumed})")
+    parser.add_argument(
+        "--algo", default=None, choices=sorted(ALGORITHMS), help=f"SB3 algorithm (default: {DEFAULT_ALGO}{resumed})"
     )
-    parser.add_argument("--env", default="Navigation-v0", help="env id (default: Navigation-v0)")
-    parser.add_argument("--algo", default="ppo", choices=sorted(ALGORITHMS), help="SB3 algorithm (default: ppo)")
-    parser.add_argument("--timesteps", type=int, default=100_000, help="agent transitions to train for (default: 100000)")
-    parser.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
-    parser.add_argument("--out", default=None, help="model path (.zip; default: results/models/<env>_<algo>.zip)")
+    parser.add_argument(
+        "--timesteps",
+        type=count,
+        default=100_000,
+        help="agent transitions to train for (with --resume: on top of the model's; default: 100000)",
+    )
+    parser.add_argument("--seed", type=natural, default=None, help=f"random seed (default: 0{resumed})")
+    parser.add_argument(
+        "--seeds", type=_seed_list, default=None, metavar="S1,S2,...", help="train one model per seed into <out>/seed<k>/"
+    )
+    parser.add_argument("--jobs", type=count, default=1, help="with --seeds: parallel training processes (default: 1)")
+    parser.add_argument(
+        "--out",
+        default=None,
+        help="model path (.zip; default: results/models/<env>_<algo>.zip); with --seeds a directory "
+        "(default: results/models/<env>_<algo>/)",
+    )
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="env config override (repeatable)")
-    parser.add_argument("--max-cycles", type=int, default=None, help="shorthand for --set max_cycles=M")
-    parser.add_argument("--n-envs", type=int, default=4, help="env copies (each gives one SB3 env per robot; default: 4)")
+    parser.add_argument("--max-cycles", type=count, default=None, help="shorthand for --set max_cycles=M")
+    parser.add_argument(
+        "--n-envs", type=count, default=None, help=f"env copies (each gives one SB3 env per robot; default: 4{resumed})"
+    )
     parser.add_argument(
         "--hp", action="append", default=[], metavar="KEY=VALUE", help="algorithm keyword argument, e.g. learning_rate=1e-4"
     )
-    parser.add_argument("--threads", type=int, default=1, help="torch CPU threads (default: 1)")
-    parser.add_argument("--verbose", type=int, default=1, help="SB3 verbosity (default: 1)")
+    parser.add_argument("--threads", type=count, default=1, help="torch CPU threads (default: 1)")
+    parser.add_argument("--verbose", type=int, choices=(0, 1, 2), default=1, help="SB3 verbosity (default: 1)")
+    parser.add_argument("--tensorboard", default=None, metavar="DIR", help=f"write TensorBoard logs under DIR{resumed}")
+    parser.add_argument("--progress-bar", action="store_true", help="show SB3's progress bar (needs tqdm and rich)")
+    parser.add_argument(
+        "--checkpoint-every",
+        type=natural,
+        default=None,
+        metavar="N",
+        help=f"save <out-stem>_<steps>_steps.zip every N timesteps (0: off; default: off{resumed})",
+    )
+    parser.add_argument("--resume", default=None, metavar="PATH", help="continue training the model saved at PATH")
+    parser.add_argument(
+        "--eval-every",
+        type=natural,
+        default=None,
+        metavar="N",
+        help=f"evaluate on held-out seeds every N timesteps (0: off; default: off{resumed})",
+    )
+    parser.add_argument(
+        "--eval-episodes", type=count, default=None, metavar="K", help=f"episodes per evaluation (default: 10{resumed})"
+    )
+    parser.add_argument(
+        "--eval-seed",
+        type=natural,
+        default=None,
+        metavar="S",
+        help=f"first held-out seed; evaluation i uses S..S+K-1 (default: {DEFAULT_EVAL_SEED}{resumed})",
+    )
     return parser
 
 
@@ -131,31 +574,121 @@ def _pairs(items: Sequence[str], flag: str) -> dict[str, str]:
     return pairs
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Run the training CLI; returns the exit code (2 for usage or configuration errors)."""
-    args = build_parser().parse_args(argv)
-    import teamgym
+def _pick(given: Any, saved: Any, default: Any) -> Any:
+    """The command line's value, else the resumed run's, else the default."""
+    if given is not None:
+        return given
+    return saved if saved is not None else default
+
+
+def _plan(args: argparse.Namespace) -> tuple[dict[str, Any], list[int] | None]:
+    """Keyword arguments of :class:`Training` (without ``seed``/``out`` for ``--seeds``) and the seeds, from the command line."""
+    from baselines.rl.sb3_policy import detect_algorithm, read_sidecar, resolve_model
     from teamgym.envs.config import parse_value
 
+    if args.seeds is not None and args.seed is not None:
+        raise ValueError("give --seed or --seeds, not both")
+    if args.seeds is not None and args.resume:
+        raise ValueError("--resume continues one model; it cannot be combined with --seeds")
+    if args.jobs > 1 and args.seeds is None:
+        raise ValueError("--jobs needs --seeds")
+    if args.jobs > 1 and args.progress_bar:
+        raise ValueError("--progress-bar shows one run; it cannot be combined with --jobs > 1")
+    sets: dict[str, Any] = _pairs(args.set, "--set")
+    if args.max_cycles is not None:
+        sets["max_cycles"] = str(args.max_cycles)
+    hyperparameters = {k: parse_value(v) for k, v in _pairs(args.hp, "--hp").items()}
+    saved: dict[str, Any] = {}
+    if args.resume:
+        path = resolve_model(args.resume)
+        saved = read_sidecar(path) or {}
+        saved_algo = saved.get("algo") or detect_algorithm(path)
+        if args.algo and saved_algo and args.algo != saved_algo:
+            raise ValueError(f"--algo {args.algo}: the model {str(path)!r} was trained with {saved_algo}")
+        saved["algo"] = saved_algo
+    env_id = _pick(args.env, saved.get("env"), DEFAULT_ENV)
+    overrides = saved.get("overrides") if env_id == saved.get("env") and isinstance(saved.get("overrides"), dict) else {}
+    config = {**overrides, **sets}
+    algo = _pick(args.algo, saved.get("algo"), DEFAULT_ALGO)
+    evaluation = saved.get("eval") if isinstance(saved.get("eval"), dict) else {}
+    eval_every = _pick(args.eval_every, evaluation.get("every"), 0)
+    if not eval_every and (args.eval_episodes is not None or args.eval_seed is not None):
+        raise ValueError("--eval-episodes and --eval-seed need --eval-every")
+    kwargs: dict[str, Any] = {
+        "env_id": env_id,
+        "algo": algo,
+        "timesteps": args.timesteps,
+        "config": config,
+        "n_envs": _pick(args.n_envs, saved.get("n_envs"), DEFAULT_N_ENVS),
+        "hyperparameters": hyperparameters,
+        "verbose": args.verbose,
+        "threads": args.threads,
+        "tensorboard_log": _pick(args.tensorboard, saved.get("tensorboard"), None),
+        "progress_bar": args.progress_bar,
+        "checkpoint_every": _pick(args.checkpoint_every, saved.get("checkpoint_every"), 0) or None,
+        "eval_every": eval_every or None,
+        "eval_episodes": _pick(args.eval_episodes, evaluation.get("episodes"), DEFAULT_EVAL_EPISODES),
+        "eval_seed": _pick(args.eval_seed, evaluation.get("seed"), DEFAULT_EVAL_SEED),
+    }
+    if args.seeds is not None:
+        out_dir = Path(args.out) if args.out else Path("results") / "models" / f"{env_id}_{algo}"
+        if out_dir.suffix == ".zip" or out_dir.is_file():
+            raise ValueError(f"with --seeds, --out names a directory, not {str(out_dir)!r}")
+        kwargs["out"] = out_dir
+        return kwargs, args.seeds
+    if args.resume:
+        kwargs["resume"] = args.resume
+        kwargs["tb_log_name"] = saved.get("tb_log_name")
+        out = Path(args.out) if args.out else continued_path(resolve_model(args.resume))
+    else:
+        out = Path(args.out) if args.out else Path("results") / "models" / f"{env_id}_{algo}.zip"
+    kwargs["out"] = out
+    kwargs["seed"] = _pick(args.seed, saved.get("seed"), 0)
+    return kwargs, None
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the training CLI; returns the exit code (2 for usage or configuration errors, 1 for a failure while training)."""
+    from baselines.evaluate import _message
+
     try:
-        if args.timesteps < 1:
-            raise ValueError(f"--timesteps must be >= 1, got {args.timesteps}")
-        if args.n_envs < 1:
-            raise ValueError(f"--n-envs must be >= 1, got {args.n_envs}")
-        config: dict[str, Any] = _pairs(args.set, "--set")
-        if args.max_cycles is not None:
-            config["max_cycles"] = str(args.max_cycles)
-        hyperparameters = {k: parse_value(v) for k, v in _pairs(args.hp, "--hp").items()}
-        teamgym.make(args.env, **config).close()
-    except (ValueError, KeyError) as error:
-        message = error.args[0] if isinstance(error, KeyError) and error.args else error
-        print(f"error: {message}", file=sys.stderr)
+        args = build_parser().parse_args(argv)
+    except SystemExit as done:  # --help, or a usage error already reported in one line
+        return 0 if done.code is None else done.code if isinstance(done.code, int) else 2
+    run: Training | None = None
+    try:
+        kwargs, seeds = _plan(args)
+        if seeds is None:
+            run = Training(**kwargs)
+        else:  # validate the settings with the first seed's run before training any
+            out_dir = kwargs.pop("out")
+            Training(**kwargs, seed=seeds[0], out=seed_run_path(out_dir, seeds[0], kwargs["env_id"], kwargs["algo"])).close()
+    except (ValueError, TypeError, KeyError, FileNotFoundError, ImportError) as error:
+        print(f"error: {_message(error)}", file=sys.stderr)
         return 2
-    out = Path(args.out) if args.out else Path("results") / "models" / f"{args.env}_{args.algo}.zip"
-    path = train(
-        args.env, args.algo, args.timesteps, args.seed, out, config, args.n_envs, hyperparameters, args.verbose, args.threads
-    )
-    print(f"saved {path} (settings in {path.with_suffix('.json')})")
+    try:
+        if run is not None:
+            path = run.learn()
+            print(f"saved {path} (settings in {path.with_suffix('.json')})")
+            if run.eval_every:
+                print(f"evaluations in {run.eval_log.path}; best model {best_path(path)} ({run.best})")
+        else:
+            assert seeds is not None
+
+            def report(seed: int, path: Path) -> None:
+                print(f"seed {seed}: saved {path}", flush=True)
+
+            train_seeds(seeds, out_dir, args.jobs, on_done=report, **kwargs)
+            print(f"runs listed in {Path(out_dir) / 'runs.json'}")
+    except KeyboardInterrupt:
+        where = f"; the model so far is saved at {run.out} (continue with --resume {run.out})" if run is not None else ""
+        print(f"error: interrupted{where}", file=sys.stderr)
+        return 130
+    except Exception as error:  # noqa: BLE001 - no traceback reaches a command-line user
+        if os.environ.get("TEAMGYM_TRACEBACK"):
+            raise
+        print(f"error: {type(error).__name__}: {_message(error)} (TEAMGYM_TRACEBACK=1 shows where)", file=sys.stderr)
+        return 1
     return 0
 
 
