@@ -34,6 +34,7 @@ import argparse
 import json
 import shutil
 from collections import Counter
+from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
@@ -488,9 +489,51 @@ def _plot_timeline(result: dict, out: Path, figures: Path | None) -> None:
     _save(fig, "dynamic_situations.png", out, figures)
 
 
+def report(out: Path, tags: Sequence[str]) -> str:
+    """One Markdown table per experiment kind, the runs of ``tags`` side by side (e.g. noise on, off).
+
+    Reads ``static{tag}.json`` and ``dynamic_policies{tag}.json`` from ``out``; a tag whose
+    file is missing is left out.
+    """
+    parts = []
+    for kind, keys in (("static", ("situation", "policy")), ("dynamic_policies", ("scenario", "policy"))):
+        runs = {tag: json.loads((out / f"{kind}{tag}.json").read_text()) for tag in tags if (out / f"{kind}{tag}.json").exists()}
+        if not runs:
+            continue
+        merged: dict[tuple, dict[str, Any]] = {}
+        labels: set[str] = set()
+        for tag, data in runs.items():
+            label = _run_label(data)
+            label = label if label not in labels else f"{label}, {tag}"
+            labels.add(label)
+            for row in data["rows"]:
+                entry = merged.setdefault(tuple(row[k] for k in keys), {k: row[k] for k in keys})
+                entry[f"every box ({label})"] = row["every box"]
+                entry[f"a box touches the goal ({label})"] = row["a box touches the goal"]
+                entry[f"time, every box ({label})"] = row["time, every box (s)"]
+        columns = dict.fromkeys(c for entry in merged.values() for c in entry)
+        rows = [{c: entry.get(c, "not run") for c in columns} for entry in merged.values()]
+        seeds = {data["first_seed"] for data in runs.values()}
+        n = {row["episodes"] for data in runs.values() for row in data["rows"]}
+        parts.append(f"{kind}: seeds from {sorted(seeds)}, {sorted(n)} per row\n\n" + markdown_table(rows))
+    return "\n\n".join(parts) + "\n"
+
+
+def _run_label(data: dict[str, Any]) -> str:
+    """``"v1, noise on"``-style label of a run's env and overrides."""
+    label = data["env"].removeprefix("BoxPushing-")
+    config = data.get("config") or {}
+    if "noise" in config:
+        label += ", noise off" if float(config["noise"]) == 0 else f", noise × {config['noise']}"
+    elif label == "v1":
+        label += ", noise on"
+    extra = {k: v for k, v in config.items() if k != "noise"}
+    return label + (f", {extra}" if extra else "")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("experiment", choices=["static", "dynamic", "all", "diagnose"])
+    parser.add_argument("experiment", choices=["static", "dynamic", "all", "diagnose", "report"])
     parser.add_argument("--out", type=Path, default=Path("results/paper004"))
     parser.add_argument("--figures", type=Path, default=None)
     parser.add_argument("--seeds", type=int, default=30)
@@ -499,8 +542,11 @@ def main() -> None:
     parser.add_argument("--env", default=DEFAULT_ENV[0], help="env id (BoxPushing-v0 or BoxPushing-v1)")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="env config override (repeatable)")
     parser.add_argument("--policies", default=",".join(POLICIES), help="policies of `static` and `dynamic`, comma-separated")
-    parser.add_argument("--tag", default="", help="suffix of the output files (e.g. _v1_noise0)")
+    parser.add_argument("--tag", default="", help="suffix of the output files (e.g. _v1_noise0); `report`: comma-separated")
     args = parser.parse_args()
+    if args.experiment == "report":
+        print(report(args.out, args.tag.split(",")))
+        return
     if args.seeds < 1 or args.workers < 1 or (args.first_seed is not None and args.first_seed < 0):
         parser.error("--seeds and --workers must be >= 1 and --first-seed >= 0")
     overrides = {}

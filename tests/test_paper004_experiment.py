@@ -62,3 +62,14 @@ def test_cli_rejects_unknown_policies_and_bad_overrides_in_one_line():
         run = subprocess.run([sys.executable, str(SCRIPT), "static", *args], capture_output=True, text=True, cwd=ROOT)
         assert run.returncode == 2 and "Traceback" not in run.stderr
         assert run.stderr.strip().splitlines()[-1].startswith("paper004_box_pushing.py: error:")
+
+
+def test_report_puts_runs_side_by_side(paper004, tmp_path):
+    env_on, env_off = ("BoxPushing-v1", {"max_cycles": 40}), ("BoxPushing-v1", {"max_cycles": 40, "noise": 0.0})
+    paper004.experiment_static(tmp_path, None, 1, 1, env_on, ("random",), first_seed=5, tag="_on")
+    paper004.experiment_static(tmp_path, None, 1, 1, env_off, ("random",), first_seed=5, tag="_off")
+    text = paper004.report(tmp_path, ["_on", "_off", "_missing"])
+    header = text.splitlines()[2]
+    assert "every box (v1, noise on, {'max_cycles': 40})" in header
+    assert "every box (v1, noise off, {'max_cycles': 40})" in header
+    assert text.count("| S3 | random |") == 1 and "dynamic_policies" not in text
