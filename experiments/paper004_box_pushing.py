@@ -542,6 +542,7 @@ def main() -> None:
     parser.add_argument("--env", default=DEFAULT_ENV[0], help="env id (BoxPushing-v0 or BoxPushing-v1)")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="env config override (repeatable)")
     parser.add_argument("--policies", default=",".join(POLICIES), help="policies of `static` and `dynamic`, comma-separated")
+    parser.add_argument("--no-recognition", action="store_true", help="`dynamic`: skip sbs's recognizer-triggered runs")
     parser.add_argument("--tag", default="", help="suffix of the output files (e.g. _v1_noise0); `report`: comma-separated")
     args = parser.parse_args()
     if args.experiment == "report":
@@ -573,7 +574,7 @@ def main() -> None:
         print(markdown_table(rows))
     if args.experiment in ("dynamic", "all"):
         print(markdown_table(experiment_dynamic_policies(args.out, args.seeds, args.workers, env, policies, first, args.tag)))
-        if "sbs" in policies:
+        if "sbs" in policies and not args.no_recognition:
             print(markdown_table(experiment_dynamic(args.out, args.figures, args.seeds, args.workers, env, first, args.tag)))
 
 
