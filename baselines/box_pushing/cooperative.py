@@ -33,6 +33,7 @@ wall" from "anywhere else". Every robot has its own random stream (``reset(seed)
 
 from __future__ import annotations
 
+import functools
 import math
 from collections import Counter
 from dataclasses import dataclass, fields, replace
@@ -103,6 +104,14 @@ class PushParams:
     wander_period: float = 2.0
 
 
+@functools.lru_cache(maxsize=8)
+def _lamp_models(angles: tuple[float, ...], grid: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Candidate bearings, the cosine lamp model per candidate and sensor, and its squared norms (built once)."""
+    phis = np.linspace(-math.pi, math.pi, grid, endpoint=False)
+    model = np.maximum(np.cos(phis[:, None] - np.asarray(angles)[None, :]), 0.0)
+    return phis, model, np.maximum((model * model).sum(axis=1), 1e-12)
+
+
 def lamp_bearing(light: np.ndarray, angles: np.ndarray, grid: int = 180) -> tuple[float, float]:
     """Bearing (rad, CCW from the heading) and amplitude of the lamp from the light readings.
 
@@ -111,11 +120,9 @@ def lamp_bearing(light: np.ndarray, angles: np.ndarray, grid: int = 180) -> tupl
     projection; the ``φ`` with the smallest residual wins (refined by a parabola through its
     neighbours). ``A`` is ``I₀ / d²`` times the sensors' gains.
     """
-    phis = np.linspace(-math.pi, math.pi, grid, endpoint=False)
-    model = np.maximum(np.cos(phis[:, None] - angles[None, :]), 0.0)
+    phis, model, norm = _lamp_models(tuple(np.asarray(angles, dtype=float).tolist()), grid)
     light = np.asarray(light, dtype=float)
     dot = model @ light
-    norm = np.maximum((model * model).sum(axis=1), 1e-12)
     score = dot * dot / norm  # residual = |L|² − score
     k = int(np.argmax(score))
     a, b, c = score[k - 1], score[k], score[(k + 1) % grid]
