@@ -12,6 +12,7 @@ from gymnasium import spaces
 pytest.importorskip("stable_baselines3")
 
 from stable_baselines3 import PPO  # noqa: E402
+from stable_baselines3.common.monitor import Monitor  # noqa: E402
 from stable_baselines3.common.vec_env import VecEnv  # noqa: E402
 
 import teamgym  # noqa: E402
@@ -119,10 +120,12 @@ def test_team_vec_env_contract():
     assert np.array_equal(again.reset(), venv.reset())
     assert venv.get_attr("render_mode") == [None] * 4
     assert venv.env_is_wrapped(object) == [False] * 4
+    assert venv.env_is_wrapped(Monitor) == [True] * 4  # slots write Monitor's info["episode"]
     venv.close()
 
 
-def test_team_vec_env_padding_scheme():
+def test_team_vec_env_one_copy_waits_for_the_whole_team():
+    """With one copy, a slot whose robot finished waits (padding) until the team is done."""
     venv = TeamVecEnv(lambda: StaggeredEnv(n=3, horizon=4), n_envs=1)
     venv.reset()
     actions = np.full((3, 1), 5.0, dtype=np.float32)  # out of bounds: must be clipped, not rejected
@@ -135,33 +138,116 @@ def test_team_vec_env_padding_scheme():
     assert "is_success" not in info[0]  # the team's success is known when the team's episode ends
     assert info[0]["episode"]["r"] == 1.0 and info[0]["episode"]["l"] == 1
     assert np.all(obs[0] == 0) and np.array_equal(obs[1], [2.0, 2.0])
-    # step 2: a0 is padding, a1 terminates
+    # step 2: slot 0 waits (padding), a1 terminates
     obs, rew, done, info = venv.step(actions)
     assert done.tolist() == [False, True, False]
     assert rew.tolist() == [0.0, 1.0, 1.0]
     assert info[0] == {"padding": True}
     assert np.all(obs[0] == 0) and np.all(obs[1] == 0)
-    # step 3: a2 terminates, the episode is over -> auto reset; padding slots close their pseudo-episode
+    # step 3: a2 terminates, three slots are free -> the idle copy restarts; waits close with done
     obs, rew, done, info = venv.step(actions)
-    assert venv.envs[0].resets == 2
+    assert venv.envs[0].resets == 2 and len(venv.envs) == 1
     assert done.all()
     assert info[2]["episode"]["l"] == 3 and info[2]["is_success"] is True
-    assert info[0]["padding"] and info[1]["padding"]
-    assert info[0]["is_success"] is True and info[1]["is_success"] is True  # once per slot and team episode
+    for k in (0, 1):  # waiting slots: no success (it went with slot 2's done) and no episode
+        assert info[k]["padding"] and "is_success" not in info[k] and "episode" not in info[k]
     assert np.all(info[0]["terminal_observation"] == 0) and info[0]["TimeLimit.truncated"] is False
-    assert "episode" not in info[0]
     assert rew.tolist() == [0.0, 0.0, 1.0]
     assert np.array_equal(obs, [[1.0, 1.0], [2.0, 1.0], [3.0, 1.0]])  # first observations of the new episode
+    # padding: slot 0 during steps 2 and 3, slot 1 during step 3 (of 9 slot-steps)
+    assert venv.slot_steps == 9 and venv.padding_steps == 3
 
 
-def test_team_vec_env_truncation_bootstraps():
-    venv = TeamVecEnv(lambda: StaggeredEnv(n=2, horizon=1), n_envs=1)
-    venv.envs[0].finish = {"a0": 5, "a1": 5}
+def test_team_vec_env_refills_free_slots_from_another_copy():
+    venv = TeamVecEnv(lambda: StaggeredEnv(n=3, horizon=10), n_envs=2)
     venv.reset()
-    _, _, done, info = venv.step(np.zeros((2, 1), dtype=np.float32))
-    assert done.all()
-    assert all(i["TimeLimit.truncated"] is True for i in info)
-    assert all(i["is_success"] is False for i in info)
+    actions = np.zeros((6, 1), dtype=np.float32)
+    # step 1: a0 of both copies finishes -> slots 0 and 3 free, not enough for a team of 3
+    _, _, done, info = venv.step(actions)
+    assert done.tolist() == [True, False, False, True, False, False]
+    # step 2: a1 of both finishes -> free: 0, 3 (waited a step), 1, 4 -> a third copy takes 0, 3, 1
+    obs, _, done, info = venv.step(actions)
+    assert len(venv.envs) == 3
+    assert done.tolist() == [True, True, False, True, True, False]
+    assert info[0] == {"padding": True, "terminal_observation": info[0]["terminal_observation"], "TimeLimit.truncated": False}
+    assert info[1]["episode"]["l"] == 2  # its own robot's done; the new robot's first obs is returned
+    assert np.array_equal(obs[[0, 3, 1]], [[1.0, 1.0], [2.0, 1.0], [3.0, 1.0]])
+    assert np.all(obs[4] == 0)  # slot 4 waits
+    assert venv.padding_steps == 2 and venv.slot_steps == 12
+    # step 3: a2 of copies 0 and 1 finish, and a0 of the new copy (slot 0): slots 4, 2, 5 restart copy 0
+    obs, _, done, info = venv.step(actions)
+    assert done.tolist() == [True, False, True, False, True, True]
+    assert info[2]["is_success"] is True and info[5]["is_success"] is True
+    assert info[4]["padding"] is True and "episode" not in info[4]
+    assert np.array_equal(obs[[4, 2, 5]], [[1.0, 1.0], [2.0, 1.0], [3.0, 1.0]])
+    assert len(venv.envs) == 3 and venv.envs[0].resets == 2 and venv.envs[1].resets == 1
+    # step 4: a0 of copy 0 (slot 4) and a1 of copy 2 (slot 3) finish: slots 0, 4, 3 restart copy 1
+    obs, _, done, info = venv.step(actions)
+    assert done.tolist() == [True, False, False, True, True, False]
+    assert venv.get_attr("resets") == [2, 1, 2, 2, 2, 2]  # slot 1 still serves copy 2, the rest copies 0 and 1
+    assert venv.padding_steps == 2 + 1 + 1  # slot 4 in step 3, slot 0 in step 4
+
+
+def test_padding_share_falls_with_more_copies():
+    """A robot finishes at steps 1, 2, 3 of each team episode; with one copy a third of the
+    slot-steps are padding (the old adapter's share at any ``n_envs``), with more copies far less."""
+
+    def share(n_envs: int) -> float:
+        venv = TeamVecEnv(lambda: StaggeredEnv(n=3, horizon=10), n_envs=n_envs)
+        venv.reset()
+        for _ in range(60):
+            venv.step(np.zeros((venv.num_envs, 1), dtype=np.float32))
+        return venv.padding_share
+
+    assert share(1) == pytest.approx(1 / 3, abs=0.02)
+    assert share(8) < 0.05
+
+
+def test_evaluate_policy_counts_true_robot_returns():
+    """SB3's evaluate_policy sees Monitor-style episodes: each robot's return (1 per step), no padding."""
+    from stable_baselines3.common.evaluation import evaluate_policy
+
+    class Zero:
+        def predict(self, observation, state=None, episode_start=None, deterministic=False):
+            return np.zeros((len(observation), 1), dtype=np.float32), state
+
+    venv = TeamVecEnv(lambda: StaggeredEnv(n=3, horizon=10), n_envs=1)
+    returns, lengths = evaluate_policy(Zero(), venv, n_eval_episodes=30, return_episode_rewards=True, warn=True)
+    assert sorted(set(returns)) == [1.0, 2.0, 3.0] and returns == lengths
+    assert np.mean(returns) == pytest.approx(2.0)
+
+
+def test_refilled_runs_are_bit_identical():
+    def run() -> list[np.ndarray]:
+        venv = TeamVecEnv(lambda: teamgym.make("Navigation-v0", **CONFIG), n_envs=2)
+        venv.seed(3)
+        out = [venv.reset()]
+        rng = np.random.default_rng(0)
+        for _ in range(40):
+            actions = rng.uniform(-1, 1, size=(venv.num_envs, *venv.action_space.shape)).astype(np.float32)
+            obs, rewards, dones, _ = venv.step(actions)
+            out += [obs, rewards, dones]
+        return out
+
+    first, second = run(), run()
+    assert all(np.array_equal(a, b) for a, b in zip(first, second, strict=True))
+
+
+def test_action_masks_have_maskable_ppo_shape():
+    pytest.importorskip("sb3_contrib")
+    from sb3_contrib import MaskablePPO
+    from sb3_contrib.common.maskable.utils import get_action_masks
+
+    config = {"n_robots": 2, "action_type": "operator", "max_cycles": 30}
+    venv = TeamVecEnv(lambda: teamgym.make("Exploration-v0", **config), n_envs=2)
+    venv.reset()
+    masks = get_action_masks(venv)
+    assert masks.shape == (venv.num_envs, venv.action_space.n) and masks.dtype == bool
+    first = venv.envs[0]
+    assert np.array_equal(masks[1], first.action_mask("robot_1").astype(bool))
+    model = MaskablePPO("MlpPolicy", venv, n_steps=16, batch_size=32, n_epochs=1, seed=0)
+    model.learn(64)  # a masked action would raise inside the env
+    assert model.num_timesteps >= 64
 
 
 def test_is_success_is_the_teams_success_on_any_env():
@@ -178,7 +264,7 @@ def test_is_success_is_the_teams_success_on_any_env():
     venv.reset()
     for _ in range(2):
         _, _, done, info = venv.step(np.zeros((2, *venv.action_space.shape), dtype=np.float32))
-    assert done.all() and [i["is_success"] for i in info] == [False, False]
+    assert done.all() and [i.get("is_success") for i in info] == [False, None]  # once per team episode
 
 
 def test_is_success_reads_only_the_episode_contract(monkeypatch):
@@ -189,7 +275,8 @@ def test_is_success_reads_only_the_episode_contract(monkeypatch):
     venv.reset()
     for _ in range(3):
         _, _, done, info = venv.step(np.zeros(venv.num_envs, dtype=np.int64))
-    assert done.all() and all(i["is_success"] is True for i in info)
+    assert done.all() and info[0]["is_success"] is True
+    assert all("is_success" not in i for i in info[1:])  # once per team episode
 
 
 #: A small, easy task for the learning test: two robots, no obstacles, a 1 m arena, goals

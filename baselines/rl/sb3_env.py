@@ -1,60 +1,68 @@
-"""``TeamVecEnv``: a teamgym ``ParallelEnv`` as a Stable-Baselines3 ``VecEnv`` for parameter sharing.
+"""``TeamVecEnv``: teamgym ``ParallelEnv`` copies as one Stable-Baselines3 ``VecEnv`` for parameter sharing.
 
-Every ``(env copy, agent slot)`` pair is one SB3 sub-environment, so a single SB3 policy
-acts for every robot (parameter sharing) and SB3 sees ``n_envs × len(possible_agents)``
-independent-looking environments. Sub-environment ``k`` is agent
-``possible_agents[k % A]`` of env copy ``k // A`` (``A`` agents per copy).
+SB3 sees ``n_envs × A`` sub-environments (*slots*; ``A = len(possible_agents)``) and one
+policy acts for every robot (parameter sharing). Each slot carries one robot's episode at a
+time; timesteps count *agent* transitions.
 
-Padding scheme for agents that finish before their team mates
-----------------------------------------------------------------
+Slots are refilled across env copies
+------------------------------------
 
-A teamgym episode lasts until every agent has terminated or been truncated; agents
-drop out of ``env.agents`` one by one. For each slot:
+A teamgym episode lasts until every robot has finished; robots leave ``env.agents`` one by
+one (a Navigation robot that arrives, say). An adapter that ties slot ``k`` to robot
+``k % A`` of copy ``k // A`` must fill the slots of finished robots with padding until the
+whole team is done: on Navigation-v0 that was about a third of every PPO batch, zero
+observations that PPO trained on and counted as timesteps. Here a slot is free as soon as
+its robot finishes, and free slots are *re-filled*: as soon as ``A`` slots are free, an env
+copy whose episode is over (or a new copy from ``env_fn`` when none is idle) is reset and
+its ``A`` robots take those slots, longest-waiting slot first. The pool of copies grows
+only as far as needed (at most one copy per slot). Only a slot that waits for ``A - 1``
+others to free up is padding, so the padding share falls with ``n_envs``; it is counted in
+:attr:`TeamVecEnv.padding_share`. See docs/training.md for measured shares.
 
-1. While its agent is live, the slot reports the agent's own observation, reward and
-   ``done=False``.
-2. On the step its agent terminates or is truncated, the slot reports its reward and
-   ``done=True`` once, with ``info["terminal_observation"]`` (the agent's last
-   observation), ``info["TimeLimit.truncated"]`` (truncated and not terminated, so SB3
-   bootstraps the value), ``info["episode"] = {"r", "l", "t"}`` (for SB3's
-   ``ep_rew_mean`` logging, like ``Monitor``). The returned observation is all zeros.
-3. Until the whole env copy's episode ends, the slot is *padding*: zero observation,
-   zero reward, ``done=False``, ``info["padding"] = True``; its actions are ignored.
-4. On the step the env copy's episode ends (the last live agents finish) the copy is
-   reset automatically. Padding slots then report ``done=True`` with a zero
-   ``terminal_observation`` and ``TimeLimit.truncated=False``, so the padding steps form
-   their own zero-reward pseudo-episode that never bootstraps into the next real
-   episode (the value of the all-zero observation is simply learned to be 0). Every slot
-   of the copy returns the first observation of its agent's new episode.
+What a slot reports:
 
-Success: success is the team's (the episode contract, ``infos[agent]["success"]``), known
-only when the team's episode ends. On that step every slot of the copy reports
-``info["is_success"]``, the ``success`` of that step's infos, with its ``done=True``: the
-``done`` of an agent that finishes then, the padding ``done`` of step 4 for one that
-finished earlier. So each slot reports success exactly once per team episode and SB3's
-``rollout/success_rate`` is the team's success rate. Envs whose infos hold no
+1. While its robot is live: the robot's observation, reward and ``done=False``.
+2. On the step its robot finishes: its reward and ``done=True`` with
+   ``info["terminal_observation"]``, ``info["TimeLimit.truncated"]`` (truncated and not
+   terminated, so SB3 bootstraps the value) and ``info["episode"] = {"r", "l", "t"}`` (the
+   robot's true return and length, as ``Monitor`` writes them). The returned observation
+   is the first observation of the robot that takes the slot on this step, or zeros.
+3. While it waits for a robot: zero observation and reward, ``done=False``,
+   ``info["padding"] = True``; its actions are ignored. When a robot takes it, the wait
+   ends with ``done=True``, a zero ``terminal_observation``, ``TimeLimit.truncated=False``
+   and no ``"episode"`` (so SB3 never bootstraps a wait into a real episode, and episode
+   statistics skip it).
+
+Because slots write ``info["episode"]`` themselves, :meth:`TeamVecEnv.env_is_wrapped`
+answers ``True`` for ``Monitor``: SB3's ``evaluate_policy`` and ``EvalCallback`` then count
+robot episodes with their true returns and skip waits. Do not wrap this VecEnv in
+``VecMonitor``.
+
+Success is the team's (the episode contract, ``infos[agent]["success"]``), known when the
+team's episode ends. On that step ``info["is_success"]`` goes with the ``done`` of *one*
+robot that finishes then (the first in ``possible_agents`` order), so SB3's
+``rollout/success_rate`` counts each team episode once. Envs whose infos hold no
 ``success`` get no ``is_success``.
 
-Consequences: ``done`` counts are not episode counts (padding pseudo-episodes also end
-with ``done``); do not wrap this VecEnv in ``VecMonitor`` — episode statistics come from
-``info["episode"]`` as with ``Monitor``.
-
-Box actions are clipped to the action space before they reach the env (SB3's on-policy
-algorithms already clip; the env rejects out-of-bounds actions). Seeds set with
-:meth:`seed` (e.g. by ``PPO(..., seed=S)``) apply to the next :meth:`reset`: env copy
-``e`` is reset with the seed of its first slot, ``S + e·A``; automatic resets continue
-each copy's own random stream.
+Box actions are clipped to the action space before they reach the env. For ``Discrete`` and
+``MultiDiscrete`` actions with masks (Exploration's operator actions),
+:meth:`TeamVecEnv.action_masks` gives sb3-contrib's ``MaskablePPO`` one row per slot.
+Seeds set with :meth:`seed` (e.g. by ``PPO(..., seed=S)``) apply to the next
+:meth:`reset`: copy ``e`` is reset with ``S + e·A``, also copies added to the pool later;
+automatic resets continue each copy's own random stream, so runs are bit-identical.
 """
 
 from __future__ import annotations
 
 import time
+from collections import deque
 from collections.abc import Callable, Sequence
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
+from stable_baselines3.common.monitor import Monitor
 from stable_baselines3.common.vec_env import VecEnv
 from stable_baselines3.common.vec_env.base_vec_env import VecEnvIndices, VecEnvObs, VecEnvStepReturn
 
@@ -65,16 +73,17 @@ __all__ = ["TeamVecEnv"]
 
 
 class TeamVecEnv(VecEnv):
-    """``n_envs`` copies of a teamgym env, one SB3 sub-environment per (copy, agent slot).
+    """``n_envs × A`` SB3 sub-environments (slots) served by a pool of teamgym env copies.
 
     ``env_fn()`` must return a new :class:`~teamgym.envs.base.TeamEnv` (or any PettingZoo
     ``ParallelEnv`` whose agents share one observation and one action space). See the
-    module docstring for how agents that finish early are padded.
+    module docstring for how slots are refilled when robots finish early.
     """
 
     def __init__(self, env_fn: Callable[[], TeamEnv], n_envs: int = 1) -> None:
         if n_envs < 1:
             raise ValueError(f"n_envs must be >= 1, got {n_envs}")
+        self._env_fn = env_fn
         self.envs: list[TeamEnv] = [env_fn() for _ in range(n_envs)]
         first = self.envs[0]
         self.agent_names: list[str] = list(first.possible_agents)
@@ -84,38 +93,91 @@ class TeamVecEnv(VecEnv):
         observation_space = first.observation_space(self.agent_names[0])
         action_space = first.action_space(self.agent_names[0])
         for env in self.envs:
-            if list(env.possible_agents) != self.agent_names:
-                raise ValueError("every env copy must have the same possible_agents")
-            for agent in env.possible_agents:
-                if env.observation_space(agent) != observation_space or env.action_space(agent) != action_space:
-                    raise ValueError(
-                        f"agent {agent!r} has a different observation or action space than {self.agent_names[0]!r}; "
-                        "parameter sharing needs identical spaces"
-                    )
-        self._slot = {agent: j for j, agent in enumerate(self.agent_names)}
+            self._check_copy(env, observation_space, action_space)
         super().__init__(n_envs * self.agents_per_env, observation_space, action_space)
         self._obs = np.zeros((self.num_envs, *observation_space.shape), dtype=observation_space.dtype)
-        self._live = np.zeros(self.num_envs, dtype=bool)
         self._returns = np.zeros(self.num_envs, dtype=np.float64)
         self._lengths = np.zeros(self.num_envs, dtype=np.int64)
-        self._started = np.zeros(len(self.envs), dtype=np.float64)
         self._actions: np.ndarray | None = None
+        A = self.agents_per_env
+        self._copy_of = [k // A for k in range(self.num_envs)]  # the copy each slot serves (or served last)
+        self._agent_of: list[str | None] = [None] * self.num_envs  # the robot in each slot; None while waiting
+        self._slots: list[dict[str, int]] = [{} for _ in self.envs]  # per copy: live robot -> slot
+        self._started = [0.0 for _ in self.envs]
+        self._idle: deque[int] = deque()  # copies whose episode is over
+        self._waiting: deque[int] = deque()  # free slots, longest waiting first
+        self._base_seed: int | None = None
+        self.slot_steps = 0
+        self.padding_steps = 0
 
-    # -- helpers ---------------------------------------------------------------------
-    def _reset_copy(self, e: int, seed: int | None, options: dict | None) -> None:
-        """Reset env copy ``e`` and refill its slots."""
+    def _check_copy(self, env: TeamEnv, observation_space: spaces.Space, action_space: spaces.Space) -> None:
+        if list(env.possible_agents) != self.agent_names:
+            raise ValueError("every env copy must have the same possible_agents")
+        for agent in env.possible_agents:
+            if env.observation_space(agent) != observation_space or env.action_space(agent) != action_space:
+                raise ValueError(
+                    f"agent {agent!r} has a different observation or action space than {self.agent_names[0]!r}; "
+                    "parameter sharing needs identical spaces"
+                )
+
+    @property
+    def padding_share(self) -> float:
+        """Share of slot-steps since construction that were padding (a slot waiting for a robot)."""
+        return self.padding_steps / self.slot_steps if self.slot_steps else 0.0
+
+    # -- slots and copies ------------------------------------------------------------
+    def _start_copy(self, e: int, slots: Sequence[int], seed: int | None, options: dict | None) -> list[int]:
+        """Reset copy ``e`` and put its robots in ``slots`` (in ``possible_agents`` order); returns unused slots."""
         env = self.envs[e]
         observations, infos = env.reset(seed=seed, options=options or None)
-        base = e * self.agents_per_env
-        for j, agent in enumerate(self.agent_names):
-            k = base + j
-            live = agent in env.agents
-            self._live[k] = live
-            self._obs[k] = observations[agent] if live else 0
+        binding: dict[str, int] = {}
+        free = list(slots)
+        for agent in self.agent_names:
+            if agent not in env.agents or not free:
+                continue
+            k = free.pop(0)
+            binding[agent] = k
+            self._agent_of[k] = agent
+            self._copy_of[k] = e
+            self._obs[k] = observations[agent]
             self._returns[k] = 0.0
             self._lengths[k] = 0
             self.reset_infos[k] = dict(infos.get(agent, {}))
+        self._slots[e] = binding
         self._started[e] = time.time()
+        return free
+
+    def _copy_for_refill(self) -> tuple[int, int | None]:
+        """An idle copy (continuing its random stream), or a new one seeded after the others."""
+        if self._idle:
+            return self._idle.popleft(), None
+        env = self._env_fn()
+        self._check_copy(env, self.observation_space, self.action_space)
+        self.envs.append(env)
+        self._slots.append({})
+        self._started.append(0.0)
+        e = len(self.envs) - 1
+        seed = None if self._base_seed is None else self._base_seed + e * self.agents_per_env
+        return e, seed
+
+    def _refill(self, dones: np.ndarray, infos: list[dict[str, Any]]) -> None:
+        """Start copies for free slots, ``A`` at a time; a slot that waited closes its wait with ``done``."""
+        A = self.agents_per_env
+        while len(self._waiting) >= A:
+            slots = [self._waiting.popleft() for _ in range(A)]
+            for k in slots:
+                if not dones[k]:  # it waited: end the padding pseudo-episode
+                    dones[k] = True
+                    infos[k] = {
+                        "padding": True,
+                        "terminal_observation": np.zeros_like(self._obs[k]),
+                        "TimeLimit.truncated": False,
+                    }
+            e, seed = self._copy_for_refill()
+            unused = self._start_copy(e, slots, seed, None)
+            if len(unused) == A:  # the copy started with no live robot: nothing can take the slots
+                raise RuntimeError("an env copy started with no live agents")
+            self._waiting.extendleft(reversed(unused))
 
     @staticmethod
     def _team_outcome(env: TeamEnv, infos: dict[str, dict[str, Any]]) -> bool | None:
@@ -137,13 +199,26 @@ class TeamVecEnv(VecEnv):
 
     # -- VecEnv API ------------------------------------------------------------------
     def reset(self) -> VecEnvObs:
-        """Reset every env copy (using seeds/options set by :meth:`seed` / ``set_options``)."""
-        for e in range(len(self.envs)):
-            k = e * self.agents_per_env
-            self._reset_copy(e, self._seeds[k], self._options[k])
+        """Reset the first ``n_envs`` copies into slots ``e·A … e·A + A - 1`` (seeds/options from :meth:`seed`)."""
+        A = self.agents_per_env
+        self._base_seed = self._seeds[0] if self._seeds and self._seeds[0] is not None else None
+        self._agent_of = [None] * self.num_envs
+        self._slots = [{} for _ in self.envs]
+        self._waiting.clear()
+        self._idle = deque(range(self.num_envs // A, len(self.envs)))
+        for e in range(self.num_envs // A):
+            k = e * A
+            unused = self._start_copy(e, range(k, k + A), self._seeds[k], self._options[k])
+            self._waiting.extend(unused)
+        for k in self._waiting:
+            self._obs[k] = 0
         self._reset_seeds()
         self._reset_options()
         return self._obs.copy()
+
+    def seed(self, seed: int | None = None) -> Sequence[int | None]:
+        """Seeds for the next :meth:`reset`: slot ``k`` gets ``seed + k``; copy ``e`` is reset with ``seed + e·A``."""
+        return super().seed(seed)
 
     def step_async(self, actions: np.ndarray) -> None:
         self._actions = np.asarray(actions)
@@ -153,20 +228,26 @@ class TeamVecEnv(VecEnv):
             raise RuntimeError("step_wait() called without step_async()")
         actions, self._actions = self._actions, None
         if len(actions) != self.num_envs:
-            raise ValueError(f"expected {self.num_envs} actions (one per env copy and agent), got {len(actions)}")
+            raise ValueError(f"expected {self.num_envs} actions (one per slot), got {len(actions)}")
         rewards = np.zeros(self.num_envs, dtype=np.float32)
         dones = np.zeros(self.num_envs, dtype=bool)
         infos: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]
-        A = self.agents_per_env
+        self.slot_steps += self.num_envs
+        self.padding_steps += len(self._waiting)
+        for k in self._waiting:
+            infos[k] = {"padding": True}
         for e, env in enumerate(self.envs):
-            base = e * A
-            live = list(env.agents)
-            step_actions = {agent: self._convert(actions[base + self._slot[agent]]) for agent in live}
-            observations, step_rewards, terminations, truncations, step_infos = env.step(step_actions)
+            binding = self._slots[e]
+            if not binding:
+                continue
+            live = [agent for agent in self.agent_names if agent in binding]
+            observations, step_rewards, terminations, truncations, step_infos = env.step(
+                {agent: self._convert(actions[binding[agent]]) for agent in live}
+            )
             still_live = set(env.agents)
             outcome = self._team_outcome(env, step_infos)
             for agent in live:
-                k = base + self._slot[agent]
+                k = binding[agent]
                 reward = float(step_rewards.get(agent, 0.0))
                 rewards[k] = reward
                 self._returns[k] += reward
@@ -188,61 +269,80 @@ class TeamVecEnv(VecEnv):
                     }
                     if outcome is not None:
                         info["is_success"] = outcome
-                    self._live[k] = False
+                        outcome = None  # once per team episode
+                    del binding[agent]
+                    self._agent_of[k] = None
                     self._obs[k] = 0
+                    self._waiting.append(k)
                 else:
                     self._obs[k] = observations[agent]
                 infos[k] = info
-            for j in range(A):
-                k = base + j
-                if not self._live[k] and not dones[k]:
-                    infos[k] = {"padding": True}
             if not env.agents:
-                for j in range(A):
-                    k = base + j
-                    if not dones[k]:  # padding slot: close its zero pseudo-episode
-                        dones[k] = True
-                        infos[k] = {
-                            "padding": True,
-                            "terminal_observation": np.zeros_like(self._obs[k]),
-                            "TimeLimit.truncated": False,
-                        }
-                        if outcome is not None:
-                            infos[k]["is_success"] = outcome
-                self._reset_copy(e, None, None)
+                for agent in list(binding):  # robots the env dropped without a done flag
+                    self._waiting.append(binding.pop(agent))
+                self._idle.append(e)
+        self._refill(dones, infos)
         return self._obs.copy(), rewards, dones, infos
+
+    def action_masks(self) -> np.ndarray:
+        """One mask row per slot for sb3-contrib's ``MaskablePPO`` (waiting slots: every action allowed)."""
+        space = self.action_space
+        if isinstance(space, spaces.Discrete):
+            width = int(space.n)
+        elif isinstance(space, spaces.MultiDiscrete):
+            width = int(np.sum(space.nvec))
+        else:
+            raise TypeError(f"action masks need Discrete or MultiDiscrete actions, not {type(space).__name__}")
+        masks = np.ones((self.num_envs, width), dtype=bool)
+        for k, agent in enumerate(self._agent_of):
+            if agent is None:
+                continue
+            env = self.envs[self._copy_of[k]]
+            mask = env.action_masks().get(agent) if hasattr(env, "action_masks") else None
+            if mask is not None:
+                masks[k] = np.asarray(mask, dtype=bool).reshape(width)
+        return masks
 
     def close(self) -> None:
         for env in self.envs:
             env.close()
 
     def get_attr(self, attr_name: str, indices: VecEnvIndices = None) -> list[Any]:
-        """Attribute of the env copy behind each sub-environment (slots of one copy share it)."""
-        return [getattr(self.envs[k // self.agents_per_env], attr_name) for k in self._indices(indices)]
+        """Attribute of the env copy each slot serves (or served last, while it waits)."""
+        return [getattr(self.envs[self._copy_of[k]], attr_name) for k in self._indices(indices)]
 
     def set_attr(self, attr_name: str, value: Any, indices: VecEnvIndices = None) -> None:
-        """Set an attribute on the env copies behind ``indices`` (once per copy)."""
-        for e in sorted({k // self.agents_per_env for k in self._indices(indices)}):
+        """Set an attribute once per copy behind ``indices`` (``None``: every copy in the pool)."""
+        copies = range(len(self.envs)) if indices is None else sorted({self._copy_of[k] for k in self._indices(indices)})
+        for e in copies:
             setattr(self.envs[e], attr_name, value)
 
     def env_method(self, method_name: str, *method_args: Any, indices: VecEnvIndices = None, **method_kwargs: Any) -> list[Any]:
-        """Call a method once per env copy behind ``indices``; the result is repeated for each slot of a copy."""
+        """Call a method once per env copy behind ``indices``; the result is repeated for each slot it serves.
+
+        ``"action_masks"`` is answered per slot by :meth:`action_masks` (sb3-contrib's
+        ``get_action_masks`` asks every sub-environment through ``env_method``).
+        """
+        if method_name == "action_masks":
+            masks = self.action_masks()
+            return [masks[k] for k in self._indices(indices)]
         results: dict[int, Any] = {}
         out = []
         for k in self._indices(indices):
-            e = k // self.agents_per_env
+            e = self._copy_of[k]
             if e not in results:
                 results[e] = getattr(self.envs[e], method_name)(*method_args, **method_kwargs)
             out.append(results[e])
         return out
 
     def env_is_wrapped(self, wrapper_class: type[gym.Wrapper], indices: VecEnvIndices = None) -> list[bool]:
-        """teamgym envs are never gymnasium-wrapped."""
-        return [False for _ in self._indices(indices)]
+        """``True`` for ``Monitor`` only: slots write Monitor's ``info["episode"]`` themselves."""
+        wrapped = wrapper_class is Monitor
+        return [wrapped for _ in self._indices(indices)]
 
     def get_images(self) -> Sequence[np.ndarray | None]:
-        """One frame per sub-environment (the frame of its env copy) when ``render_mode="rgb_array"``."""
+        """One frame per slot (the frame of the copy it serves) when ``render_mode="rgb_array"``."""
         if self.render_mode != "rgb_array":
             return [None for _ in range(self.num_envs)]
-        frames = [env.render() for env in self.envs]
-        return [frames[k // self.agents_per_env] for k in range(self.num_envs)]
+        frames = {e: self.envs[e].render() for e in sorted(set(self._copy_of))}
+        return [frames[self._copy_of[k]] for k in range(self.num_envs)]
