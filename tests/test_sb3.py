@@ -407,3 +407,68 @@ def test_train_cli_bad_config_exits_2(tmp_path, capsys):
     assert train_main(["--set", "bogus=1", "--out", str(tmp_path / "m.zip")]) == 2
     assert "bogus" in capsys.readouterr().err
     assert not (tmp_path / "m.zip").exists()
+
+
+def test_worker_processes_match_the_seeding_of_one_process():
+    from baselines.rl.subproc import SubprocTeamVecEnv, split_copies
+
+    assert split_copies(5, 2) == [3, 2]
+    with pytest.raises(ValueError, match="n_workers"):
+        split_copies(1, 2)
+    one = TeamVecEnv(make_env, n_envs=3)
+    workers = SubprocTeamVecEnv(make_env, n_envs=3, n_workers=2)
+    try:
+        assert workers.num_envs == one.num_envs == 6 and workers.observation_space == one.observation_space
+        one.seed(5)
+        workers.seed(5)
+        assert np.array_equal(one.reset(), workers.reset())  # copy e reset with 5 + e·A in both
+        rng = np.random.default_rng(0)
+        steps = 0
+        while steps < 3 * CONFIG["max_cycles"]:
+            actions = rng.uniform(-1, 1, size=(6, *one.action_space.shape)).astype(np.float32)
+            a, b = one.step(actions), workers.step(actions)
+            steps += 1
+            if not any(b[2]):  # identical until the first refill, which draws from each worker's own pool
+                assert all(np.array_equal(x, y) for x, y in zip(a[:3], b[:3]))
+        assert workers.get_attr("possible_agents", [0])[0] == ["robot_0", "robot_1"]
+        assert 0.0 <= workers.padding_share < 1.0
+        assert workers.env_is_wrapped(Monitor) == [True] * 6
+    finally:
+        workers.close()
+        one.close()
+
+
+def test_worker_runs_are_bit_identical():
+    from baselines.rl.subproc import SubprocTeamVecEnv
+
+    def run() -> tuple[list[np.ndarray], list[int]]:
+        venv = SubprocTeamVecEnv(make_env, n_envs=3, n_workers=2)
+        venv.seed(11)
+        out = [venv.reset()]
+        rng = np.random.default_rng(1)
+        for _ in range(3 * CONFIG["max_cycles"]):
+            obs, rewards, dones, _ = venv.step(rng.uniform(-1, 1, size=(6, 2)).astype(np.float32))
+            out += [obs, rewards, dones]
+        venv.close()
+        return out
+
+    first, second = run(), run()
+    assert all(np.array_equal(a, b) for a, b in zip(first, second, strict=True))
+
+
+class SeedRecordingEnv(StaggeredEnv):
+    def reset(self, seed=None, options=None):
+        self.seeds = [*getattr(self, "seeds", []), seed]
+        return super().reset(seed, options)
+
+
+def test_copies_added_to_the_pool_get_their_own_seeds():
+    """A worker's pool copies are numbered after every worker's first copies, interleaved by worker."""
+    venv = TeamVecEnv(lambda: SeedRecordingEnv(n=3, horizon=10), n_envs=2)
+    venv.slot_offset, venv.extra_copy_numbers = 6, (5, 2)  # as worker 1 of 2 serving copies 2-3 of 5
+    venv.seed(100 + 6)
+    venv.reset()
+    for _ in range(4):
+        venv.step(np.zeros((6, 1), dtype=np.float32))
+    assert [env.seeds[0] for env in venv.envs] == [106, 109, 115]  # copies 2, 3, then number 5 (seed 100 + 5·3)
+    assert venv.envs[0].seeds[1:] == [None]  # an idle copy restarts on its own stream

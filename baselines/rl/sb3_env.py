@@ -48,7 +48,8 @@ Box actions are clipped to the action space before they reach the env. For ``Dis
 ``MultiDiscrete`` actions with masks (Exploration's operator actions),
 :meth:`TeamVecEnv.action_masks` gives sb3-contrib's ``MaskablePPO`` one row per slot.
 Seeds set with :meth:`seed` (e.g. by ``PPO(..., seed=S)``) apply to the next
-:meth:`reset`: copy ``e`` is reset with ``S + e·A``, also copies added to the pool later;
+:meth:`reset`: copy ``e`` is reset with ``S + e·A``, also copies added to the pool later
+(numbered from ``n_envs`` on);
 automatic resets continue each copy's own random stream, so runs are bit-identical.
 """
 
@@ -107,6 +108,12 @@ class TeamVecEnv(VecEnv):
         self._idle: deque[int] = deque()  # copies whose episode is over
         self._waiting: deque[int] = deque()  # free slots, longest waiting first
         self._base_seed: int | None = None
+        #: Copies added to the pool are numbered ``start + j·stride`` (``j`` = 0, 1, …) for
+        #: seeding, after the ``n_envs`` first ones; :class:`~baselines.rl.subproc.SubprocTeamVecEnv`
+        #: interleaves its workers' numbers so no two copies share a seed.
+        self.extra_copy_numbers = (n_envs, 1)
+        #: Global index of this VecEnv's first slot when it serves part of a larger one (workers).
+        self.slot_offset = 0
         self.slot_steps = 0
         self.padding_steps = 0
 
@@ -157,7 +164,9 @@ class TeamVecEnv(VecEnv):
         self._slots.append({})
         self._started.append(0.0)
         e = len(self.envs) - 1
-        seed = None if self._base_seed is None else self._base_seed + e * self.agents_per_env
+        start, stride = self.extra_copy_numbers
+        number = start + (e - self.num_envs // self.agents_per_env) * stride
+        seed = None if self._base_seed is None else self._base_seed + number * self.agents_per_env
         return e, seed
 
     def _refill(self, dones: np.ndarray, infos: list[dict[str, Any]]) -> None:
@@ -201,11 +210,16 @@ class TeamVecEnv(VecEnv):
     def reset(self) -> VecEnvObs:
         """Reset the first ``n_envs`` copies into slots ``e·A … e·A + A - 1`` (seeds/options from :meth:`seed`)."""
         A = self.agents_per_env
-        self._base_seed = self._seeds[0] if self._seeds and self._seeds[0] is not None else None
+        first = self._seeds[0] if self._seeds else None
+        self._base_seed = None if first is None else first - self.slot_offset
+        for env in self.envs[self.num_envs // A :]:  # copies added by refills: a reset starts afresh
+            env.close()
+        del self.envs[self.num_envs // A :]
         self._agent_of = [None] * self.num_envs
         self._slots = [{} for _ in self.envs]
+        self._started = [0.0 for _ in self.envs]
         self._waiting.clear()
-        self._idle = deque(range(self.num_envs // A, len(self.envs)))
+        self._idle.clear()
         for e in range(self.num_envs // A):
             k = e * A
             unused = self._start_copy(e, range(k, k + A), self._seeds[k], self._options[k])
