@@ -30,6 +30,9 @@ class Policy(ABC):
     env_ids: ClassVar[tuple[str, ...]] = ()
     #: Observation fields (names of ``env.layout``) the policy decodes; empty: none.
     observation_fields: ClassVar[tuple[str, ...]] = ()
+    #: Whether the policy's continuous actions are in the action type's native units (scripted
+    #: policies); such a policy cannot drive an env built with ``normalize_actions=True``.
+    native_actions: ClassVar[bool] = True
 
     def __init__(self, env: TeamEnv) -> None:
         self.env = env
@@ -49,6 +52,11 @@ class Policy(ABC):
     @classmethod
     def check_env(cls, env: TeamEnv, name: str | None = None) -> None:
         """Raise ``ValueError`` naming the policy, the env and what is missing if the policy cannot drive ``env``."""
+        if cls.native_actions and getattr(getattr(env, "config", None), "normalize_actions", False):
+            raise ValueError(
+                f"policy {name or cls.name!r} acts in native units and cannot drive an env with normalize_actions=True "
+                "(evaluate it without: the task is the same)"
+            )
         if not (cls.env_ids or cls.observation_fields):
             return
         env_id = env_id_of(env)
@@ -71,6 +79,7 @@ class RandomPolicy(Policy):
     """Uniformly random actions from each agent's action space (seeded by ``reset``)."""
 
     name = "random"
+    native_actions = False  # samples the env's own action space
 
     def reset(self, seed: int | None = None) -> None:
         super().reset(seed)

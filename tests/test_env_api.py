@@ -29,6 +29,14 @@ def env_cases():
                 cases.append(pytest.param(env_id, config, id=f"{env_id}-{kind or 'default'}{suffix}"))
         comm = {"max_cycles": 25, "obs_format": "dict", "comm_dim": 2, "comm_throughput": 0.5, "comm_latency": 1}
         cases.append(pytest.param(env_id, comm, id=f"{env_id}-comm"))
+        for kind in kinds:  # unit-scaled actions on every continuous action type
+            config = {"max_cycles": 25, "normalize_actions": True, **({"action_type": kind} if kind else {})}
+            try:
+                teamgym.make(env_id, **config).close()
+            except teamgym.ConfigError:
+                continue  # a discrete action type
+            cases.append(pytest.param(env_id, config, id=f"{env_id}-{kind or 'default'}-unit"))
+    cases.append(pytest.param("Navigation-v0", {"max_cycles": 25, "local_features": True}, id="Navigation-v0-local"))
     return cases
 
 

@@ -91,12 +91,13 @@ def same_steps(a, b):
 
 
 def test_every_key_is_covered_and_accepted():
-    assert set(EVERY_KEY) == set(ExplorationConfig.field_names())
+    # normalize_actions needs a continuous action type (tests/test_rl_options.py covers it)
+    assert set(EVERY_KEY) | {"normalize_actions"} == set(ExplorationConfig.field_names())
     defaults = ExplorationConfig()
     for key, value in EVERY_KEY.items():
         assert getattr(defaults, key) != value, key
     env = teamgym.make("Exploration-v0", **EVERY_KEY)
-    assert env.config.as_dict() == EVERY_KEY
+    assert env.config.as_dict() == {**EVERY_KEY, "normalize_actions": False}
     env.reset(seed=0)
     assert not env.doors["D2"].is_open and env.doors["D1"].is_open
     assert env.world.of_kind(Category.FURNITURE) == []

@@ -47,6 +47,7 @@ EVERY_KEY = dict(
     collision_penalty=2.0,
     arrival_bonus=20.0,
     time_penalty=0.02,
+    local_features=True,
     obs_format="dict",
     comm_dim=2,
     comm_range=1.0,
@@ -57,7 +58,8 @@ EVERY_KEY = dict(
 
 
 def test_every_documented_key_is_covered():
-    assert set(EVERY_KEY) == set(NavigationConfig.field_names())
+    # normalize_actions needs a continuous action type (tests/test_rl_options.py covers it)
+    assert set(EVERY_KEY) | {"normalize_actions"} == set(NavigationConfig.field_names())
     defaults = NavigationConfig()
     for key, value in EVERY_KEY.items():
         assert getattr(defaults, key) != value, f"{key}: pick a non-default value"
@@ -65,7 +67,7 @@ def test_every_documented_key_is_covered():
 
 def test_make_with_every_key():
     env = teamgym.make("Navigation-v0", **EVERY_KEY)
-    assert env.config.as_dict() == EVERY_KEY
+    assert env.config.as_dict() == {**EVERY_KEY, "normalize_actions": False}
     observations, _ = env.reset(seed=0)
     assert env.possible_agents == [f"robot_{i}" for i in range(4)]
     assert len(env.obstacles) == 3

@@ -112,6 +112,7 @@ class SB3Policy(Policy):
     """
 
     name = "sb3"
+    native_actions = False  # the model acts in the space it was trained on
 
     def __init__(self, env: TeamEnv, model: Any, deterministic: bool = True) -> None:
         super().__init__(env)

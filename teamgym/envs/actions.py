@@ -106,6 +106,51 @@ class WheelSpeedAction(ActionType):
         return body_command(float(action[0]), float(action[1]), self.spec.wheel_base)
 
 
+class UnitScaled(ActionType):
+    """A continuous type with every action dimension rescaled to [-1, 1] (config ``normalize_actions``).
+
+    Action ``a`` in ``Box(-1, 1)`` drives the robot as the wrapped type's action
+    ``low + (a + 1)·(high − low)/2``, so a policy whose outputs are unit-scaled (SB3's and
+    RLlib's Gaussian policies start at mean 0, std 1) covers the whole range on every axis,
+    whatever the units (m/s beside rad/s). Everything else is the wrapped type's.
+    """
+
+    def __init__(self, inner: ActionType) -> None:
+        space = inner.space()
+        if not isinstance(space, spaces.Box):
+            raise TypeError(f"action type {inner.name!r} is not continuous ({type(space).__name__}); only Box actions rescale")
+        self.inner = inner
+        self.name = inner.name
+        self.is_macro = inner.is_macro
+        self.has_masks = inner.has_masks
+        self.low = space.low.astype(np.float64)
+        self.half_range = (space.high.astype(np.float64) - self.low) / 2
+        self.shape = space.shape
+
+    def native(self, action: Any) -> np.ndarray:
+        """The wrapped type's action for unit-scaled ``action``."""
+        return self.low + (np.asarray(action, dtype=np.float64) + 1.0) * self.half_range
+
+    def unit(self, native: Any) -> np.ndarray:
+        """The unit-scaled action for the wrapped type's ``native`` action (inverse of :meth:`native`)."""
+        return ((np.asarray(native, dtype=np.float64) - self.low) / self.half_range - 1.0).astype(np.float32)
+
+    def space(self) -> spaces.Box:
+        return spaces.Box(-1.0, 1.0, shape=self.shape, dtype=np.float32)
+
+    def start(self, env: TeamEnv, actions: dict[str, Any]) -> None:
+        self.inner.start(env, {agent: self.native(action) for agent, action in actions.items()})
+
+    def act(self, env: TeamEnv, agent: str, action: Any) -> tuple[float, float]:
+        return self.inner.act(env, agent, self.native(action))
+
+    def stage_over(self, env: TeamEnv) -> bool:
+        return self.inner.stage_over(env)
+
+    def describe(self, action: Any) -> str:
+        return f"{action!r} (unit-scaled; {self.inner.describe(self.native(action))})"
+
+
 class WithMessage(ActionType):
     """A motion action plus a message: ``Dict(motion=..., message=...)``.
 

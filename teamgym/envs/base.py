@@ -39,7 +39,7 @@ import numpy as np
 from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
-from teamgym.envs.actions import ActionType, WithMessage
+from teamgym.envs.actions import ActionType, UnitScaled, WithMessage
 from teamgym.envs.config import ConfigError, EnvConfig
 from teamgym.envs.spaces import ActionChecker, Field, ObservationLayout
 from teamgym.sim.channel import Channel, ChannelConfig
@@ -86,6 +86,11 @@ class TeamEnv(ParallelEnv):
         self._ensure_feasible()
         c = self.config
         action_type = self._make_action_type()
+        if c.normalize_actions:
+            try:
+                action_type = UnitScaled(action_type)
+            except TypeError as error:
+                raise ConfigError(f"{type(self.config).__name__}: normalize_actions=True is invalid; {error}") from None
         self.action_type: ActionType = WithMessage(action_type, c.comm_dim) if c.comm_dim else action_type
         self.layout: ObservationLayout = self._make_layout()
         reserved = [f.name for f in self.layout.fields if f.name in self.INBOX_FIELDS]

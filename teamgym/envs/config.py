@@ -123,6 +123,10 @@ class EnvConfig:
     comm_range, comm_throughput, comm_latency, comm_byte_budget:
         The radio of :class:`teamgym.sim.channel.Channel`: range in m (None: unlimited),
         delivery probability, latency in control steps, bytes per robot per step (None: no limit).
+    normalize_actions:
+        Continuous actions as ``Box(-1, 1)`` on every axis, mapped linearly onto the action
+        type's native range (:class:`teamgym.envs.actions.UnitScaled`); for RL. Scripted
+        baselines act in native units and refuse it. A discrete action type cannot be built with it.
     """
 
     max_cycles: int = 400
@@ -134,6 +138,7 @@ class EnvConfig:
     comm_throughput: float = 1.0
     comm_latency: int = 0
     comm_byte_budget: int | None = None
+    normalize_actions: bool = False
 
     #: Fastest speed (m/s) a body of the env can reach; bounds the substep length (see ``check``).
     body_speed_keys: ClassVar[tuple[str, ...]] = ()

@@ -10,7 +10,12 @@ from teamgym.envs.config import EnvConfig, require
 
 @dataclass(frozen=True)
 class NavigationConfig(EnvConfig):
-    """Configuration of ``Navigation-v0`` (SI units; angles of the heading set in deg/s)."""
+    """Configuration of ``Navigation-v0`` (SI units; angles of the heading set in deg/s).
+
+    ``local_features`` appends the goal, team mates and obstacles in the robot's own frame
+    (fields ``goal_local``, ``mates_local``, ``obstacles_local``) after the paper's fields,
+    which stay as they are; for learned policies (an MLP need not learn the rotation).
+    """
 
     body_speed_keys: ClassVar[tuple[str, ...]] = ("max_wheel_speed", "obstacle_speed")
     default_body_speed: ClassVar[float] = 0.0
@@ -45,6 +50,7 @@ class NavigationConfig(EnvConfig):
     collision_penalty: float = 1.0
     arrival_bonus: float = 10.0
     time_penalty: float = 0.01
+    local_features: bool = False
 
     def check(self) -> None:
         super().check()

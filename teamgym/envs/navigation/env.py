@@ -132,8 +132,15 @@ class Navigation(TeamEnv):
                 ("mates", (n - 1, 5)),
                 ("obstacles", (m, 5)),
                 ("proximity", (len(KHEPERA_RING),)),
+                *self._local_fields(),
             ]
         )
+
+    def _local_fields(self) -> list[tuple[str, tuple[int, ...]]]:
+        if not self.config.local_features:
+            return []
+        n, m = self.config.n_robots, self.config.n_obstacles
+        return [("goal_local", (2,)), ("mates_local", (n - 1, 4)), ("obstacles_local", (m, 4))]
 
     def _build(self, rng: np.random.Generator) -> None:
         c = self.config
@@ -396,6 +403,35 @@ class Navigation(TeamEnv):
             block[:, :, 4] = self._obstacle_radii[None, :]
             out[:, s["obstacles"]] = block.reshape(k, -1)
         out[:, s["proximity"]] = self._proximity[rows]
+        if self.config.local_features:
+            self._observe_local(out, rows)
+
+    def _observe_local(self, out: np.ndarray, rows: np.ndarray) -> None:
+        """Goal offset, mates' and obstacles' offsets and velocities rotated into each robot's frame (x ahead, y left)."""
+        s, k = self.layout.slices, len(rows)
+        own, theta = self._pos[rows], self._theta[rows]
+        cos, sin = np.cos(theta)[:, None], np.sin(theta)[:, None]
+
+        def rotate(dx: np.ndarray, dy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            return cos * dx + sin * dy, -sin * dx + cos * dy
+
+        gx, gy = rotate(self.goals[rows, 0:1] - own[:, 0:1], self.goals[rows, 1:2] - own[:, 1:2])
+        out[:, s["goal_local"]] = np.concatenate([gx, gy], axis=1)
+        if self.config.n_robots > 1:
+            others = self._others[rows]
+            block = np.empty((k, others.shape[1], 4))
+            offset = self._pos[others] - own[:, None, :]
+            block[:, :, 0], block[:, :, 1] = rotate(offset[:, :, 0], offset[:, :, 1])
+            speed, heading = self._vel[others, 0], self._theta[others]
+            block[:, :, 2], block[:, :, 3] = rotate(speed * np.cos(heading), speed * np.sin(heading))
+            out[:, s["mates_local"]] = block.reshape(k, -1)
+        if self.obstacles:
+            block = np.empty((k, len(self._obs_pos), 4))
+            offset = self._obs_pos[None, :, :] - own[:, None, :]
+            block[:, :, 0], block[:, :, 1] = rotate(offset[:, :, 0], offset[:, :, 1])
+            velocity = np.broadcast_to(self._obs_vel[None, :, :], offset.shape)
+            block[:, :, 2], block[:, :, 3] = rotate(velocity[:, :, 0], velocity[:, :, 1])
+            out[:, s["obstacles_local"]] = block.reshape(k, -1)
 
     def _metrics(self, agent: str) -> dict[str, Any]:
         i = self._index[agent]
