@@ -24,7 +24,16 @@ from gymnasium import spaces
 from baselines.policy import Policy
 from teamgym.envs.base import TeamEnv
 
-__all__ = ["ALGORITHMS", "SB3Policy", "algorithm_class", "detect_algorithm", "read_sidecar", "resolve_model"]
+__all__ = [
+    "AGENT_DIR",
+    "ALGORITHMS",
+    "SB3Policy",
+    "algorithm_class",
+    "detect_algorithm",
+    "read_sidecar",
+    "resolve_model",
+    "shipped_agents",
+]
 
 #: algorithm name -> Stable-Baselines3 class name
 ALGORITHMS: dict[str, str] = {"ppo": "PPO", "a2c": "A2C", "sac": "SAC", "td3": "TD3", "ddpg": "DDPG", "dqn": "DQN"}
@@ -40,14 +49,30 @@ def algorithm_class(name: str) -> type:
     return getattr(stable_baselines3, ALGORITHMS[key])
 
 
+#: Trained agents shipped with the package: ``<name>.zip`` and its sidecar ``<name>.json``.
+AGENT_DIR = Path(__file__).with_name("agents")
+
+
+def shipped_agents() -> list[str]:
+    """Names of the trained agents shipped in :data:`AGENT_DIR` (``sb3:<name>`` loads one)."""
+    return sorted(path.stem for path in AGENT_DIR.glob("*.zip"))
+
+
 def resolve_model(path: str | Path) -> Path:
-    """The saved model file ``path`` names (``.zip`` may be left out); ``FileNotFoundError`` if there is none."""
+    """The saved model file ``path`` names (``.zip`` may be left out), or the shipped agent of that name.
+
+    A file at ``path`` wins over a shipped agent; ``FileNotFoundError`` if there is neither.
+    """
+    text = str(path)
     path = Path(path)
     if path.is_file():
         return path
     if path.suffix != ".zip" and path.with_name(path.name + ".zip").is_file():
         return path.with_name(path.name + ".zip")
-    raise FileNotFoundError(f"no saved SB3 model at {str(path)!r}")
+    if text and "/" not in text and "\\" not in text and (AGENT_DIR / f"{path.stem}.zip").is_file():
+        return AGENT_DIR / f"{path.stem}.zip"
+    shipped = ", ".join(shipped_agents()) or "none"
+    raise FileNotFoundError(f"no saved SB3 model at {text!r} (shipped agents: {shipped})")
 
 
 def read_sidecar(path: str | Path) -> dict[str, Any] | None:

@@ -1,0 +1,211 @@
+"""Scripted vs learned on one env: the paper's baseline, the simple ones, a trained agent and random, on held-out seeds.
+
+Command line::
+
+    python -m baselines.rl.compare --env Navigation-v0 --agent navigation-ppo
+        [--episodes 100] [--seed 20000] [--workers 2] [--set key=value ...] [--out DIR]
+
+Every policy plays the same seeds ``S .. S+K-1`` (never used to reset a training env: those
+start at the training seed, and held-out evaluation during training starts at 10 000) through
+:func:`baselines.evaluate.evaluate`. Scripted policies run on the env's default config plus
+``--set`` and what they require (``nash`` its heading actions); the agent runs on the config
+saved beside it plus ``--set``. The agent's config may change only how actions and observations
+are encoded and the reward weights (see :mod:`baselines.rl.presets`), never the task, so every row
+is judged on the same task.
+
+The table (printed, and written to ``DIR/comparison.md`` and ``DIR/comparison.json``) gives per
+policy: success with its Wilson 95 % interval; *clean* success (success and no contact of any
+robot, for envs that count collisions); the time to success (s: the last robot's arrival where
+the env reports ``time_to_goal``, else ``length × dt`` of successful episodes); path length per
+robot (m) and collisions per robot, as means with 95 % intervals. With ``--curve``, the agent's
+learning curve (its ``<agent>_eval.csv``) is drawn with the scripted rows' success as lines.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from baselines.episode import EpisodeResult
+from baselines.stats import mean_ci, wilson
+
+__all__ = ["SCRIPTED", "compare", "main", "row_of"]
+
+#: Per env: the paper's baseline first, then the simple ones and random (label, policy name).
+SCRIPTED: dict[str, list[tuple[str, str]]] = {
+    "Navigation-v0": [("nash (paper 001)", "nash"), ("goto", "goto"), ("random", "random")],
+    "Exploration-v0": [("nash-explore (paper 000)", "nash-explore"), ("greedy", "greedy"), ("random", "random-admissible")],
+    "BoxPushing-v0": [("sbs (paper 004)", "sbs"), ("cooperative-push", "cooperative-push"), ("random", "random")],
+    "BoxPushing-v1": [("sbs (paper 004)", "sbs"), ("cooperative-push", "cooperative-push"), ("random", "random")],
+}
+
+
+def _metric(result: EpisodeResult, name: str) -> list[float]:
+    return [float(m[name]) for m in result.metrics.values() if name in m and m[name] is not None]
+
+
+def _time_to_success(result: EpisodeResult, dt: float | None) -> float | None:
+    if not result.success:
+        return None
+    arrivals = _metric(result, "time_to_goal")
+    if arrivals:
+        return max(arrivals)
+    return result.length * dt if dt else None
+
+
+def row_of(label: str, policy: str, results: Sequence[EpisodeResult], dt: float | None) -> dict[str, Any]:
+    """One table row: rates with Wilson intervals, means with 95 % half-widths."""
+    n = len(results)
+    successes = sum(r.success for r in results)
+    has_collisions = any(_metric(r, "collisions") for r in results)
+    clean = sum(r.success and sum(_metric(r, "collisions")) == 0 for r in results) if has_collisions else None
+    times = [t for t in (_time_to_success(r, dt) for r in results) if t is not None]
+    paths = [float(np.mean(_metric(r, "path_length"))) for r in results if _metric(r, "path_length")]
+    collisions = [float(np.mean(_metric(r, "collisions"))) for r in results if _metric(r, "collisions")]
+    return {
+        "label": label,
+        "policy": policy,
+        "episodes": n,
+        "success": successes / n,
+        "success_ci": list(wilson(successes, n)),
+        "clean_success": None if clean is None else clean / n,
+        "clean_success_ci": None if clean is None else list(wilson(clean, n)),
+        "time_to_success": mean_ci(times),
+        "path_length": mean_ci(paths),
+        "collisions": mean_ci(collisions),
+    }
+
+
+def _rate(value: float | None, ci: Sequence[float] | None) -> str:
+    if value is None or ci is None:
+        return "–"
+    low, high = (max(0.0, 100 * ci[0]), min(100.0, 100 * ci[1]))
+    return f"{100 * value:.0f} % [{low:.0f}, {high:.0f}]"
+
+
+def _mean(stats: Mapping[str, float], digits: int) -> str:
+    if not stats["n"]:
+        return "–"
+    half = "" if math.isnan(stats["ci95"]) else f" ± {stats['ci95']:.{digits}f}"
+    return f"{stats['mean']:.{digits}f}{half}"
+
+
+def markdown(rows: Sequence[Mapping[str, Any]]) -> str:
+    """The comparison as a markdown table."""
+    lines = [
+        "| policy | success | clean success (no contact) | time to success (s) | path length / robot (m) | collisions / robot |",
+        "|---|---|---|---|---|---|",
+    ]
+    for row in rows:
+        lines.append(
+            f"| {row['label']} | {_rate(row['success'], row['success_ci'])} | "
+            f"{_rate(row['clean_success'], row['clean_success_ci'])} | {_mean(row['time_to_success'], 1)} | "
+            f"{_mean(row['path_length'], 2)} | {_mean(row['collisions'], 2)} |"
+        )
+    return "\n".join(lines)
+
+
+def compare(
+    env_id: str,
+    agent: str | None,
+    episodes: int = 100,
+    seed: int = 20_000,
+    workers: int = 1,
+    task: Mapping[str, Any] | None = None,
+    policies: Sequence[tuple[str, str]] | None = None,
+) -> list[dict[str, Any]]:
+    """Rows for the scripted policies of ``env_id`` (or ``policies``) and ``sb3:<agent>``, on seeds ``seed ..``."""
+    import teamgym
+    from baselines.evaluate import evaluate
+    from baselines.registry import required_config
+    from baselines.rl.sb3_policy import read_sidecar, resolve_model
+
+    task = dict(task or {})
+    entries = list(policies if policies is not None else SCRIPTED.get(env_id, [("random", "random")]))
+    agent_config: dict[str, Any] = {}
+    if agent is not None:
+        path = resolve_model(agent)
+        sidecar = read_sidecar(path) or {}
+        if sidecar.get("env") not in (None, env_id):
+            raise ValueError(f"agent {agent!r} was trained on {sidecar['env']}, not {env_id}")
+        agent_config = dict(sidecar.get("config") or {})
+        entries.insert(-1 if entries and entries[-1][0] == "random" else len(entries), (f"trained: {agent}", f"sb3:{path}"))
+    dt = float(teamgym.make(env_id, **task).config.dt)
+    rows = []
+    for label, policy in entries:
+        config = {**agent_config, **task} if policy.startswith("sb3:") else {**required_config(policy), **task}
+        results = evaluate(env_id, policy, episodes=episodes, seed=seed, config=config, workers=workers)
+        rows.append(row_of(label, policy, results, dt))
+    return rows
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="python -m baselines.rl.compare", description=__doc__.splitlines()[0])
+    parser.add_argument("--env", default="Navigation-v0")
+    parser.add_argument("--agent", default=None, help="a shipped agent name or a model path (sb3); none: scripted only")
+    parser.add_argument("--episodes", type=int, default=100)
+    parser.add_argument("--seed", type=int, default=20_000, help="first held-out seed")
+    parser.add_argument("--workers", type=int, default=1)
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="task config for every policy")
+    parser.add_argument("--out", default=None, help="directory for comparison.md/.json (and curve.png)")
+    parser.add_argument("--curve", action="store_true", help="draw the agent's learning curve (needs its _eval.csv)")
+    return parser
+
+
+def _task(items: Sequence[str]) -> dict[str, str]:
+    task = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip():
+            raise ValueError(f"--set expects key=value, got {item!r}")
+        task[key.strip()] = value.strip()
+    return task
+
+
+def _curve(agent: str, rows: Sequence[Mapping[str, Any]], out: Path) -> Path:
+    from baselines.rl.plot_curves import load_curves, plot_curves
+    from baselines.rl.sb3_policy import resolve_model
+
+    path = resolve_model(agent)
+    csv = path.with_name(f"{path.stem}_eval.csv")
+    if not csv.is_file():
+        raise FileNotFoundError(f"no learning curve beside the agent: {str(csv)!r}")
+    curves = load_curves({f"trained: {agent}": [csv]}, "success_rate")
+    lines = [(row["label"], row["success"], "") for row in rows if not row["policy"].startswith("sb3:")]
+    return plot_curves(curves, out / "curve.png", "success_rate", lines, title=f"{agent}: held-out success while training")
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        if args.episodes < 1 or args.seed < 0 or args.workers < 1:
+            raise ValueError("--episodes and --workers must be >= 1 and --seed >= 0")
+        if args.curve and (args.agent is None or args.out is None):
+            raise ValueError("--curve needs --agent and --out")
+        rows = compare(args.env, args.agent, args.episodes, args.seed, args.workers, _task(args.set))
+    except (ValueError, KeyError, FileNotFoundError) as error:
+        parser.exit(2, f"error: {str(error).strip(chr(39) + chr(34))}\n")
+    table = markdown(rows)
+    print(f"{args.env}, {args.episodes} held-out seeds from {args.seed}" + (f", task {args.set}" if args.set else ""))
+    print(table)
+    if args.out:
+        out = Path(args.out)
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "comparison.md").write_text(table + "\n")
+        record = {"env": args.env, "seed": args.seed, "episodes": args.episodes, "task": args.set, "rows": rows}
+        (out / "comparison.json").write_text(json.dumps(record, indent=2))
+        if args.curve:
+            print(f"wrote {_curve(args.agent, rows, out)}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,133 @@
+"""``baselines.rl.compare`` (scripted vs learned tables) and shipped agents loaded by name."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from baselines.episode import EpisodeResult
+from baselines.rl import compare as compare_module
+from baselines.rl.compare import compare, main, markdown, row_of
+
+
+def result(seed, success, collisions, arrivals, path=1.0, length=50):
+    metrics = {
+        f"robot_{i}": {"collisions": c, "path_length": path, **({"time_to_goal": t} if t is not None else {})}
+        for i, (c, t) in enumerate(zip(collisions, arrivals))
+    }
+    return EpisodeResult(seed=seed, length=length, success=success, returns={a: 0.0 for a in metrics}, metrics=metrics)
+
+
+def test_row_statistics():
+    results = [
+        result(0, True, [0, 0], [3.0, 5.0]),
+        result(1, True, [1, 0], [4.0, 6.0]),
+        result(2, False, [0, 2], [None, 7.0]),
+        result(3, True, [0, 0], [2.0, 2.0]),
+    ]
+    row = row_of("x", "goto", results, dt=0.1)
+    assert row["success"] == 0.75 and row["clean_success"] == 0.5
+    assert row["success_ci"][0] < 0.75 < row["success_ci"][1]
+    assert row["time_to_success"]["mean"] == pytest.approx((5 + 6 + 2) / 3)  # the last robot's arrival
+    assert row["collisions"]["mean"] == pytest.approx((0 + 0.5 + 1 + 0) / 4)
+    no_times = row_of("y", "p", [result(0, True, [0], [None], length=40)], dt=0.1)
+    assert no_times["time_to_success"]["mean"] == pytest.approx(4.0)  # length × dt
+    assert "| y | 100 % [21, 100] | 100 % [21, 100] | 4.0 |" in markdown([no_times])
+
+
+def test_compare_runs_every_policy_on_the_same_seeds(monkeypatch):
+    seen = []
+    from baselines import evaluate as evaluate_module
+
+    real = evaluate_module.evaluate
+
+    def spy(env_id, policy, episodes, seed, config, workers):
+        seen.append((policy, seed, episodes, dict(config)))
+        return real(env_id, policy, episodes=episodes, seed=seed, config=config, workers=workers)
+
+    monkeypatch.setattr(evaluate_module, "evaluate", spy)
+    rows = compare("Navigation-v0", None, episodes=2, seed=30, task={"max_cycles": 30})
+    assert [r["label"] for r in rows] == [label for label, _ in compare_module.SCRIPTED["Navigation-v0"]]
+    assert {(s, e) for _, s, e, _ in seen} == {(30, 2)}
+    nash_config = next(c for p, _, _, c in seen if p == "nash")
+    assert nash_config["action_type"] == "heading" and nash_config["max_cycles"] == 30
+    assert all(r["episodes"] == 2 for r in rows)
+
+
+def test_agent_rows_use_the_agents_config_and_shipped_names(tmp_path, monkeypatch, capsys):
+    pytest.importorskip("stable_baselines3")
+    from baselines.rl import sb3_policy
+    from baselines.rl.train import train
+
+    config = {"n_robots": 2, "n_obstacles": 0, "max_cycles": 20, "normalize_actions": True}
+    model = train(
+        "Navigation-v0",
+        "ppo",
+        timesteps=64,
+        out=tmp_path / "tiny.zip",
+        config=config,
+        n_envs=1,
+        hyperparameters={"n_steps": 32, "batch_size": 32},
+    )
+    monkeypatch.setattr(sb3_policy, "AGENT_DIR", tmp_path)
+    assert sb3_policy.shipped_agents() == ["tiny"]
+    assert sb3_policy.resolve_model("tiny") == tmp_path / "tiny.zip"
+    with pytest.raises(FileNotFoundError, match="shipped agents: tiny"):
+        sb3_policy.resolve_model("nope")
+    rows = compare(
+        "Navigation-v0",
+        "tiny",
+        episodes=2,
+        seed=40,
+        task={"n_robots": 2, "n_obstacles": 0, "max_cycles": 20},
+        policies=[("goto", "goto"), ("random", "random")],
+    )
+    assert [r["label"] for r in rows] == ["goto", "trained: tiny", "random"]
+    assert model.is_file()
+    assert (
+        main(
+            [
+                "--env",
+                "Navigation-v0",
+                "--agent",
+                "tiny",
+                "--episodes",
+                "1",
+                "--set",
+                "n_robots=2",
+                "--set",
+                "n_obstacles=0",
+                "--set",
+                "max_cycles=20",
+                "--out",
+                str(tmp_path / "cmp"),
+            ]
+        )
+        == 0
+    )
+    record = json.loads((tmp_path / "cmp" / "comparison.json").read_text())
+    assert [r["label"] for r in record["rows"]][-2:] == ["trained: tiny", "random"]
+    assert "| trained: tiny |" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(
+    ("args", "needle"),
+    [(["--episodes", "0"], "--episodes"), (["--agent", "no-such-agent"], "no saved SB3 model"), (["--curve"], "--curve needs")],
+)
+def test_usage_errors_are_one_line(args, needle, capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        main(args)
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err
+    assert needle in err and err.count("\n") == 1 and "Traceback" not in err
+
+
+def test_wrong_env_agent_is_refused(tmp_path, monkeypatch):
+    from baselines.rl import sb3_policy
+
+    (tmp_path / "m.zip").write_bytes(b"")
+    (tmp_path / "m.json").write_text(json.dumps({"env": "Exploration-v0", "config": {}}))
+    monkeypatch.setattr(sb3_policy, "AGENT_DIR", tmp_path)
+    with pytest.raises(ValueError, match="trained on Exploration-v0"):
+        compare("Navigation-v0", "m", episodes=1)
