@@ -10,6 +10,18 @@ out; keys added later are ignored).
 ``python -m tests.regression record`` adds the cases missing from ``tests/data/regression_hashes.json``
 (a new env or action type; recorded hashes are never rewritten); the test
 ``tests/test_regression.py`` recomputes every fingerprint with ``obs_format="flat"``.
+
+Observation hashes (issue 15, a second fixture recorded before the speed work): for every
+registered env, every ``action_type`` and both ``obs_format`` values, the learned message
+(``comm_dim``), the env's own observation options (``OBS_OPTIONS``) and the Navigation
+settings of the ``nash`` experiments (``NAV_SCENES``), seeds ``OBS_SEEDS`` run up to
+``OBS_STEPS`` steps with actions from a seeded ``numpy`` generator (admissible ones where
+masked). :func:`obs_hash` hashes the raw bytes of every observation field and of the rewards,
+terminations, truncations and every numeric info (as float64), so nothing depends on ``repr``
+or on ``space.sample``. ``python -m tests.regression obs-hashes --write`` rewrites
+``tests/data/obs_hashes.json`` from the current code (only do that on purpose: the fixture
+is the reference the optimisations are checked against); without ``--write`` it lists the
+cases that differ. ``tests/test_obs_hashes.py`` recomputes every hash and never writes.
 """
 
 from __future__ import annotations
@@ -104,9 +116,136 @@ def record(existing: dict | None = None) -> dict:
     return data
 
 
+OBS_STEPS = 200
+OBS_SEEDS = (0, 1)
+OBS_FIXTURE = Path(__file__).parent / "data" / "obs_hashes.json"
+#: Config options of a task that change what its robots observe (besides ``obs_format``, ``comm_dim``).
+OBS_OPTIONS: dict[str, tuple[dict, ...]] = {
+    "Foraging-v0": ({"observe_world_model": True},),
+    "Rendezvous-v0": ({"protocol_messages": True},),
+}
+#: Navigation settings of the ``nash`` baseline's experiments and benchmark (``heading`` actions).
+NAV_SCENES: tuple[dict, ...] = (
+    {"n_robots": 5, "dt": 0.2},
+    {"n_robots": 5, "dt": 0.2, "speed_rule": "any"},
+    {"n_robots": 5, "dt": 0.2, "walls": False, "obstacle_motion": "straight", "robot_radius": 0.05},
+    {"n_robots": 3, "actuation_delay": 0.1, "layout": "circle"},
+)
+
+
+def _label(config: dict) -> str:
+    return ",".join(f"{key}={value}" for key, value in config.items())
+
+
+def obs_cases() -> dict[str, tuple[str, dict]]:
+    """Case name -> (env id, config) of the observation-hash fixture."""
+    out: dict[str, tuple[str, dict]] = {}
+    for env_id, kind in cases():
+        variants: list[dict] = [{"obs_format": "flat"}, {"obs_format": "dict"}, {"obs_format": "flat", "comm_dim": 2}]
+        variants += [{"obs_format": "flat", **option} for option in OBS_OPTIONS.get(env_id, ())]
+        if env_id == "Navigation-v0" and kind == "heading":
+            variants += [{"obs_format": "flat", **scene} for scene in NAV_SCENES]
+        for variant in variants:
+            config = {"action_type": kind, **variant}
+            out[f"{env_id}/{_label(config)}"] = (env_id, config)
+    return out
+
+
+def _random_value(space, mask, rng: np.random.Generator, env, key: str = ""):
+    """A value of ``space`` from ``rng``: admissible under ``mask``; Rendezvous protocol messages hold a PRESENT record."""
+    if hasattr(space, "spaces") and isinstance(space.spaces, dict):
+        masks = mask if isinstance(mask, dict) else {}
+        return {k: _random_value(sub, masks.get(k), rng, env, k) for k, sub in space.spaces.items()}
+    if mask is not None:
+        return int(rng.choice(np.flatnonzero(mask)))
+    if hasattr(space, "n"):
+        return int(rng.integers(space.start, space.start + space.n))
+    if key == "message" and np.issubdtype(space.dtype, np.integer):
+        from teamgym.envs.rendezvous.messages import Kind, encode
+
+        return encode([(Kind.PRESENT, (int(rng.integers(len(env.place_index))),))], space.shape[0])
+    return rng.uniform(space.low, space.high).astype(space.dtype)
+
+
+def _feed_array(digest, value) -> None:
+    array = np.ascontiguousarray(value)
+    digest.update(f"{array.dtype.str}{array.shape}".encode())
+    digest.update(array.tobytes())
+
+
+def _feed_info(digest, key: str, value) -> None:
+    if isinstance(value, str) or value is None:
+        return
+    if isinstance(value, dict):
+        for sub in sorted(value):
+            _feed_info(digest, f"{key}.{sub}", value[sub])
+        return
+    digest.update(key.encode())
+    _feed_array(digest, np.asarray(value, dtype=np.float64))
+
+
+def obs_hash(env_id: str, config: dict, seed: int, steps: int = OBS_STEPS) -> str:
+    """SHA-256 of one seeded random rollout: observations, rewards, terminations, truncations, numeric infos."""
+    env = teamgym.make(env_id, **config)
+    digest = hashlib.sha256()
+    rng = np.random.default_rng(seed)
+
+    def feed(observations, infos, *tables) -> None:
+        for agent in sorted(observations):
+            digest.update(agent.encode())
+            obs = observations[agent]
+            for key in sorted(obs) if isinstance(obs, dict) else [""]:
+                digest.update(key.encode())
+                _feed_array(digest, obs[key] if key else obs)
+        for table in tables:
+            for agent in sorted(table):
+                digest.update(agent.encode())
+                _feed_array(digest, np.float64(table[agent]))
+        for agent in sorted(infos):
+            digest.update(agent.encode())
+            for key in sorted(infos[agent]):
+                _feed_info(digest, key, infos[agent][key])
+
+    observations, infos = env.reset(seed=seed)
+    feed(observations, infos)
+    for _ in range(steps):
+        if not env.agents:
+            break
+        actions = {a: _random_value(env.action_space(a), infos.get(a, {}).get("action_mask"), rng, env) for a in env.agents}
+        observations, rewards, terminations, truncations, infos = env.step(actions)
+        feed(observations, infos, rewards, terminations, truncations)
+    return digest.hexdigest()
+
+
+def record_obs_hashes() -> dict:
+    """Every observation-hash case computed from the current code."""
+    data: dict = {"steps": OBS_STEPS, "seeds": list(OBS_SEEDS), "cases": {}}
+    for name, (env_id, config) in obs_cases().items():
+        data["cases"][name] = {"env": env_id, "config": config, "hashes": [obs_hash(env_id, config, s) for s in OBS_SEEDS]}
+        print(name, *(h[:12] for h in data["cases"][name]["hashes"]), flush=True)
+    return data
+
+
+def _obs_hashes_main(args: list[str]) -> None:
+    data = record_obs_hashes()
+    if args == ["--write"]:
+        OBS_FIXTURE.parent.mkdir(parents=True, exist_ok=True)
+        OBS_FIXTURE.write_text(json.dumps(data, indent=1) + "\n")
+        print(f"wrote {OBS_FIXTURE}")
+        return
+    recorded = json.loads(OBS_FIXTURE.read_text())["cases"] if OBS_FIXTURE.exists() else {}
+    differ = sorted(n for n in set(data["cases"]) | set(recorded) if data["cases"].get(n) != recorded.get(n))
+    print(f"{len(differ)} case(s) differ from {OBS_FIXTURE.name}: {differ}" if differ else "all cases match the fixture")
+
+
+USAGE = "usage: python -m tests.regression record | python -m tests.regression obs-hashes [--write]"
+
 if __name__ == "__main__":
+    if sys.argv[1:2] == ["obs-hashes"] and sys.argv[2:] in ([], ["--write"]):
+        _obs_hashes_main(sys.argv[2:])
+        sys.exit(0)
     if sys.argv[1:] != ["record"]:
-        sys.exit("usage: python -m tests.regression record")
+        sys.exit(USAGE)
     FIXTURE.parent.mkdir(parents=True, exist_ok=True)
     existing = json.loads(FIXTURE.read_text()) if FIXTURE.exists() else None
     FIXTURE.write_text(json.dumps(record(existing), indent=1) + "\n")

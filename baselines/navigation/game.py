@@ -26,6 +26,7 @@ Readings of garbled or silent text (see docs/navigation.md):
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -74,23 +75,34 @@ class TeamState:
 
 def predict_poses(state: TeamState, rates: np.ndarray, dt: float, delay: float) -> tuple[np.ndarray, np.ndarray]:
     """Predicted positions (N, K, 2) and headings (N, K) after Δt, eqs. (17) and (26)."""
+    px, py, heading, _, _ = _predict(state, rates, dt, delay)
+    return np.stack([px, py], axis=-1), heading
+
+
+def _predict(state: TeamState, rates: np.ndarray, dt: float, delay: float) -> tuple[np.ndarray, ...]:
+    """Predicted x, y and heading (each (N, K)) by eqs. (17) and (26), and cos and sin of the heading."""
     x, y = state.positions[:, 0:1], state.positions[:, 1:2]
     theta = state.headings[:, None]
     v_prev, w_prev = state.previous[:, 0:1], state.previous[:, 1:2]
     v = state.speeds[:, None]
     first = theta + w_prev * delay
     heading = first + rates[None, :] * (dt - delay)
-    px = x + v_prev * delay * np.cos(first) + v * (dt - delay) * np.cos(heading)
-    py = y + v_prev * delay * np.sin(first) + v * (dt - delay) * np.sin(heading)
-    return np.stack([px, py], axis=-1), heading
+    cos, sin = np.cos(heading), np.sin(heading)
+    px = x + v_prev * delay * np.cos(first) + v * (dt - delay) * cos
+    py = y + v_prev * delay * np.sin(first) + v * (dt - delay) * sin
+    return px, py, heading, cos, sin
 
 
-def _repulsion(offset: np.ndarray, gain: float, influence: float) -> np.ndarray:
-    """Force vectors of eqs. (19)/(21) for offsets pointing from the source to the robot."""
-    distance = np.sqrt(np.sum(offset * offset, axis=-1, keepdims=True))
+def _repulsion(dx: np.ndarray, dy: np.ndarray, gain: float | np.ndarray, influence: float) -> tuple[np.ndarray, np.ndarray]:
+    """x and y of the forces of eqs. (19)/(21) for offsets (dx, dy) pointing from the source to the robot."""
+    distance = np.sqrt(dx * dx + dy * dy)
     safe = np.maximum(distance, 1e-6)
     magnitude = np.where(distance < influence, gain * (1.0 / safe - 1.0 / influence) ** 2, 0.0)
-    return magnitude * offset / safe
+    return magnitude * dx / safe, magnitude * dy / safe
+
+
+#: Joint tensors of at most this many losses (N · K^N) are assembled by :func:`_assemble_small`.
+SMALL_GAME = 1 << 16
 
 
 def loss_tensor(
@@ -99,31 +111,58 @@ def loss_tensor(
     """Losses of eq. (25) for every joint decision: array of shape (N, K, …, K).
 
     Also returns the predicted positions (N, K, 2) and headings (N, K).
+
+    Works on x and y components. Every repulsion (team mates, robots that arrived, obstacles,
+    sensed points) is computed in one batch; forces are summed per source kind in the order
+    attraction, arrived robots, obstacles, sensed points, each kind's sources one after the
+    other from 0.0, and a projection on the heading is (F_x cos Θ̂ + F_y sin Θ̂) + 0.0: the same
+    floating-point operations as summing (…, 2) vectors with numpy's reductions.
     """
     n, k = len(state.positions), len(rates)
-    predicted, heading = predict_poses(state, rates, dt, delay)
-    unit = np.stack([np.cos(heading), np.sin(heading)], axis=-1)  # (N, K, 2)
-    to_goal = state.goals[:, None, :] - predicted
-    goal_distance = np.sqrt(np.sum(to_goal * to_goal, axis=-1, keepdims=True))
-    safe = np.maximum(goal_distance, 1e-6)
-    attraction = gains.k_a / safe**2 * to_goal / safe  # eq. (15), towards the goal
-    own = attraction
-    if len(state.static_points):
-        offset = predicted[:, :, None, :] - state.static_points[None, None, :, :]
-        own = own + _repulsion(offset, gains.k_r, gains.influence).sum(axis=2)
-    if len(state.obstacles):
-        offset = predicted[:, :, None, :] - state.obstacles[None, None, :, :]
-        own = own + _repulsion(offset, gains.k_rb, gains.influence).sum(axis=2)
-    if state.sensed is not None:
-        for i, points in enumerate(state.sensed):
-            if len(points):
-                offset = predicted[i, :, None, :] - points[None, :, :]
-                own[i] = own[i] + _repulsion(offset, gains.k_rb, gains.influence).sum(axis=1)
-    own_loss = -np.sum(own * unit, axis=-1)  # (N, K)
+    px, py, heading, cos, sin = _predict(state, rates, dt, delay)
+    gx, gy = state.goals[:, 0:1] - px, state.goals[:, 1:2] - py
+    safe = np.maximum(np.sqrt(gx * gx + gy * gy), 1e-6)
+    scale = gains.k_a / safe**2
+    own_x, own_y = scale * gx / safe, scale * gy / safe  # eq. (15), towards the goal
+    # Offsets from every source to the robot, source first: team mates (N, N, K, K) for eq. (19),
+    # arrived robots (S, N, K), obstacles (M, N, K), then each robot's sensed points (P_i, K).
+    dx = [px[:, None, :, None] - px[None, :, None, :]]
+    dy = [py[:, None, :, None] - py[None, :, None, :]]
+    kinds = [gains.k_r]
+    for points, gain in ((state.static_points, gains.k_r), (state.obstacles, gains.k_rb)):
+        if len(points):
+            dx.append(px[None] - points[:, 0, None, None])
+            dy.append(py[None] - points[:, 1, None, None])
+            kinds.append(gain)
+    sensed = [i for i, points in enumerate(state.sensed or ()) if len(points)]
+    for i in sensed:
+        dx.append(px[i] - state.sensed[i][:, 0:1])
+        dy.append(py[i] - state.sensed[i][:, 1:2])
+        kinds.append(gains.k_rb)
+    if len(dx) == 1:
+        fx, fy = _repulsion(dx[0], dy[0], gains.k_r, gains.influence)
+        blocks = [(fx, fy)]
+    else:
+        sizes = [d.size for d in dx]
+        gain = np.repeat(kinds, sizes)
+        flat_x, flat_y = (np.concatenate([d.ravel() for d in parts]) for parts in (dx, dy))
+        fx, fy = _repulsion(flat_x, flat_y, gain, gains.influence)
+        starts = np.cumsum([0, *sizes]).tolist()
+        blocks = [(fx[a : a + d.size].reshape(d.shape), fy[a : a + d.size].reshape(d.shape)) for d, a in zip(dx, starts)]
+    for bx, by in blocks[1 : len(blocks) - len(sensed)]:
+        own_x = own_x + np.add.reduce(bx, axis=0)
+        own_y = own_y + np.add.reduce(by, axis=0)
+    for i, (bx, by) in zip(sensed, blocks[len(blocks) - len(sensed) :], strict=True):
+        own_x[i] = own_x[i] + np.add.reduce(bx, axis=0)
+        own_y[i] = own_y[i] + np.add.reduce(by, axis=0)
+    own_loss = -(own_x * cos + own_y * sin + 0.0)  # (N, K)
     # Pairwise part: robot i's repulsion from j for (d_i, d_j), projected on i's heading.
-    offset = predicted[:, None, :, None, :] - predicted[None, :, None, :, :]  # (N, N, K, K, 2)
-    pair = _repulsion(offset, gains.k_r, gains.influence)
-    pair_loss = -np.sum(pair * unit[:, None, :, None, :], axis=-1)  # (N, N, K_i, K_j)
+    pair_x, pair_y = blocks[0]
+    pair_loss = -(pair_x * cos[:, None, :, None] + pair_y * sin[:, None, :, None] + 0.0)  # (N, N, K_i, K_j)
+    predicted = np.empty(px.shape + (2,))
+    predicted[:, :, 0], predicted[:, :, 1] = px, py
+    if n * k**n <= SMALL_GAME:
+        return _assemble_small(own_loss, pair_loss), predicted, heading
     losses = np.zeros((n,) + (k,) * n)
     for i in range(n):
         shape = [1] * n
@@ -140,3 +179,39 @@ def loss_tensor(
             total = total + block.reshape(pair_shape)
         losses[i] = total
     return losses, predicted, heading
+
+
+def _assemble_small(own_loss: np.ndarray, pair_loss: np.ndarray) -> np.ndarray:
+    """The joint loss tensor (N, K, …, K) from own losses (N, K) and pair losses (N, N, K, K).
+
+    For all players at once, player i's losses are summed in the order own_i, b_i0, b_i1, …
+    (the order of the general loop in :func:`loss_tensor`, so the sums are the same bit for
+    bit), each new partner's axis placed right after d_i (so every addition runs over long
+    contiguous rows); one gather then puts the axes in player order.
+    """
+    n, k = own_loss.shape
+    partners, permutation = _assembly_plan(n, k)
+    rows = np.arange(n)
+    total = own_loss.reshape(n, k, 1)
+    for t in range(n - 1):
+        block = pair_loss[rows, partners[t]]  # (N, K_i, K_j): [i, d_i, d_j], j player i's t-th partner
+        total = (total[:, :, None, :] + block[:, :, :, None]).reshape(n, k, -1)
+    return total.reshape(-1).take(permutation).reshape((n,) + (k,) * n)
+
+
+@functools.lru_cache(maxsize=16)
+def _assembly_plan(n: int, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """Each player's partners in summation order (N−1, N) and the gather from the assembly layout to player order.
+
+    Player i's losses are assembled on the axes (d_i, d_{j_{N−2}}, …, d_{j_0}), the partners
+    j_0 < j_1 < … in reverse.
+    """
+    order = [[t if t < i else t + 1 for t in range(n - 1)] for i in range(n)]
+    partners = np.array(order, dtype=np.intp).reshape(n, n - 1).T
+    positions = np.arange(n * k**n).reshape((n,) + (k,) * n)
+    permutation = np.empty_like(positions)
+    for i in range(n):
+        permutation[i] = positions[i].transpose(np.argsort([i, *order[i][::-1]]))
+    permutation = permutation.reshape(-1)
+    partners.flags.writeable = permutation.flags.writeable = False  # shared by every call (cached)
+    return partners, permutation

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import time
 from collections import Counter
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -25,8 +26,12 @@ import numpy as np
 from baselines.game import arbitrate
 from baselines.navigation.game import ForceGains, TeamState, loss_tensor
 from baselines.policy import Policy
-from teamgym.control.heading import nearest_gap
+from teamgym.control.heading import AHEAD_COS
 from teamgym.envs.navigation.actions import HeadingAction
+
+#: The sensed points of a robot whose rays see nothing (read only).
+_NO_POINTS = np.zeros((0, 2))
+_NO_POINTS.flags.writeable = False
 
 
 class NashNavigation(Policy):
@@ -76,8 +81,11 @@ class NashNavigation(Policy):
         self.delay = 0.0 if not model_delay else float(env.config.actuation_delay if delay is None else delay)
         self.selection = selection
         self.n_robots = env.config.n_robots
-        self._others = [[j for j in range(self.n_robots) if j != i] for i in range(self.n_robots)]
+        self._order = {agent: i for i, agent in enumerate(env.possible_agents)}
+        self._others = [np.array([j for j in range(self.n_robots) if j != i], dtype=np.intp) for i in range(self.n_robots)]
         self._ray_angles = np.asarray(env.ring.angles, dtype=float)
+        #: Rays that count for ``speed_rule="ahead"`` (as in :func:`teamgym.control.heading.nearest_gap`).
+        self._rays_ahead = np.cos(self._ray_angles) > AHEAD_COS - 1e-9
         self._sensor_range = float(env.config.sensor_range)
         self._speed_rule = env.config.speed_rule
         self.reset()
@@ -95,18 +103,14 @@ class NashNavigation(Policy):
         if not observations:
             return {}
         started = time.perf_counter()
-        env = self.env
-        agents = sorted(observations, key=env.possible_agents.index)
-        playing = [env.possible_agents.index(a) for a in agents]
-        fields = {a: env.decode(observations[a]) for a in agents}
-        first = fields[agents[0]]
-        anchor = first["pose"][:2].astype(float)
-        # Every robot's position, from the first observation (own pose plus mates' offsets).
-        everyone = np.zeros((self.n_robots, 2))
-        everyone[playing[0]] = anchor
-        everyone[self._others[playing[0]]] = anchor + first["mates"][:, :2]
-        obstacles_now = anchor + first["obstacles"][:, :2] if len(first["obstacles"]) else np.zeros((0, 2))
-        radii = first["obstacles"][:, 4] if len(first["obstacles"]) else np.zeros(0)
+        order = self._order
+        agents = sorted(observations, key=order.__getitem__)
+        playing = [order[a] for a in agents]
+        fields = self._team_fields(observations, agents)
+        pose, mates, obstacles = fields["pose"], fields["mates"], fields["obstacles"]
+        anchor = pose[0, :2].astype(float)
+        obstacles_now = anchor + obstacles[0, :, :2] if obstacles.shape[1] else np.zeros((0, 2))
+        radii = obstacles[0, :, 4] if obstacles.shape[1] else np.zeros(0)
         if self._previous_obstacles is not None and len(self._previous_obstacles) == len(obstacles_now):
             obstacles_next = 2 * obstacles_now - self._previous_obstacles  # eq. (23)
         else:
@@ -114,13 +118,13 @@ class NashNavigation(Policy):
         self._previous_obstacles = obstacles_now
         #: Obstacle centres predicted by eq. (23) for the end of this step, t_n + Δt (M, 2).
         self.predicted_obstacles = obstacles_next
-        positions = np.array([fields[a]["pose"][:2] for a in agents], dtype=float)
-        headings = np.array([fields[a]["pose"][2] for a in agents], dtype=float)
-        previous = np.array([fields[a]["last_command"] for a in agents], dtype=float)
-        goals = positions + np.array([fields[a]["goal_offset"] for a in agents], dtype=float)
-        speeds = np.array([self._speed(fields[a], radii) for a in agents])
-        static = np.array([everyone[j] for j in range(self.n_robots) if j not in playing]).reshape(-1, 2)
-        walls = self._sensed_points(agents, fields)
+        positions = pose[:, :2].astype(float)
+        headings = pose[:, 2].astype(float)
+        previous = fields["last_command"].astype(float)
+        goals = positions + fields["goal_offset"].astype(float)
+        speeds = self._speeds(fields, radii)
+        static = self._arrived_positions(playing, anchor, mates[0])
+        walls = self._sensed_points(fields)
         state = TeamState(positions, headings, previous, speeds, goals, static, obstacles_next, walls)
         losses, _, _ = loss_tensor(state, self.rates, self.dt, self.delay, self.gains)
         if len(agents) == 1:
@@ -133,31 +137,69 @@ class NashNavigation(Policy):
         self.decision_times.append(time.perf_counter() - started)
         return {agent: choice[i] for i, agent in enumerate(agents)}
 
-    def _sensed_points(self, agents: list[str], fields: dict[str, dict[str, np.ndarray]]) -> list[np.ndarray]:
+    def _arrived_positions(self, playing: list[int], anchor: np.ndarray, mates: np.ndarray) -> np.ndarray:
+        """Positions (S, 2) of the robots that no longer play, from the first playing robot's observation."""
+        if len(playing) == self.n_robots:
+            return np.zeros((0, 2))
+        # Every robot's position: the first playing robot's pose plus its mates' offsets.
+        everyone = np.zeros((self.n_robots, 2))
+        everyone[playing[0]] = anchor
+        everyone[self._others[playing[0]]] = anchor + mates[:, :2]
+        absent = np.ones(self.n_robots, dtype=bool)
+        absent[playing] = False
+        return everyone[absent]
+
+    def _team_fields(self, observations: Mapping[str, Any], agents: list[str]) -> dict[str, np.ndarray]:
+        """The observation fields of ``agents`` stacked on a leading robot axis (flat or dict observations)."""
+        if isinstance(observations[agents[0]], Mapping):
+            return {name: np.stack([np.asarray(observations[a][name]) for a in agents]) for name in self.observation_fields}
+        return self.env.decode(np.array([observations[a] for a in agents]))
+
+    def _sensed_points(self, fields: dict[str, np.ndarray]) -> list[np.ndarray]:
         """Per robot, the world points where its proximity rays hit something (walls included).
 
         The paper's workspace has no walls; here whatever the ring senses repels the robot
-        like an obstacle (eq. 21), so robots do not drive into the arena's walls.
+        like an obstacle (eq. 21), so robots do not drive into the arena's walls. ``fields``
+        are stacked over the robots (:meth:`_team_fields`).
         """
-        points = []
-        for agent in agents:
-            obs = fields[agent]
-            x, y, theta = (float(v) for v in obs["pose"])
-            radius = float(obs["radius"][0])
-            hits = obs["proximity"] < self._sensor_range
-            angles = theta + self._ray_angles[hits]
-            reach = radius + obs["proximity"][hits]
-            points.append(np.column_stack([x + reach * np.cos(angles), y + reach * np.sin(angles)]))
-        return points
+        pose, proximity = fields["pose"].astype(float), fields["proximity"]
+        hits = proximity < self._sensor_range
+        angles = pose[:, 2:3] + self._ray_angles
+        reach = fields["radius"] + proximity  # float32, as radius + proximity of one robot
+        points = np.empty(proximity.shape + (2,))
+        points[:, :, 0] = pose[:, 0:1] + reach * np.cos(angles)
+        points[:, :, 1] = pose[:, 1:2] + reach * np.sin(angles)
+        seen_any = hits.any(axis=1).tolist()
+        return [points[i][hits[i]] if seen_any[i] else _NO_POINTS for i in range(len(pose))]
+
+    def _speeds(self, fields: dict[str, np.ndarray], radii: np.ndarray) -> np.ndarray:
+        """Linear velocities by eq. (12) of the robots of stacked ``fields``, measuring L_min exactly as the env does.
+
+        The batched form of :func:`teamgym.control.heading.nearest_gap` on every robot's own
+        observation, with the same arithmetic (same values, bit for bit).
+        """
+        radius, mates, obstacles = fields["radius"], fields["mates"], fields["obstacles"]
+        offsets = np.concatenate([mates[:, :, :2], obstacles[:, :, :2]], axis=1, dtype=float)
+        distance = np.hypot(offsets[:, :, 0], offsets[:, :, 1])
+        # Centre distance minus 2r (team mates) or r + bounding radius (obstacles, summed in float32).
+        bounds = np.empty(distance.shape)
+        bounds[:, : mates.shape[1]] = 2 * radius
+        bounds[:, mates.shape[1] :] = radius + radii
+        gaps = distance - bounds
+        proximity = fields["proximity"]
+        seen = proximity < self._sensor_range
+        if self._speed_rule == "ahead":
+            theta = fields["pose"][:, 2].astype(float)
+            direction = np.empty((len(theta), 2, 1))
+            direction[:, 0, 0] = np.cos(theta)
+            direction[:, 1, 0] = np.sin(theta)
+            norm = np.sqrt(np.add.reduce(offsets * offsets, axis=2))
+            gaps = np.where((offsets @ direction)[:, :, 0] > AHEAD_COS * norm, gaps, np.inf)
+            seen &= self._rays_ahead
+        nearest = np.minimum(np.where(seen, proximity, np.inf).min(axis=1).astype(float), gaps.min(axis=1, initial=np.inf))
+        goal = fields["goal_offset"]
+        return self.heuristic.speed(np.hypot(goal[:, 0], goal[:, 1]).astype(float), nearest)
 
     def _speed(self, obs: dict[str, np.ndarray], radii: np.ndarray) -> float:
-        """Linear velocity by eq. (12), measuring L_min exactly as the env does for ``heading`` actions."""
-        radius = float(obs["radius"][0])
-        mates, obstacles = obs["mates"], obs["obstacles"]
-        offsets = np.concatenate([mates[:, :2], obstacles[:, :2]]).astype(float)
-        distance = np.hypot(offsets[:, 0], offsets[:, 1])
-        gaps = distance - np.concatenate([np.full(len(mates), 2 * radius), radius + radii])
-        nearest = nearest_gap(
-            offsets, gaps, float(obs["pose"][2]), obs["proximity"], self._ray_angles, self._sensor_range, self._speed_rule
-        )
-        return float(self.heuristic.speed(float(np.hypot(*obs["goal_offset"])), nearest))
+        """Linear velocity by eq. (12) of one robot from its decoded observation (see :meth:`_speeds`)."""
+        return float(self._speeds({name: np.asarray(obs[name])[None] for name in self.observation_fields}, radii)[0])
