@@ -7,7 +7,7 @@ Command line::
         [--n-envs 4] [--hp key=value ...] [--verbose 0|1|2] [--threads 1]
         [--tensorboard DIR] [--progress-bar] [--checkpoint-every N] [--resume PATH]
         [--eval-every N] [--eval-episodes 10] [--eval-seed 10000]
-        [--seeds 0,1,2] [--jobs 1]
+        [--seeds 0,1,2] [--jobs 1] [--bc-expert NAME] [--bc-steps 20000] [--bc-epochs 30]
 
 Timesteps count agent transitions (every robot's step is one SB3 step, see
 :class:`baselines.rl.sb3_env.TeamVecEnv`). The model is saved to ``--out`` and a sidecar
@@ -38,6 +38,10 @@ Research tooling (all off by default; see ``docs/training.md``):
 * ``--seeds 0,1,2``: one model per seed in ``<out>/seed<k>/<env>_<algo>.zip`` (``--out`` is
   then a directory, default ``results/models/<env>_<algo>/``), one after the other or in
   ``--jobs`` processes; ``<out>/runs.json`` lists them.
+* ``--bc-expert NAME``: before training, behaviour-clone the scripted policy ``NAME``
+  (``--bc-steps`` expert transitions, ``--bc-epochs`` passes; PPO and A2C only) into the new
+  model, value head included (:func:`baselines.rl.imitation.pretrain`); the sidecar's ``bc``
+  records the settings and the expert's success on the collected episodes.
 
 Bad arguments exit with code 2 and one ``error: ...`` line before training starts; a
 failure during training exits 1 with one line (``TEAMGYM_TRACEBACK=1`` shows the traceback).
@@ -58,6 +62,8 @@ import time
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
+
+from baselines.rl.imitation import DEFAULT_BC_EPOCHS, DEFAULT_BC_STEPS
 
 __all__ = ["DEFAULT_EVAL_SEED", "Training", "build_parser", "default_hyperparameters", "main", "train", "train_seeds"]
 
@@ -161,11 +167,14 @@ class Training:
         eval_seed: int = DEFAULT_EVAL_SEED,
         resume: str | Path | None = None,
         callback: Any = None,
+        bc_expert: str | None = None,
+        bc_steps: int = DEFAULT_BC_STEPS,
+        bc_epochs: int = DEFAULT_BC_EPOCHS,
     ) -> None:
         import teamgym
         from baselines.rl.callbacks import EvalLog
         from baselines.rl.sb3_env import TeamVecEnv
-        from baselines.rl.sb3_policy import algorithm_class, detect_algorithm, read_sidecar, resolve_model
+        from baselines.rl.sb3_policy import algorithm_class, check_action_space, detect_algorithm, read_sidecar, resolve_model
 
         for name, value, minimum in [("timesteps", timesteps, 1), ("n_envs", n_envs, 1), ("seed", seed, 0)]:
             if value < minimum:
@@ -198,11 +207,29 @@ class Training:
             _require("rich", "the progress bar")
         if self.tensorboard_log is not None:
             _require("tensorboard", "TensorBoard logging")
+        self.bc = previous.get("bc") if isinstance(previous.get("bc"), dict) else None
+        self.bc_pending = bool(bc_expert)
+        if bc_expert:
+            if self.resume:
+                raise ValueError("behaviour cloning (--bc-expert) pre-trains a new model; it cannot be combined with --resume")
+            if self.algo not in ("ppo", "a2c"):
+                raise ValueError(f"behaviour cloning (--bc-expert) needs ppo or a2c (an actor-critic policy), not {self.algo}")
+            if bc_steps < 1 or bc_epochs < 1:
+                raise ValueError(f"bc_steps and bc_epochs must be >= 1, got {bc_steps} and {bc_epochs}")
+            self.bc = {"expert": bc_expert, "steps": int(bc_steps), "epochs": int(bc_epochs)}
         if threads is not None:
             import torch
 
             torch.set_num_threads(threads)
-        teamgym.make(env_id, **self.config).close()  # validate id and config before building the VecEnv
+        probe = teamgym.make(env_id, **self.config)  # validate id and config (and the expert) before building the VecEnv
+        try:
+            check_action_space(self.algo, probe.action_space(probe.possible_agents[0]))
+            if bc_expert:
+                from baselines.rl.imitation import make_expert
+
+                make_expert(bc_expert, probe)
+        finally:
+            probe.close()
         self.venv = TeamVecEnv(lambda: teamgym.make(env_id, **self.config), n_envs=self.n_envs)
         self.eval_env = None
         try:
@@ -281,6 +308,7 @@ class Training:
             "tensorboard": self.tensorboard_log,
             "tb_log_name": self.tb_log_name,
             "checkpoint_every": self.checkpoint_every,
+            "bc": self.bc,
             "eval": (
                 {
                     "every": self.eval_every,
@@ -349,6 +377,8 @@ class Training:
             self._continue_tensorboard_run()
         self.started = time.time()
         try:
+            if self.bc_pending:
+                self._pretrain()
             self.model.learn(
                 total_timesteps=self.timesteps,
                 callback=CallbackList(callbacks) if callbacks else None,
@@ -362,6 +392,21 @@ class Training:
         finally:
             self.close()
         return self.save(self.out, "final")
+
+    def _pretrain(self) -> None:
+        """Behaviour-clone the expert into the new model (before its first rollout; wall time counts in the sidecar)."""
+        import teamgym
+        from baselines.rl.imitation import pretrain
+
+        assert self.bc is not None
+        bc = self.bc
+        record = pretrain(
+            self.model, lambda: teamgym.make(self.env_id, **self.config), bc["expert"], bc["steps"], bc["epochs"], self.seed
+        )
+        self.bc.update(record)
+        self.bc_pending = False
+        if self.model.verbose >= 1:
+            print(f"behaviour cloning from {self.bc['expert']!r}: {record}", flush=True)
 
     def _continue_tensorboard_run(self) -> None:
         """Log a resumed run into the latest ``<tb_log_name>_<k>`` directory, or ``_1`` if there is none yet.
@@ -404,8 +449,9 @@ def train(
     ``options`` of :class:`Training`: ``tensorboard_log``, ``tb_log_name``,
     ``progress_bar``, ``checkpoint_every``, ``eval_every``, ``eval_episodes``,
     ``eval_seed``, ``resume`` (a saved model to continue: ``timesteps`` more, its counter
-    kept; ``env_id``, ``algo`` and ``config`` must fit it) and ``callback`` (extra SB3
-    callbacks); see the module docstring.
+    kept; ``env_id``, ``algo`` and ``config`` must fit it), ``callback`` (extra SB3
+    callbacks) and ``bc_expert``, ``bc_steps``, ``bc_epochs`` (behaviour cloning before
+    training); see the module docstring.
     """
     run = Training(env_id, algo, timesteps, seed, out, config, n_envs, hyperparameters, verbose, threads, **options)
     return run.learn()
@@ -561,6 +607,15 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="S",
         help=f"first held-out seed; evaluation i uses S..S+K-1 (default: {DEFAULT_EVAL_SEED}{resumed})",
     )
+    parser.add_argument(
+        "--bc-expert", default=None, metavar="NAME", help="behaviour-clone this scripted policy before training (ppo, a2c)"
+    )
+    parser.add_argument(
+        "--bc-steps", type=count, default=None, metavar="N", help=f"expert transitions to clone (default: {DEFAULT_BC_STEPS})"
+    )
+    parser.add_argument(
+        "--bc-epochs", type=count, default=None, metavar="K", help=f"passes over them (default: {DEFAULT_BC_EPOCHS})"
+    )
     return parser
 
 
@@ -594,6 +649,10 @@ def _plan(args: argparse.Namespace) -> tuple[dict[str, Any], list[int] | None]:
         raise ValueError("--jobs needs --seeds")
     if args.jobs > 1 and args.progress_bar:
         raise ValueError("--progress-bar shows one run; it cannot be combined with --jobs > 1")
+    if args.bc_expert is None and (args.bc_steps is not None or args.bc_epochs is not None):
+        raise ValueError("--bc-steps and --bc-epochs need --bc-expert")
+    if args.bc_expert is not None and args.resume:
+        raise ValueError("--bc-expert pre-trains a new model; it cannot be combined with --resume")
     sets: dict[str, Any] = _pairs(args.set, "--set")
     if args.max_cycles is not None:
         sets["max_cycles"] = str(args.max_cycles)
@@ -630,6 +689,10 @@ def _plan(args: argparse.Namespace) -> tuple[dict[str, Any], list[int] | None]:
         "eval_episodes": _pick(args.eval_episodes, evaluation.get("episodes"), DEFAULT_EVAL_EPISODES),
         "eval_seed": _pick(args.eval_seed, evaluation.get("seed"), DEFAULT_EVAL_SEED),
     }
+    if args.bc_expert is not None:
+        kwargs["bc_expert"] = args.bc_expert
+        kwargs["bc_steps"] = _pick(args.bc_steps, None, DEFAULT_BC_STEPS)
+        kwargs["bc_epochs"] = _pick(args.bc_epochs, None, DEFAULT_BC_EPOCHS)
     if args.seeds is not None:
         out_dir = Path(args.out) if args.out else Path("results") / "models" / f"{env_id}_{algo}"
         if out_dir.suffix == ".zip" or out_dir.is_file():

@@ -1,0 +1,373 @@
+"""Imitation of the scripted baselines: expert actions in ``infos`` and behaviour cloning for PPO.
+
+:class:`ExpertActions` wraps a PettingZoo ``ParallelEnv`` and puts a registered scripted
+policy's action for every live agent into ``infos[agent]["expert_action"]`` after every
+reset and step, without changing the episode: the env steps with the actions it is given,
+and the policy gets copies of the observations and infos and cannot consume the env's
+random generators (they are restored after every call). The label is in the action space
+the learner uses: ``baselines.train`` passes SB3's actions to the env unscaled
+(:class:`~baselines.rl.sb3_env.TeamVecEnv` only clips Box actions), so that space is the
+env's; Box actions are clipped into it, Discrete ones made ``int``.
+
+Behaviour cloning (``python -m baselines.train --bc-expert goto``; :func:`pretrain`;
+design and measurements in ``docs/training.md``):
+
+1. :func:`collect_expert_data` runs the expert through one env copy (the first episode
+   reset with the run's seed, later ones continuing its random stream), executing its
+   actions perturbed by ``noise`` but labelling with the clean ones, and keeps the first
+   ``steps`` agent transitions: observation, expert action and the agent's discounted
+   Monte-Carlo return from there (``gamma`` of the algorithm; whole episodes are played so
+   the returns are complete).
+2. :func:`behaviour_clone` fits an SB3 ``ActorCriticPolicy`` (PPO, A2C) with Adam for
+   ``epochs`` passes: Box actions by the squared error of the Gaussian's mean, each
+   dimension divided by the expert actions' standard deviation; Discrete ones by
+   cross-entropy with label smoothing (no action gets probability 1); the value head by the
+   squared error to the Monte-Carlo returns (weighted by the algorithm's ``vf_coef``), so
+   that PPO's first advantages are not those of a random critic. Then Box ``log_std`` is set
+   to ``log(max(std_fraction · half range, residual std))``: PPO starts from the expert's
+   behaviour with exploration noise of a known size instead of the clone's near-zero
+   residual (over-confident) or SB3's initial std of 1 in every unit.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+import time
+from collections.abc import Callable, Iterator, Mapping
+from contextlib import contextmanager
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+from pettingzoo.utils.env import ParallelEnv
+from pettingzoo.utils.wrappers.base_parallel import BaseParallelWrapper
+
+from baselines.episode import success_of
+from baselines.policy import Policy
+from baselines.registry import make_policy, policies, policy_class, required_config
+
+__all__ = [
+    "DEFAULT_BC_EPOCHS",
+    "DEFAULT_BC_NOISE",
+    "DEFAULT_BC_STEPS",
+    "ExpertActions",
+    "ExpertData",
+    "behaviour_clone",
+    "collect_expert_data",
+    "learner_action",
+    "make_expert",
+    "pretrain",
+]
+
+DEFAULT_BC_STEPS, DEFAULT_BC_EPOCHS = 20_000, 30
+#: Perturbation of the executed expert actions while collecting (see :func:`collect_expert_data`).
+DEFAULT_BC_NOISE = 0.5
+#: Initial Box action std after cloning, as a fraction of each dimension's half range.
+DEFAULT_STD_FRACTION = 0.2
+
+
+def learner_action(space: spaces.Space, action: Any) -> Any:
+    """``action`` as the learner emits it: clipped ``space.dtype`` array (Box), ``int`` (Discrete), else unchanged."""
+    if isinstance(space, spaces.Box):
+        return np.clip(np.asarray(action, dtype=space.dtype).reshape(space.shape), space.low, space.high)
+    if isinstance(space, spaces.Discrete):
+        return int(np.asarray(action).reshape(()))
+    return action
+
+
+def make_expert(name: str, env: Any, **policy_kwargs: Any) -> Policy:
+    """Scripted policy ``name`` for ``env.unwrapped``: ``KeyError`` if unknown, ``ValueError`` if it does not fit.
+
+    Unlike ``baselines.evaluate``, the env config is not adapted to the expert: the expert
+    must act in the learner's action space, so a ``required_config`` it lacks is an error.
+    """
+    if name not in policies():
+        raise KeyError(f"unknown expert {name!r}; choose a registered scripted policy: {', '.join(policies())}")
+    policy_class(name).check_env(env.unwrapped, name)  # the env id and observation fields first
+    config = getattr(env.unwrapped, "config", None)
+    for key, value in required_config(name).items():
+        have = getattr(config, key, None)
+        if have != value:
+            raise ValueError(
+                f"expert {name!r} needs the env config {key}={value}, this env has {key}={have} (--set {key}={value})"
+            )
+    return make_policy(name, env.unwrapped, **policy_kwargs)  # ValueError naming the policy, the env and what is missing
+
+
+class ExpertActions(BaseParallelWrapper):
+    """A ``ParallelEnv`` whose ``infos[agent]["expert_action"]`` is scripted policy ``policy_name``'s action.
+
+    Every agent live after a reset or step gets the action the policy (built with
+    ``make_policy(policy_name, env.unwrapped, **policy_kwargs)``) takes on the current
+    observations; agents that finished get none. The policy is reset like in
+    ``baselines.run_episode``: with the reset's seed, or after an unseeded reset with a seed
+    drawn from the wrapper's own generator (seeded by the last seeded reset). Observations,
+    rewards and the env's state are those of the unwrapped env for the same actions; the
+    wrapper pickles and deep-copies (with the policy's state) when the env and policy do.
+    """
+
+    def __init__(self, env: ParallelEnv, policy_name: str, **policy_kwargs: Any) -> None:
+        super().__init__(env)
+        self.policy_name = policy_name
+        self.policy = make_expert(policy_name, env, **policy_kwargs)
+        self.policy_seeds = np.random.default_rng()
+
+    def reset(self, seed: int | None = None, options: dict | None = None) -> tuple[dict, dict]:
+        observations, infos = self.env.reset(seed=seed, options=options)
+        if seed is not None:
+            self.policy_seeds = np.random.default_rng(seed)
+        with _rngs_kept(self.env):
+            self.policy.reset(seed if seed is not None else int(self.policy_seeds.integers(2**31)))
+        return observations, self._label(observations, infos)
+
+    def step(self, actions: dict) -> tuple[dict, dict, dict, dict, dict]:
+        observations, rewards, terminations, truncations, infos = self.env.step(actions)
+        return observations, rewards, terminations, truncations, self._label(observations, infos)
+
+    def expert_actions(self, observations: Mapping[str, Any], infos: Mapping[str, Mapping[str, Any]]) -> dict[str, Any]:
+        """The policy's actions for the live agents in ``observations`` (the env's random state is left as it was)."""
+        live = [a for a in self.env.agents if a in observations]
+        if not live:
+            return {}
+        seen = copy.deepcopy({a: observations[a] for a in live})
+        with _rngs_kept(self.env):
+            actions = self.policy.act(seen, {a: dict(info) for a, info in infos.items()})
+        return {a: learner_action(self.env.action_space(a), actions[a]) for a in live}
+
+    def _label(self, observations: dict, infos: dict) -> dict[str, dict[str, Any]]:
+        expert = self.expert_actions(observations, infos)
+        labelled = {agent: dict(info) for agent, info in infos.items()}
+        for agent, action in expert.items():
+            labelled.setdefault(agent, {})["expert_action"] = action
+        return labelled
+
+
+@contextmanager
+def _rngs_kept(env: ParallelEnv) -> Iterator[None]:
+    """Restore the env's random generators on exit: ``np_random`` and those of its action spaces (and their parts)."""
+    saved: list[tuple[Any, str, Any, Any]] = []
+
+    def keep(owner: Any, attribute: str) -> None:
+        generator = getattr(owner, attribute, None)
+        state = generator.bit_generator.state if isinstance(generator, np.random.Generator) else None
+        saved.append((owner, attribute, generator, state))
+
+    def keep_space(space: spaces.Space) -> None:
+        keep(space, "_np_random")
+        parts = getattr(space, "spaces", None)
+        for part in parts.values() if isinstance(parts, Mapping) else parts or ():
+            keep_space(part)
+
+    base = env.unwrapped
+    keep(base, "np_random")
+    for agent in base.possible_agents:
+        keep_space(base.action_space(agent))
+    try:
+        yield
+    finally:
+        for owner, attribute, generator, state in saved:
+            if getattr(owner, attribute, None) is not generator:
+                setattr(owner, attribute, generator)
+            if state is not None:
+                generator.bit_generator.state = state
+
+
+@dataclass
+class ExpertData:
+    """Agent transitions of expert episodes: observations, expert actions and discounted returns to go."""
+
+    observations: np.ndarray
+    actions: np.ndarray
+    returns: np.ndarray
+    episodes: int
+    success_rate: float
+    mean_return: float
+
+    def __len__(self) -> int:
+        return len(self.observations)
+
+
+def collect_expert_data(
+    env: ParallelEnv,
+    expert: str,
+    steps: int,
+    seed: int,
+    gamma: float = 0.99,
+    noise: float = 0.0,
+    **policy_kwargs: Any,
+) -> ExpertData:
+    """The first ``steps`` agent transitions of expert ``expert`` on ``env`` (whole episodes are played).
+
+    The first episode is reset with ``seed``, later ones continue the env's random stream.
+    ``noise > 0`` executes perturbed actions (Box: Gaussian with std ``noise`` · half range;
+    Discrete: a random action with probability ``noise``; from a generator seeded with
+    ``seed``) while the labels stay the expert's, so the data cover states next to the
+    expert's path. ``returns`` are each agent's discounted rewards from that step on.
+    """
+    if steps < 1:
+        raise ValueError(f"steps must be >= 1, got {steps}")
+    wrapped = ExpertActions(env, expert, **policy_kwargs)
+    rng = np.random.default_rng(seed)
+    observations: list[np.ndarray] = []
+    actions: list[Any] = []
+    returns: list[float] = []
+    episodes = successes = 0
+    totals: list[float] = []
+    while len(observations) < steps:
+        obs, infos = wrapped.reset(seed=seed if episodes == 0 else None)
+        tracks: dict[str, list[tuple[np.ndarray, Any, float]]] = {}
+        done_infos = infos
+        while wrapped.agents:
+            live = list(wrapped.agents)
+            labels = {a: infos[a]["expert_action"] for a in live}
+            executed = {a: _perturb(wrapped.action_space(a), labels[a], noise, rng) for a in live}
+            next_obs, rewards, _, _, infos = wrapped.step(executed)
+            for a in live:
+                tracks.setdefault(a, []).append((np.asarray(obs[a], dtype=np.float32), labels[a], float(rewards.get(a, 0.0))))
+            obs, done_infos = next_obs, infos
+        episodes += 1
+        successes += success_of(done_infos)
+        for track in tracks.values():
+            totals.append(sum(r for _, _, r in track))
+            to_go = 0.0
+            tail = []
+            for _, _, reward in reversed(track):
+                to_go = reward + gamma * to_go
+                tail.append(to_go)
+            for (o, a, _), g in zip(track, reversed(tail)):
+                observations.append(o)
+                actions.append(a)
+                returns.append(g)
+    return ExpertData(
+        observations=np.stack(observations[:steps]),
+        actions=np.stack([np.asarray(a) for a in actions[:steps]]),
+        returns=np.asarray(returns[:steps], dtype=np.float32),
+        episodes=episodes,
+        success_rate=successes / episodes,
+        mean_return=float(np.mean(totals)),
+    )
+
+
+def _perturb(space: spaces.Space, action: Any, noise: float, rng: np.random.Generator) -> Any:
+    if noise <= 0:
+        return action
+    if isinstance(space, spaces.Box):
+        half = (space.high - space.low) / 2
+        return learner_action(space, action + rng.normal(0.0, noise, size=space.shape) * half)
+    if isinstance(space, spaces.Discrete) and rng.random() < noise:
+        return int(space.start + rng.integers(space.n))
+    return action
+
+
+def behaviour_clone(
+    model: Any,
+    data: ExpertData,
+    epochs: int = DEFAULT_BC_EPOCHS,
+    *,
+    batch_size: int = 64,
+    learning_rate: float = 1e-3,
+    fit_value: bool = True,
+    std_fraction: float = DEFAULT_STD_FRACTION,
+    label_smoothing: float = 0.1,
+    seed: int = 0,
+) -> dict[str, Any]:
+    """Fit ``model.policy`` (an SB3 ``ActorCriticPolicy``) to ``data`` in place; returns the final losses.
+
+    See the module docstring for the losses and the Box ``log_std`` set afterwards (left
+    alone with gSDE, ``use_sde=True``, whose noise has another parametrisation). Minibatches
+    are shuffled with a torch generator seeded with ``seed`` (no global state).
+    """
+    import torch
+    import torch.nn.functional as F
+    from stable_baselines3.common.policies import ActorCriticPolicy
+
+    policy = model.policy
+    if not isinstance(policy, ActorCriticPolicy):
+        raise ValueError(f"behaviour cloning needs an actor-critic policy (PPO, A2C), not {type(policy).__name__}")
+    space = policy.action_space
+    if not isinstance(space, (spaces.Box, spaces.Discrete)):
+        raise ValueError(f"behaviour cloning supports Box and Discrete actions, not {space}")
+    if epochs < 1:
+        raise ValueError(f"epochs must be >= 1, got {epochs}")
+    device = policy.device
+    obs = torch.as_tensor(data.observations, dtype=torch.float32, device=device)
+    returns = torch.as_tensor(data.returns, dtype=torch.float32, device=device)
+    box = isinstance(space, spaces.Box)
+    if box:
+        target = torch.as_tensor(data.actions, dtype=torch.float32, device=device).reshape(len(obs), -1)
+        half = torch.as_tensor((space.high - space.low) / 2, dtype=torch.float32, device=device).reshape(1, -1)
+        scale = torch.maximum(target.std(dim=0, keepdim=True), 1e-3 * half) if len(obs) > 1 else half
+    else:
+        target = torch.as_tensor(data.actions, dtype=torch.long, device=device).reshape(-1) - int(space.start)
+    vf_coef = float(getattr(model, "vf_coef", 0.5))
+    parameters = [p for name, p in policy.named_parameters() if name != "log_std"]
+    optimizer = torch.optim.Adam(parameters, lr=learning_rate)
+    generator = torch.Generator().manual_seed(int(seed))
+    policy.set_training_mode(True)
+    action_loss = value_loss = math.nan
+    for _ in range(epochs):
+        order = torch.randperm(len(obs), generator=generator).to(device)
+        sums = [0.0, 0.0]
+        for start in range(0, len(obs), batch_size):
+            index = order[start : start + batch_size]
+            distribution = policy.get_distribution(obs[index]).distribution
+            if box:
+                loss_pi = (((distribution.mean - target[index]) / scale) ** 2).mean()
+            else:
+                loss_pi = F.cross_entropy(distribution.logits, target[index], label_smoothing=label_smoothing)
+            loss = loss_pi
+            loss_v = torch.zeros(())
+            if fit_value:
+                loss_v = F.mse_loss(policy.predict_values(obs[index]).flatten(), returns[index])
+                loss = loss + vf_coef * loss_v
+            optimizer.zero_grad()
+            loss.backward()
+            optimizer.step()
+            sums[0] += loss_pi.item() * len(index)
+            sums[1] += loss_v.item() * len(index)
+        action_loss, value_loss = sums[0] / len(obs), sums[1] / len(obs)
+    policy.set_training_mode(False)
+    stats = {"action_loss": action_loss, "value_loss": value_loss if fit_value else math.nan}
+    if box and not getattr(policy, "use_sde", False):
+        with torch.no_grad():
+            mean = torch.cat([policy.get_distribution(obs[i : i + 4096]).distribution.mean for i in range(0, len(obs), 4096)])
+            residual = (mean - target).std(dim=0) if len(obs) > 1 else torch.zeros_like(half[0])
+            std = torch.maximum(std_fraction * half[0], residual)
+            policy.log_std.copy_(torch.log(std).reshape(policy.log_std.shape))
+        stats["action_std"] = [float(s) for s in std]
+    return stats
+
+
+def pretrain(
+    model: Any,
+    make_env: Callable[[], ParallelEnv],
+    expert: str,
+    steps: int = DEFAULT_BC_STEPS,
+    epochs: int = DEFAULT_BC_EPOCHS,
+    seed: int = 0,
+    noise: float = DEFAULT_BC_NOISE,
+    **options: Any,
+) -> dict[str, Any]:
+    """Collect ``steps`` expert transitions on ``make_env()`` and clone them into ``model``; returns a sidecar record.
+
+    ``noise`` goes to :func:`collect_expert_data`, ``options`` to :func:`behaviour_clone`.
+    The record holds the expert's success rate and mean return on the collected episodes,
+    the final losses and the wall time; the model's timestep counter is not changed.
+    """
+    started = time.time()
+    env = make_env()
+    try:
+        data = collect_expert_data(env, expert, steps, seed, gamma=float(getattr(model, "gamma", 0.99)), noise=noise)
+    finally:
+        env.close()
+    stats = behaviour_clone(model, data, epochs, seed=seed, **options)
+    return {
+        "expert_episodes": data.episodes,
+        "expert_success_rate": data.success_rate,
+        "expert_mean_return": data.mean_return,
+        "noise": noise,
+        **stats,
+        "wall_time_s": round(time.time() - started, 3),
+    }
