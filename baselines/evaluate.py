@@ -3,10 +3,12 @@
 Command line::
 
     python -m baselines.evaluate [--env Navigation-v0] [--policy goto] [--episodes 10] [--seed 0]
-        [--set key=value ...] [--max-cycles M] [--out DIR] [--gif] [--workers W] [--quiet] [--stochastic]
+        [--set key=value ...] [--max-cycles M] [--out DIR] [--gif] [--workers W|ray] [--quiet] [--stochastic]
 
 Episode ``i`` resets the env with seed ``S + i`` and the policy with ``policy.reset(S + i)``,
-so results do not depend on ``--workers``. ``--policy sb3:PATH`` evaluates a saved
+so results do not depend on ``--workers``. ``--workers ray`` runs the episodes on a Ray
+cluster (one actor per CPU; ``RAY_ADDRESS`` names an existing cluster, else a local one starts;
+needs ``pip install ray``) with the same results. ``--policy sb3:PATH`` evaluates a saved
 Stable-Baselines3 model (see :mod:`baselines.rl.sb3_policy`), deterministically unless
 ``--stochastic``.
 
@@ -142,6 +144,71 @@ def _worker_run_chunk(chunk: Sequence[tuple[int, bool]]) -> list[EpisodeResult]:
     return [_worker_run(s, k) for s, k in chunk]
 
 
+def _ray_results(
+    env_id: str,
+    policy_name: str,
+    config: Mapping[str, Any],
+    policy_kwargs: Mapping[str, Any] | None,
+    items: Sequence[tuple[int, bool]],
+    on_done: Callable[[int], None],
+) -> list[EpisodeResult]:
+    """Episodes ``items`` (seed, keep trajectories) on Ray actors, one per cluster CPU, each with its own env and policy.
+
+    Uses the running Ray session, else ``ray.init()`` (``RAY_ADDRESS`` or a new local cluster), shut down after.
+    """
+    ray = require_ray()
+    started = not ray.is_initialized()
+    if started:
+        import logging
+
+        ray.init(logging_level=logging.WARNING)
+    try:
+        cpus = max(1, int(ray.cluster_resources().get("CPU", 1)))
+        chunks = _chunks(items, cpus)
+        actor_class = ray.remote(num_cpus=1)(_RayRunner)
+        actors = [
+            actor_class.remote(env_id, policy_name, dict(config), dict(policy_kwargs or {}))
+            for _ in range(min(cpus, len(chunks)))
+        ]
+        pool = ray.util.ActorPool(actors)
+        for i, chunk in enumerate(chunks):
+            pool.submit(lambda actor, job: actor.run_chunk.remote(*job), (i, chunk))
+        slots: list[list[EpisodeResult] | None] = [None] * len(chunks)
+        while pool.has_next():
+            i, results = pool.get_next_unordered()
+            slots[i] = results
+            on_done(len(results))
+        for actor in actors:
+            ray.kill(actor)
+        return [r for chunk in slots if chunk is not None for r in chunk]
+    finally:
+        if started:
+            ray.shutdown()
+
+
+class _RayRunner:
+    """A Ray actor's state: one env and policy (as a process-pool worker has), reused for its chunks."""
+
+    def __init__(self, env_id: str, policy_name: str, config: Mapping[str, Any], policy_kwargs: Mapping[str, Any] | None) -> None:
+        _init_worker(env_id, policy_name, config, policy_kwargs)
+
+    def run_chunk(self, index: int, chunk: Sequence[tuple[int, bool]]) -> tuple[int, list[EpisodeResult]]:
+        return index, _worker_run_chunk(chunk)
+
+
+def require_ray() -> Any:
+    """The ``ray`` module, or ``ImportError`` with the install command (``--workers ray``)."""
+    try:
+        import ray
+    except ImportError as error:
+        raise ImportError(
+            "--workers ray needs the ray package: pip install 'ray>=2.60' (or teamgym's rllib extra, docs/scale_out.md)"
+        ) from error
+    import ray.util  # ActorPool
+
+    return ray
+
+
 def _pool_context():
     """``fork`` where the platform has it and torch is not loaded (forking after torch's threads start
     can hang); ``spawn`` otherwise. Forked workers start in milliseconds instead of re-importing."""
@@ -163,7 +230,7 @@ def evaluate(
     episodes: int = 10,
     seed: int = 0,
     config: Mapping[str, Any] | None = None,
-    workers: int = 1,
+    workers: int | str = 1,
     *,
     progress: bool = False,
     keep_trajectories: bool = False,
@@ -174,7 +241,9 @@ def evaluate(
     ``config`` is passed to ``teamgym.make`` (strings are parsed as on the command line).
     With ``workers > 1`` episodes run in that many worker processes (forked where possible),
     each with its own env and policy, handed out in chunks of consecutive seeds; results are
-    identical to a sequential run. Trajectories are kept for
+    identical to a sequential run. ``workers="ray"`` runs the chunks on Ray actors, one per CPU of
+    the running Ray session or of ``ray.init()`` (``RAY_ADDRESS``, else a new local cluster, shut
+    down after); results are again identical. Trajectories are kept for
     the first episode only unless ``keep_trajectories``. ``policy_kwargs`` go to
     :func:`baselines.registry.make_policy` (e.g. ``{"deterministic": False}`` for an
     ``sb3:PATH`` policy). Config, env-id and policy errors
@@ -185,8 +254,10 @@ def evaluate(
         raise ValueError(f"episodes must be >= 1, got {episodes}")
     if seed < 0:
         raise ValueError(f"seed must be >= 0, got {seed}")
-    if workers < 1:
-        raise ValueError(f"workers must be >= 1, got {workers}")
+    if workers == "ray":
+        require_ray()
+    elif isinstance(workers, str) or workers < 1:
+        raise ValueError(f"workers must be an integer >= 1 or 'ray', got {workers!r}")
     from tqdm import tqdm
 
     config = dict(config or {})
@@ -195,13 +266,16 @@ def evaluate(
     keep = [keep_trajectories or i == 0 for i in range(episodes)]
     bar = tqdm(total=episodes, desc=f"{env_id} {policy_name}", unit="ep", disable=not progress, leave=False)
     try:
-        if workers == 1 or episodes == 1:
+        if workers == 1 or (episodes == 1 and workers != "ray"):
             results = []
             for s, k in zip(seeds, keep):
                 results.append(runner.run(s, record_trajectories=k))
                 bar.update(1)
             return results
         runner.close()
+        if workers == "ray":
+            return _ray_results(env_id, policy_name, config, policy_kwargs, list(zip(seeds, keep)), bar.update)
+        assert isinstance(workers, int)
         from concurrent.futures import ProcessPoolExecutor, as_completed
 
         chunks = _chunks(list(zip(seeds, keep)), workers)
@@ -374,6 +448,16 @@ def _at_least(minimum: int) -> Callable[[str], int]:
     return parse
 
 
+def _workers(text: str) -> int | str:
+    """An argparse ``type``: a number of worker processes ``>= 1``, or ``ray``."""
+    if text.strip().lower() == "ray":
+        return "ray"
+    try:
+        return _at_least(1)(text)
+    except argparse.ArgumentTypeError:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 1 or 'ray', got {text!r}") from None
+
+
 def _parse_sets(items: Sequence[str] | None) -> dict[str, str]:
     config: dict[str, str] = {}
     for item in items or []:
@@ -456,7 +540,12 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--out", default=None, help="output directory (default: results/<env>_<policy>/)")
     parser.add_argument("--gif", action="store_true", help="also write an animated GIF of the first episode")
     parser.add_argument("--no-plot", action="store_true", help="do not draw trajectories.png (matplotlib is then not loaded)")
-    parser.add_argument("--workers", type=count, default=1, help="parallel worker processes, >= 1 (default: 1)")
+    parser.add_argument(
+        "--workers",
+        type=_workers,
+        default=1,
+        help="parallel worker processes, >= 1, or 'ray': Ray actors, one per cluster CPU (RAY_ADDRESS; default: 1)",
+    )
     parser.add_argument("--quiet", action="store_true", help="no progress bar or table")
     parser.add_argument(
         "--stochastic", action="store_true", help="sample an sb3:PATH model's actions instead of taking the most likely"
@@ -505,6 +594,11 @@ def _run(args: argparse.Namespace) -> int:
         config["max_cycles"] = str(args.max_cycles)
     if args.stochastic and not args.policy.startswith("sb3:"):
         raise _UsageError(f"--stochastic applies to sb3:PATH policies only, not {args.policy!r}")
+    if args.workers == "ray":
+        try:
+            require_ray()
+        except ImportError as error:
+            raise _UsageError(str(error)) from error
     env_id, config, sidecar, trained_on = _model_defaults(args.policy, args.env, config)
     policy_kwargs = {"deterministic": False} if args.stochastic else {}
     name = _slug(args.policy) + ("-stochastic" if args.stochastic else "")

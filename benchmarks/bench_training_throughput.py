@@ -76,7 +76,8 @@ def main() -> None:
                 if rate > best.get((name, workers), (0.0, 0.0))[0]:
                     best[(name, workers)] = (rate, padding)
     machine = f"{platform.machine()}, {os.cpu_count()} cores"
-    print(f"PPO agent-steps/s, {args.agents} agents, {args.n_envs} env copies, best of {args.rounds} x {args.timesteps} ({machine})")
+    setting = f"{args.agents} agents, {args.n_envs} env copies, best of {args.rounds} x {args.timesteps}"
+    print(f"PPO agent-steps/s, {setting} ({machine})")
     print(f"{'env':<24} {'1 process':>10} {'2 workers':>10} {'2w/1p':>7}")
     rows = []
     for name in cases:
