@@ -10,6 +10,8 @@
   ``python -m baselines.evaluate --policy sb3:MODEL --seed S --episodes K`` on the saved model.
 * :class:`EvalLog`: the rows of those evaluations, kept in a CSV file (columns
   ``timesteps, success_rate, mean_return, mean_episode_length, mean_<metric>...``).
+* :class:`PaddingShareLog`: logs ``rollout/padding_share``, the share of slot-steps in which
+  a :class:`~baselines.rl.sb3_env.TeamVecEnv` slot waited for a robot (padding).
 """
 
 from __future__ import annotations
@@ -22,7 +24,24 @@ from typing import Any
 
 from stable_baselines3.common.callbacks import BaseCallback
 
-__all__ = ["EvalLog", "EveryTimesteps", "evaluate_model", "is_better"]
+__all__ = ["EvalLog", "EveryTimesteps", "PaddingShareLog", "evaluate_model", "is_better"]
+
+
+class PaddingShareLog(BaseCallback):
+    """Record the VecEnv's ``padding_share`` (since it was built) as ``rollout/padding_share`` after every rollout."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.padding_share: float | None = None
+
+    def _on_step(self) -> bool:
+        return True
+
+    def _on_rollout_end(self) -> None:
+        share = getattr(self.training_env, "padding_share", None)
+        if share is not None:
+            self.padding_share = float(share)
+            self.logger.record("rollout/padding_share", self.padding_share)
 
 
 class EveryTimesteps(BaseCallback):

@@ -3,12 +3,13 @@
 The model (trained with :class:`baselines.rl.sb3_env.TeamVecEnv`, or any model whose
 spaces match one agent's) acts for every robot: the live agents' observations are
 stacked and passed to one ``model.predict`` call (deterministic unless
-``deterministic=False``). ``python -m baselines.train`` writes a sidecar ``<model>.json``
+``deterministic=False``); a maskable model (sb3-contrib's ``MaskablePPO``) also gets the
+live agents' action masks, so it never picks a masked action. ``python -m baselines.train`` writes a sidecar ``<model>.json``
 beside every model it saves (env id, config, algorithm, settings); :func:`read_sidecar`
 reads it.
 
-Stable-Baselines3 (and torch) are imported only when a model is loaded, so
-``import baselines`` works without them.
+Stable-Baselines3 (and torch, and sb3-contrib for ``maskable_ppo``) are imported only when
+a model is loaded, so ``import baselines`` works without them.
 """
 
 from __future__ import annotations
@@ -29,24 +30,71 @@ __all__ = [
     "ALGORITHMS",
     "SB3Policy",
     "algorithm_class",
+    "check_action_space",
     "detect_algorithm",
     "read_sidecar",
     "resolve_model",
     "shipped_agents",
 ]
 
-#: algorithm name -> Stable-Baselines3 class name
-ALGORITHMS: dict[str, str] = {"ppo": "PPO", "a2c": "A2C", "sac": "SAC", "td3": "TD3", "ddpg": "DDPG", "dqn": "DQN"}
+#: algorithm name -> class name in Stable-Baselines3 (in sb3-contrib for :data:`CONTRIB_ALGORITHMS`)
+ALGORITHMS: dict[str, str] = {
+    "ppo": "PPO",
+    "a2c": "A2C",
+    "sac": "SAC",
+    "td3": "TD3",
+    "ddpg": "DDPG",
+    "dqn": "DQN",
+    "maskable_ppo": "MaskablePPO",
+}
+#: algorithms that come from sb3-contrib rather than Stable-Baselines3
+CONTRIB_ALGORITHMS = frozenset({"maskable_ppo"})
+#: action spaces each algorithm can learn (algorithms not listed take any)
+_ACTION_SPACES: dict[str, tuple[type[spaces.Space], ...]] = {
+    "maskable_ppo": (spaces.Discrete, spaces.MultiDiscrete, spaces.MultiBinary),
+    "dqn": (spaces.Discrete,),
+    "sac": (spaces.Box,),
+    "td3": (spaces.Box,),
+    "ddpg": (spaces.Box,),
+}
 
 
 def algorithm_class(name: str) -> type:
-    """The Stable-Baselines3 class of algorithm ``name`` (``"ppo"``, ``"sac"``, ...)."""
-    import stable_baselines3
-
+    """The class of algorithm ``name`` (``"ppo"``, ``"sac"``, ``"maskable_ppo"``: sb3-contrib's ``MaskablePPO``, ...)."""
     key = name.lower()
     if key not in ALGORITHMS:
         raise ValueError(f"unknown SB3 algorithm {name!r}; choose one of {sorted(ALGORITHMS)}")
+    if key in CONTRIB_ALGORITHMS:
+        try:
+            import sb3_contrib
+        except ImportError:
+            raise ImportError(f"{key} needs the sb3-contrib package (pip install sb3-contrib)") from None
+        return getattr(sb3_contrib, ALGORITHMS[key])
+    import stable_baselines3
+
     return getattr(stable_baselines3, ALGORITHMS[key])
+
+
+def check_action_space(algo: str, action_space: spaces.Space) -> None:
+    """Raise ``ValueError`` naming the algorithm and the space if ``algo`` cannot learn ``action_space``."""
+    allowed = _ACTION_SPACES.get(algo.lower())
+    if allowed is None or isinstance(action_space, allowed):
+        return
+    names = " or ".join(cls.__name__ for cls in allowed)
+    hint = "a discrete action type (e.g. --set action_type=operator on Exploration-v0)"
+    if allowed == (spaces.Box,):
+        hint = "a continuous action type"
+    raise ValueError(f"{algo.lower()} needs {names} actions, but the env's action space is {action_space}; choose {hint}")
+
+
+def _is_maskable(model: Any) -> bool:
+    """Whether ``model.predict`` takes ``action_masks`` (sb3-contrib's ``MaskablePPO``)."""
+    import inspect
+
+    try:
+        return "action_masks" in inspect.signature(model.predict).parameters
+    except (TypeError, ValueError):
+        return False
 
 
 #: Trained agents shipped with the package: ``<name>.zip`` and its sidecar ``<name>.json``.
@@ -100,8 +148,8 @@ def detect_algorithm(path: str | Path) -> str | None:
     """The algorithm (``"ppo"``, ``"sac"``, ...) a saved model was trained with, or ``None`` if unknown.
 
     Uses the ``algo`` of a sidecar ``<model>.json`` written by ``baselines.train`` when
-    present, else the saved policy class (SAC/TD3/DDPG/DQN have their own) and, for
-    actor-critic policies, PPO-only hyperparameters to tell PPO from A2C.
+    present, else the saved policy class (SAC/TD3/DDPG/DQN and MaskablePPO have their own)
+    and, for actor-critic policies, PPO-only hyperparameters to tell PPO from A2C.
     """
     path = resolve_model(path)
     sidecar = path.with_suffix(".json")
@@ -118,6 +166,8 @@ def detect_algorithm(path: str | Path) -> str | None:
     except (OSError, KeyError, ValueError, zipfile.BadZipFile):
         return None
     module = str(data.get("policy_class", {}).get("__module__", ""))
+    if module == "sb3_contrib.common.maskable.policies":
+        return "maskable_ppo"
     for algo in ("sac", "td3", "dqn"):  # DDPG saves TD3 policies and loads (for prediction) as TD3
         if module == f"stable_baselines3.{algo}.policies":
             return algo
@@ -145,6 +195,7 @@ class SB3Policy(Policy):
         self.deterministic = deterministic
         self.algo: str | None = None
         self.path: Path | None = None
+        self.maskable = _is_maskable(model)
         self._check_spaces()
 
     @classmethod
@@ -153,8 +204,8 @@ class SB3Policy(Policy):
     ) -> SB3Policy:
         """Load the model saved at ``path`` (``.zip``) for ``env``.
 
-        ``algo`` (``"ppo"``, ``"a2c"``, ``"sac"``, ``"td3"``, ``"ddpg"``, ``"dqn"``) is
-        detected from the file when omitted (see :func:`detect_algorithm`); if detection
+        ``algo`` (``"ppo"``, ``"a2c"``, ``"sac"``, ``"td3"``, ``"ddpg"``, ``"dqn"``,
+        ``"maskable_ppo"``) is detected from the file when omitted (see :func:`detect_algorithm`); if detection
         fails every algorithm is tried in turn.
         """
         path = resolve_model(path)
@@ -210,7 +261,10 @@ class SB3Policy(Policy):
         if not agents:
             return {}
         batch = np.stack([np.asarray(observations[a], dtype=np.float32) for a in agents])
-        actions, _ = self.model.predict(batch, deterministic=self.deterministic)
+        if self.maskable:
+            actions, _ = self.model.predict(batch, deterministic=self.deterministic, action_masks=self._masks(agents))
+        else:
+            actions, _ = self.model.predict(batch, deterministic=self.deterministic)
         space = self.env.action_space(agents[0])
         out: dict[str, Any] = {}
         for i, agent in enumerate(agents):
@@ -221,3 +275,10 @@ class SB3Policy(Policy):
             else:
                 out[agent] = actions[i]
         return out
+
+    def _masks(self, agents: list[str]) -> np.ndarray | None:
+        """The env's action masks of ``agents``, one bool row each, or ``None`` when the env gives none."""
+        masks = self.env.action_masks() if hasattr(self.env, "action_masks") else {}
+        if not all(a in masks for a in agents):
+            return None
+        return np.stack([np.asarray(masks[a], dtype=bool).reshape(-1) for a in agents])

@@ -170,9 +170,11 @@ class Training:
         bc_expert: str | None = None,
         bc_steps: int = DEFAULT_BC_STEPS,
         bc_epochs: int = DEFAULT_BC_EPOCHS,
+        workers: int = 1,
+        preset: str | None = None,
     ) -> None:
         import teamgym
-        from baselines.rl.callbacks import EvalLog
+        from baselines.rl.callbacks import EvalLog, PaddingShareLog
         from baselines.rl.sb3_env import TeamVecEnv
         from baselines.rl.sb3_policy import algorithm_class, check_action_space, detect_algorithm, read_sidecar, resolve_model
 
@@ -230,8 +232,21 @@ class Training:
                 make_expert(bc_expert, probe)
         finally:
             probe.close()
-        self.venv = TeamVecEnv(lambda: teamgym.make(env_id, **self.config), n_envs=self.n_envs)
+        if not 1 <= workers <= self.n_envs:
+            raise ValueError(f"workers must be in [1, n_envs={self.n_envs}], got {workers}")
+        self.workers, self.preset = int(workers), preset
+
+        def make_copy() -> Any:
+            return teamgym.make(env_id, **self.config)
+
+        if self.workers == 1:
+            self.venv = TeamVecEnv(make_copy, n_envs=self.n_envs)
+        else:
+            from baselines.rl.subproc import SubprocTeamVecEnv
+
+            self.venv = SubprocTeamVecEnv(make_copy, self.n_envs, n_workers=self.workers)
         self.eval_env = None
+        self.padding_log = PaddingShareLog()
         try:
             self.agents_per_env = self.venv.agents_per_env
             if self.resume:
@@ -282,7 +297,7 @@ class Training:
         except BaseException:
             self.close()
             raise
-        self.resolved = self.venv.envs[0].config.as_dict()
+        self.resolved = self.venv.get_attr("config", [0])[0].as_dict()
         self.started = time.time()
 
     # -- saving --------------------------------------------------------------------------
@@ -309,6 +324,9 @@ class Training:
             "tb_log_name": self.tb_log_name,
             "checkpoint_every": self.checkpoint_every,
             "bc": self.bc,
+            "preset": self.preset,
+            "workers": self.workers,
+            "padding_share": self.padding_log.padding_share,
             "eval": (
                 {
                     "every": self.eval_every,
@@ -355,7 +373,7 @@ class Training:
         """The SB3 callbacks of this run: checkpoints, periodic evaluation, then the caller's."""
         from baselines.rl.callbacks import EveryTimesteps
 
-        callbacks: list[Any] = []
+        callbacks: list[Any] = [self.padding_log]
         if self.checkpoint_every:
             callbacks.append(EveryTimesteps(self.checkpoint_every, self._checkpoint))
         if self.eval_every:
@@ -556,8 +574,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--timesteps",
         type=count,
-        default=100_000,
-        help="agent transitions to train for (with --resume: on top of the model's; default: 100000)",
+        default=None,
+        help="agent transitions to train for (with --resume: on top of the model's; default: the preset's, else 100000)",
     )
     parser.add_argument("--seed", type=natural, default=None, help=f"random seed (default: 0{resumed})")
     parser.add_argument(
@@ -608,6 +626,16 @@ def build_parser() -> argparse.ArgumentParser:
         help=f"first held-out seed; evaluation i uses S..S+K-1 (default: {DEFAULT_EVAL_SEED}{resumed})",
     )
     parser.add_argument(
+        "--preset",
+        default=None,
+        metavar="NAME",
+        help="train with a shipped RL preset (env, config, algo, hyper-parameters, budget; see docs/training.md); "
+        "other options override its values",
+    )
+    parser.add_argument(
+        "--workers", type=count, default=None, help="step the env copies in this many worker processes (default: 1)"
+    )
+    parser.add_argument(
         "--bc-expert", default=None, metavar="NAME", help="behaviour-clone this scripted policy before training (ppo, a2c)"
     )
     parser.add_argument(
@@ -627,6 +655,25 @@ def _pairs(items: Sequence[str], flag: str) -> dict[str, str]:
             raise ValueError(f"{flag} expects key=value, got {item!r}")
         pairs[key.strip()] = value.strip()
     return pairs
+
+
+def _preset_settings(name: str, env_id: str | None) -> dict[str, Any]:
+    """A preset in the shape of a saved sidecar (``env``, ``algo``, ``overrides``, ...) for :func:`_plan`."""
+    from baselines.rl.presets import load_preset
+
+    preset = load_preset(name)
+    if env_id is not None and env_id != preset.env:
+        raise ValueError(f"preset {name!r} is for {preset.env}, not {env_id}")
+    return {
+        "env": preset.env,
+        "algo": preset.algo,
+        "overrides": {k: repr(v) if not isinstance(v, str) else v for k, v in preset.config.items()},
+        "n_envs": preset.n_envs,
+        "timesteps": preset.timesteps,
+        "hyperparameters": dict(preset.hyperparameters),
+        "bc": preset.bc,
+        "eval": preset.eval,
+    }
 
 
 def _pick(given: Any, saved: Any, default: Any) -> Any:
@@ -658,6 +705,12 @@ def _plan(args: argparse.Namespace) -> tuple[dict[str, Any], list[int] | None]:
         sets["max_cycles"] = str(args.max_cycles)
     hyperparameters = {k: parse_value(v) for k, v in _pairs(args.hp, "--hp").items()}
     saved: dict[str, Any] = {}
+    if args.preset is not None:
+        if args.resume:
+            raise ValueError("--preset starts a new run; --resume takes its settings from the model's sidecar")
+        saved = _preset_settings(args.preset, args.env)
+        sets = {**saved["overrides"], **sets}
+        hyperparameters = {**saved["hyperparameters"], **hyperparameters}
     if args.resume:
         path = resolve_model(args.resume)
         saved = read_sidecar(path) or {}
@@ -667,6 +720,8 @@ def _plan(args: argparse.Namespace) -> tuple[dict[str, Any], list[int] | None]:
         saved["algo"] = saved_algo
     env_id = _pick(args.env, saved.get("env"), DEFAULT_ENV)
     overrides = saved.get("overrides") if env_id == saved.get("env") and isinstance(saved.get("overrides"), dict) else {}
+    if args.preset is not None:
+        overrides = {}  # already merged into sets
     config = {**overrides, **sets}
     algo = _pick(args.algo, saved.get("algo"), DEFAULT_ALGO)
     evaluation = saved.get("eval") if isinstance(saved.get("eval"), dict) else {}
@@ -676,7 +731,7 @@ def _plan(args: argparse.Namespace) -> tuple[dict[str, Any], list[int] | None]:
     kwargs: dict[str, Any] = {
         "env_id": env_id,
         "algo": algo,
-        "timesteps": args.timesteps,
+        "timesteps": _pick(args.timesteps, saved.get("timesteps") if args.preset else None, 100_000),
         "config": config,
         "n_envs": _pick(args.n_envs, saved.get("n_envs"), DEFAULT_N_ENVS),
         "hyperparameters": hyperparameters,
@@ -689,6 +744,15 @@ def _plan(args: argparse.Namespace) -> tuple[dict[str, Any], list[int] | None]:
         "eval_episodes": _pick(args.eval_episodes, evaluation.get("episodes"), DEFAULT_EVAL_EPISODES),
         "eval_seed": _pick(args.eval_seed, evaluation.get("seed"), DEFAULT_EVAL_SEED),
     }
+    if args.preset is not None:
+        kwargs["preset"] = args.preset
+    if args.workers is not None:
+        kwargs["workers"] = args.workers
+    bc = saved.get("bc") if args.preset and isinstance(saved.get("bc"), dict) else None
+    if args.bc_expert is None and bc:
+        kwargs["bc_expert"] = bc["expert"]
+        kwargs["bc_steps"] = _pick(args.bc_steps, bc.get("steps"), DEFAULT_BC_STEPS)
+        kwargs["bc_epochs"] = _pick(args.bc_epochs, bc.get("epochs"), DEFAULT_BC_EPOCHS)
     if args.bc_expert is not None:
         kwargs["bc_expert"] = args.bc_expert
         kwargs["bc_steps"] = _pick(args.bc_steps, None, DEFAULT_BC_STEPS)

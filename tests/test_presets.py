@@ -1,0 +1,70 @@
+"""RL presets (``--preset``), worker processes (``--workers``) and the padding share in the sidecar."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+pytest.importorskip("stable_baselines3")
+
+from baselines.rl.presets import load_preset, presets  # noqa: E402
+from baselines.rl.train import _plan, build_parser  # noqa: E402
+from baselines.rl.train import main as train_main  # noqa: E402
+
+
+def plan(*args: str) -> dict:
+    return _plan(build_parser().parse_args(list(args)))[0]
+
+
+def test_every_shipped_preset_loads_and_builds_its_env():
+    import teamgym
+
+    assert "navigation-ppo" in presets()
+    for name in presets():
+        preset = load_preset(name)
+        teamgym.make(preset.env, **preset.config).close()  # a valid config of its env
+        assert preset.changes, f"{name}: document what the preset changes"
+        for key in preset.config:
+            assert any(key in documented for documented in preset.changes), f"{name}: {key} is not explained"
+
+
+def test_preset_values_and_command_line_overrides():
+    preset = load_preset("navigation-ppo")
+    kwargs = plan("--preset", "navigation-ppo", "--out", "m.zip")
+    assert kwargs["env_id"] == preset.env and kwargs["algo"] == preset.algo and kwargs["n_envs"] == preset.n_envs
+    assert kwargs["timesteps"] == preset.timesteps and kwargs["preset"] == "navigation-ppo"
+    assert kwargs["hyperparameters"] == preset.hyperparameters
+    assert set(kwargs["config"]) == set(preset.config)
+    assert kwargs["bc_expert"] == preset.bc["expert"] and kwargs["eval_every"] == preset.eval["every"]
+    mine = plan(
+        "--preset", "navigation-ppo", "--timesteps", "64", "--set", "collision_penalty=2", "--hp", "n_epochs=3", "--n-envs", "2"
+    )
+    assert mine["timesteps"] == 64 and mine["n_envs"] == 2
+    assert mine["config"]["collision_penalty"] == "2" and mine["hyperparameters"]["n_epochs"] == 3
+
+
+@pytest.mark.parametrize(
+    ("args", "needle"),
+    [
+        (["--preset", "no-such-preset"], "unknown preset 'no-such-preset'; available: "),
+        (["--preset", "navigation-ppo", "--env", "Exploration-v0"], "is for Navigation-v0, not Exploration-v0"),
+        (["--preset", "navigation-ppo", "--resume", "m.zip"], "--preset starts a new run"),
+        (["--workers", "3", "--n-envs", "2"], "workers must be in [1, n_envs=2]"),
+    ],
+)
+def test_preset_and_worker_errors_are_one_line(args, needle, tmp_path, capsys):
+    assert train_main([*args, "--out", str(tmp_path / "m.zip")]) == 2
+    err = capsys.readouterr().err
+    assert needle in err and err.count("\n") == 1
+    assert not (tmp_path / "m.zip").exists()
+
+
+def test_training_in_worker_processes_records_workers_and_padding(tmp_path):
+    out = tmp_path / "w.zip"
+    args = ["--env", "Navigation-v0", "--set", "n_robots=2", "--max-cycles", "10", "--n-envs", "2", "--workers", "2"]
+    args += ["--timesteps", "128", "--hp", "n_steps=32", "--hp", "batch_size=32", "--hp", "n_epochs=1", "--verbose", "0"]
+    assert train_main([*args, "--out", str(out)]) == 0
+    sidecar = json.loads(out.with_suffix(".json").read_text())
+    assert sidecar["workers"] == 2 and sidecar["trained_timesteps"] >= 128
+    assert 0.0 <= sidecar["padding_share"] < 1.0
