@@ -565,11 +565,21 @@ def main(argv: Sequence[str] | None = None) -> int:
         args = build_parser().parse_args(argv)
     except SystemExit as done:  # --help, or a usage error already reported in one line
         return 0 if done.code is None else done.code if isinstance(done.code, int) else 2
+
+    def body() -> int:
+        try:
+            return _run(args)
+        except _UsageError as error:
+            print(f"error: {_one_line(str(error))}", file=sys.stderr)
+            return 2
+
+    return guarded(body)
+
+
+def guarded(body: Callable[[], int]) -> int:
+    """Run a command's work: Ctrl-C exits 130, any failure prints one line and exits 1 (``TEAMGYM_TRACEBACK=1`` re-raises)."""
     try:
-        return _run(args)
-    except _UsageError as error:
-        print(f"error: {_one_line(str(error))}", file=sys.stderr)
-        return 2
+        return body()
     except KeyboardInterrupt:
         print("error: interrupted", file=sys.stderr)
         return 130

@@ -159,16 +159,6 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _task(items: Sequence[str]) -> dict[str, str]:
-    task = {}
-    for item in items:
-        key, sep, value = item.partition("=")
-        if not sep or not key.strip():
-            raise ValueError(f"--set expects key=value, got {item!r}")
-        task[key.strip()] = value.strip()
-    return task
-
-
 def _curve(agent: str, rows: Sequence[Mapping[str, Any]], out: Path) -> Path:
     from baselines.rl.plot_curves import load_curves, plot_curves
     from baselines.rl.sb3_policy import resolve_model
@@ -183,16 +173,28 @@ def _curve(agent: str, rows: Sequence[Mapping[str, Any]], out: Path) -> Path:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(argv)
+    """Run the comparison CLI: exit 2 with one line for bad arguments, 1 for a failure while playing."""
+    from baselines.evaluate import _message, guarded
+    from baselines.rl.sb3_policy import resolve_model
+    from baselines.rl.train import _pairs
+
+    args = build_parser().parse_args(argv)
     try:
         if args.episodes < 1 or args.seed < 0 or args.workers < 1:
             raise ValueError("--episodes and --workers must be >= 1 and --seed >= 0")
         if args.curve and (args.agent is None or args.out is None):
             raise ValueError("--curve needs --agent and --out")
-        rows = compare(args.env, args.agent, args.episodes, args.seed, args.workers, _task(args.set))
+        task = _pairs(args.set, "--set")
+        compare(args.env, None, 1, 0, 1, task, policies=[])  # checks the env id and the task config, plays nothing
+        if args.agent is not None:
+            resolve_model(args.agent)
     except (ValueError, KeyError, FileNotFoundError) as error:
-        parser.exit(2, f"error: {str(error).strip(chr(39) + chr(34))}\n")
+        print(f"error: {_message(error)}", file=sys.stderr)
+        return 2
+    return guarded(lambda: _report(args, compare(args.env, args.agent, args.episodes, args.seed, args.workers, task)))
+
+
+def _report(args: argparse.Namespace, rows: Sequence[Mapping[str, Any]]) -> int:
     table = markdown(rows)
     print(f"{args.env}, {args.episodes} held-out seeds from {args.seed}" + (f", task {args.set}" if args.set else ""))
     print(table)
