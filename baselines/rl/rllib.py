@@ -174,7 +174,8 @@ class TeamMultiAgentEnv(_MultiAgentEnv):
         self.observation_spaces = dict.fromkeys(self.possible_agents, obs_space)
         self.action_spaces = dict.fromkeys(self.possible_agents, act_space)
 
-    def _observe(self, observations: dict[str, Any]) -> dict[str, Any]:
+    def observe(self, observations: dict[str, Any]) -> dict[str, Any]:
+        """The observations RLlib sees: the env's, with each live agent's action mask added for masked action types."""
         if not self.masked:
             return observations
         masks = self.env.action_masks()
@@ -188,7 +189,7 @@ class TeamMultiAgentEnv(_MultiAgentEnv):
     def reset(self, *, seed: int | None = None, options: dict | None = None) -> tuple[dict, dict]:
         observations, infos = self.env.reset(seed=seed, options=options)
         self.agents = list(self.env.agents)
-        return self._observe(observations), infos
+        return self.observe(observations), infos
 
     def step(self, action_dict: dict[str, Any]) -> tuple[dict, dict, dict, dict, dict]:
         observations, rewards, terminations, truncations, infos = self.env.step(action_dict)
@@ -199,7 +200,7 @@ class TeamMultiAgentEnv(_MultiAgentEnv):
         if over:  # see the class docstring: RLlib infers each agent's truncation from __all__
             truncations = dict.fromkeys(truncations, False)
         truncations = {**truncations, "__all__": over and truncated}
-        return self._observe(observations), rewards, terminations, truncations, infos
+        return self.observe(observations), rewards, terminations, truncations, infos
 
     def render(self) -> Any:
         return self.env.render()
@@ -363,7 +364,7 @@ class RLlibPolicy(Policy):
         agents = list(observations)
         if not agents:
             return {}
-        rows = self.adapter._observe(observations)
+        rows = self.adapter.observe(observations)
         if self.adapter.masked:
             obs: Any = {key: torch.as_tensor(np.stack([rows[a][key] for a in agents])) for key in ("observations", "action_mask")}
         else:

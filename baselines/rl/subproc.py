@@ -76,7 +76,9 @@ def _serve(remote: Any, parent_remote: Any, env_fn: CloudpickleWrapper, layout: 
                 remote.send(venv.step_wait())
             elif command == "reset":
                 seeds, options = data
-                venv._seeds, venv._options = list(seeds), list(options)
+                if seeds and seeds[0] is not None:  # the parent's seeds are consecutive: S + k for its slot k
+                    venv.seed(seeds[0])
+                venv.set_options(list(options))
                 remote.send((venv.reset(), list(venv.reset_infos)))
             elif command == "spaces":
                 remote.send((venv.num_envs, venv.agents_per_env, venv.observation_space, venv.action_space))
