@@ -75,7 +75,7 @@ DEFAULT_ENV, DEFAULT_ALGO, DEFAULT_N_ENVS, DEFAULT_EVAL_EPISODES = "Navigation-v
 def default_hyperparameters(algo: str, num_envs: int) -> dict[str, Any]:
     """Modest defaults: on-policy rollouts of ~2048 transitions in 8 equal mini-batches."""
     algo = algo.lower()
-    if algo == "ppo":
+    if algo in ("ppo", "maskable_ppo"):
         n_steps = max(8, math.ceil(2048 / num_envs / 8) * 8)
         return {"n_steps": n_steps, "batch_size": n_steps * num_envs // 8}
     if algo == "a2c":
