@@ -118,7 +118,7 @@ def test_maskable_ppo_refuses_a_box_action_space(tmp_path: Path, capsys: pytest.
     env = teamgym.make(ENV)  # action_type="velocity": (v, ω)
     box = env.action_space(env.possible_agents[0])
     assert isinstance(box, spaces.Box)
-    with pytest.raises(ValueError, match=r"maskable_ppo needs Discrete or MultiDiscrete or MultiBinary actions.*Box"):
+    with pytest.raises(ValueError, match=r"maskable_ppo needs Discrete, MultiDiscrete or MultiBinary actions.*Box"):
         check_action_space("maskable_ppo", box)
     check_action_space("maskable_ppo", spaces.Discrete(3))
     check_action_space("ppo", box)

@@ -4,9 +4,9 @@ The model (trained with :class:`baselines.rl.sb3_env.TeamVecEnv`, or any model w
 spaces match one agent's) acts for every robot: the live agents' observations are
 stacked and passed to one ``model.predict`` call (deterministic unless
 ``deterministic=False``); a maskable model (sb3-contrib's ``MaskablePPO``) also gets the
-live agents' action masks, so it never picks a masked action. ``python -m baselines.train`` writes a sidecar ``<model>.json``
-beside every model it saves (env id, config, algorithm, settings); :func:`read_sidecar`
-reads it.
+live agents' action masks, so it never picks a masked action. ``python -m baselines.train``
+writes a sidecar ``<model>.json`` beside every model it saves (env id, config, algorithm,
+settings); :func:`read_sidecar` reads it.
 
 Stable-Baselines3 (and torch, and sb3-contrib for ``maskable_ppo``) are imported only when
 a model is loaded, so ``import baselines`` works without them.
@@ -14,6 +14,7 @@ a model is loaded, so ``import baselines`` works without them.
 
 from __future__ import annotations
 
+import inspect
 import json
 import zipfile
 from pathlib import Path
@@ -80,8 +81,9 @@ def check_action_space(algo: str, action_space: spaces.Space) -> None:
     allowed = _ACTION_SPACES.get(algo.lower())
     if allowed is None or isinstance(action_space, allowed):
         return
-    names = " or ".join(cls.__name__ for cls in allowed)
-    hint = "a discrete action type (e.g. --set action_type=operator on Exploration-v0)"
+    *first, last = [cls.__name__ for cls in allowed]
+    names = f"{', '.join(first)} or {last}" if first else last
+    hint = "a discrete action type (e.g. --set action_type=operator on Exploration-v0, heading on Navigation-v0)"
     if allowed == (spaces.Box,):
         hint = "a continuous action type"
     raise ValueError(f"{algo.lower()} needs {names} actions, but the env's action space is {action_space}; choose {hint}")
@@ -89,8 +91,6 @@ def check_action_space(algo: str, action_space: spaces.Space) -> None:
 
 def _is_maskable(model: Any) -> bool:
     """Whether ``model.predict`` takes ``action_masks`` (sb3-contrib's ``MaskablePPO``)."""
-    import inspect
-
     try:
         return "action_masks" in inspect.signature(model.predict).parameters
     except (TypeError, ValueError):
