@@ -35,7 +35,6 @@ import dataclasses
 import importlib.util
 import json
 import math
-import os
 import sys
 import time
 from collections.abc import Callable, Mapping, Sequence
@@ -596,7 +595,7 @@ def _report(summary: Mapping[str, Any], title: str) -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI; returns the exit code (2: bad arguments or missing ray[rllib]; 1: failure while training)."""
-    from baselines.evaluate import _message, summarise
+    from baselines.evaluate import _message, guarded, summarise
     from baselines.rl.train import _pairs
 
     try:
@@ -624,55 +623,51 @@ def main(argv: Sequence[str] | None = None) -> int:
     import torch
 
     torch.set_num_threads(args.threads)
-    try:
-        if args.evaluate is not None:
-            checkpoint = Path(args.evaluate)
-            episodes = args.eval_episodes or 10
-        else:
 
-            def show(row: Mapping[str, Any]) -> None:
-                print(
-                    f"iteration {row['iteration']}: env steps {row['env_steps']:.0f}, episodes {row['episodes']:.0f}, "
-                    f"return {row['episode_return_mean']:.3g}, vf explained var {row['vf_explained_var']:.3g}, "
-                    f"{row['seconds']:.1f} s",
-                    flush=True,
+    def work() -> int:
+        try:
+            if args.evaluate is not None:
+                checkpoint = Path(args.evaluate)
+                episodes = args.eval_episodes or 10
+            else:
+
+                def show(row: Mapping[str, Any]) -> None:
+                    print(
+                        f"iteration {row['iteration']}: env steps {row['env_steps']:.0f}, episodes {row['episodes']:.0f}, "
+                        f"return {row['episode_return_mean']:.3g}, vf explained var {row['vf_explained_var']:.3g}, "
+                        f"{row['seconds']:.1f} s",
+                        flush=True,
+                    )
+
+                checkpoint = train(
+                    env_id,
+                    args.iterations,
+                    config=config,
+                    out=args.out,
+                    seed=args.seed,
+                    training=training,
+                    num_env_runners=args.env_runners,
+                    num_cpus=args.num_cpus,
+                    rllib_defaults=args.defaults,
+                    on_iteration=show,
                 )
+                print(f"saved {checkpoint} (settings and per-iteration results in {checkpoint / 'teamgym.json'})")
+                episodes = args.eval_episodes
+            if episodes:
+                results = evaluate_checkpoint(checkpoint, env_id, config, episodes, args.eval_seed)
+                summary = summarise(results)
+                last = args.eval_seed + episodes - 1
+                _report(summary, f"{env_id} | rllib:{checkpoint} | {episodes} episodes (seeds {args.eval_seed}-{last})")
+                if args.evaluate is None:
+                    data = read_sidecar(checkpoint)
+                    data["eval"] = {"seed": args.eval_seed, "episodes": episodes, **summary}
+                    _write_sidecar(checkpoint, data)
+        except (ValueError, FileNotFoundError) as error:
+            print(f"error: {_message(error)}", file=sys.stderr)
+            return 2
+        return 0
 
-            checkpoint = train(
-                env_id,
-                args.iterations,
-                config=config,
-                out=args.out,
-                seed=args.seed,
-                training=training,
-                num_env_runners=args.env_runners,
-                num_cpus=args.num_cpus,
-                rllib_defaults=args.defaults,
-                on_iteration=show,
-            )
-            print(f"saved {checkpoint} (settings and per-iteration results in {checkpoint / 'teamgym.json'})")
-            episodes = args.eval_episodes
-        if episodes:
-            results = evaluate_checkpoint(checkpoint, env_id, config, episodes, args.eval_seed)
-            summary = summarise(results)
-            last = args.eval_seed + episodes - 1
-            _report(summary, f"{env_id} | rllib:{checkpoint} | {episodes} episodes (seeds {args.eval_seed}-{last})")
-            if args.evaluate is None:
-                data = read_sidecar(checkpoint)
-                data["eval"] = {"seed": args.eval_seed, "episodes": episodes, **summary}
-                _write_sidecar(checkpoint, data)
-    except (ValueError, FileNotFoundError) as error:
-        print(f"error: {_message(error)}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print("error: interrupted", file=sys.stderr)
-        return 130
-    except Exception as error:  # noqa: BLE001 - no traceback reaches a command-line user
-        if os.environ.get("TEAMGYM_TRACEBACK"):
-            raise
-        print(f"error: {type(error).__name__}: {_message(error)} (TEAMGYM_TRACEBACK=1 shows where)", file=sys.stderr)
-        return 1
-    return 0
+    return guarded(work)
 
 
 if __name__ == "__main__":
