@@ -60,3 +60,13 @@ def random_actions(env, rng):
 def random_policy():
     """``random_policy(env, rng)`` returns a dict of random in-space actions for the live agents."""
     return random_actions
+
+
+@pytest.fixture
+def single_thread_torch():
+    """torch on one thread for the test (tiny MLPs run far faster so, and tests share the CPU); restored after."""
+    torch = pytest.importorskip("torch")
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)
+    yield
+    torch.set_num_threads(threads)

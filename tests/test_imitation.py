@@ -28,13 +28,8 @@ PPO_ARGS = ["--hp", "n_steps=32", "--hp", "batch_size=32", "--hp", "n_epochs=2",
 
 
 @pytest.fixture(autouse=True)
-def single_thread_torch():
-    import torch
-
-    threads = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(threads)
+def _one_torch_thread(single_thread_torch):
+    """Every test here runs torch on one thread (the shared fixture in conftest.py)."""
 
 
 class GreedyForRandomness(Policy):

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import json
 import shutil
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -29,14 +28,8 @@ CONFIG = {"action_type": "operator", "n_robots": 2, "max_cycles": 150}
 
 
 @pytest.fixture(autouse=True)
-def single_thread_torch() -> Iterator[None]:
-    """Tiny MLPs run far faster on one thread (and the tests share the CPU with other jobs)."""
-    import torch
-
-    threads = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(threads)
+def _one_torch_thread(single_thread_torch):
+    """Every test here runs torch on one thread (the shared fixture in conftest.py)."""
 
 
 def count_masked(monkeypatch: pytest.MonkeyPatch) -> dict[str, int]:

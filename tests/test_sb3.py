@@ -24,14 +24,8 @@ CONFIG = {"max_cycles": 12, "n_robots": 2, "n_obstacles": 1}
 
 
 @pytest.fixture(autouse=True)
-def single_thread_torch():
-    """Tiny MLPs run far faster on one thread (and the tests share the CPU with other jobs)."""
-    import torch
-
-    threads = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(threads)
+def _one_torch_thread(single_thread_torch):
+    """Every test here runs torch on one thread (the shared fixture in conftest.py)."""
 
 
 def make_env():

@@ -41,13 +41,8 @@ TRAIN_KWARGS = {
 
 
 @pytest.fixture(autouse=True)
-def single_thread_torch():
-    import torch
-
-    threads = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(threads)
+def _one_torch_thread(single_thread_torch):
+    """Every test here runs torch on one thread (the shared fixture in conftest.py)."""
 
 
 def one_line_error(err: str, needle: str) -> None:
