@@ -174,6 +174,7 @@ def _curve(agent: str, rows: Sequence[Mapping[str, Any]], out: Path) -> Path:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the comparison CLI: exit 2 with one line for bad arguments, 1 for a failure while playing."""
+    import teamgym
     from baselines.evaluate import _message, guarded
     from baselines.rl.sb3_policy import resolve_model
     from baselines.rl.train import _pairs
@@ -185,7 +186,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.curve and (args.agent is None or args.out is None):
             raise ValueError("--curve needs --agent and --out")
         task = _pairs(args.set, "--set")
-        compare(args.env, None, 1, 0, 1, task, policies=[])  # checks the env id and the task config, plays nothing
+        teamgym.make(args.env, **task).close()  # a bad env id or task config fails here, before any episode
         if args.agent is not None:
             resolve_model(args.agent)
     except (ValueError, KeyError, FileNotFoundError) as error:
