@@ -1,26 +1,29 @@
 """Env-steps/s of Navigation-v0 beside a bare pymunk loop and MPE2's simple_spread.
 
-All three run in one process, interleaved over several rounds; the best round of each is
-reported (the least disturbed by other load on the machine). Random actions are drawn
-before timing; no rendering.
+All three run in one process, interleaved in short chunks (``--chunk`` steps each) over
+``--rounds`` rounds; the fastest chunk of each is reported (the least disturbed by other load
+on a shared machine), with the median chunk beside it. Random actions are drawn before
+timing; no rendering.
 
 * ``teamgym``: ``Navigation-v0`` with N robots and 2 moving obstacles, random actions from
   the action space, episodes reset when they end (resets are included in the time).
 * ``bare pymunk``: the same bodies (N motor-driven discs with kinematic control bodies,
   pivot and gear joints; 2 moving polygons driven the same way; 4 boundary walls), the same
   20 substeps per control step and 8 ray casts per robot every step, written with pymunk's
-  public API and nothing else (no observations, rewards or checks).
+  public API and nothing else; it builds a plain observation per robot (pose, velocities,
+  ray hits) but computes no rewards and checks nothing.
 * ``MPE2 simple_spread``: N agents, continuous actions, ``max_cycles`` large.
 
-Targets (issue 2, N = 5): teamgym time per step at most 2x the bare loop, and teamgym
-env-steps/s at least 2x MPE2's.
+Targets: issue 2, N = 5: teamgym time per step at most 2x the bare loop, and teamgym
+env-steps/s at least 2x MPE2's; issue 15: at most 1.2x the bare loop.
 
-    python benchmarks/bench_navigation.py [--steps 3000] [--rounds 3] [--json out.json]
+    python benchmarks/bench_navigation.py [--chunk 200] [--rounds 15] [--json out.json]
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import math
 import platform
@@ -33,19 +36,23 @@ import teamgym
 from teamgym.sim.sensors import KHEPERA_RING
 
 
-def time_teamgym(n_robots: int, steps: int, seed: int = 0) -> float:
-    env = teamgym.make("Navigation-v0", n_robots=n_robots, n_obstacles=2)
-    env.reset(seed=seed)
-    rng = np.random.default_rng(seed)
-    space = env.action_space(env.possible_agents[0])
-    pool = [{a: rng.uniform(space.low, space.high).astype(np.float32) for a in env.possible_agents} for _ in range(256)]
-    start = time.perf_counter()
-    for i in range(steps):
+class TeamgymLoop:
+    """``Navigation-v0`` stepped with random actions; a finished episode is reset."""
+
+    def __init__(self, n_robots: int, seed: int = 0) -> None:
+        self.env = teamgym.make("Navigation-v0", n_robots=n_robots, n_obstacles=2)
+        self.env.reset(seed=seed)
+        rng = np.random.default_rng(seed)
+        space = self.env.action_space(self.env.possible_agents[0])
+        agents = self.env.possible_agents
+        self.pool = [{a: rng.uniform(space.low, space.high).astype(np.float32) for a in agents} for _ in range(256)]
+
+    def step(self, i: int) -> None:
+        env = self.env
         if not env.agents:
             env.reset()
-        actions = pool[i % 256]
+        actions = self.pool[i % 256]
         env.step({a: actions[a] for a in env.agents})
-    return steps / (time.perf_counter() - start)
 
 
 class BareLoop:
@@ -118,66 +125,99 @@ class BareLoop:
         h = self.dt / self.substeps
         for _ in range(self.substeps):
             self.space.step(h)
+        rows = []
         for body, _, _, shape_filter in self.robots:
             x, y = body.position
+            vx, vy = body.velocity
+            row = [x, y, body.angle, vx, vy, body.angular_velocity]
             c, s = math.cos(body.angle), math.sin(body.angle)
             for ca, sa in zip(self.ray_cos, self.ray_sin):
                 dx, dy = c * ca - s * sa, s * ca + c * sa
                 start = (x + 0.0275 * dx, y + 0.0275 * dy)
-                self.space.segment_query_first(start, (start[0] + 0.1 * dx, start[1] + 0.1 * dy), 0.0, shape_filter)
+                hit = self.space.segment_query_first(start, (start[0] + 0.1 * dx, start[1] + 0.1 * dy), 0.0, shape_filter)
+                row.append(0.1 if hit is None else 0.1 * hit.alpha)
+            rows.append(row)
+        self.observation = np.array(rows, dtype=np.float32)
 
 
-def time_bare(n_robots: int, steps: int) -> float:
-    loop = BareLoop(n_robots)
-    start = time.perf_counter()
-    for i in range(steps):
-        loop.step(i)
-    return steps / (time.perf_counter() - start)
+class MPE2Loop:
+    """MPE2's ``simple_spread`` with N agents and continuous random actions."""
 
-
-def time_mpe2(n_agents: int, steps: int, seed: int = 0) -> float | None:
-    try:
+    def __init__(self, n_agents: int, seed: int = 0) -> None:
         from mpe2 import simple_spread_v3
-    except ImportError:
-        return None
-    env = simple_spread_v3.parallel_env(N=n_agents, max_cycles=10**9, continuous_actions=True)
-    env.reset(seed=seed)
-    rng = np.random.default_rng(seed)
-    space = env.action_space(env.agents[0])
-    pool = [{a: rng.uniform(space.low, space.high).astype(np.float32) for a in env.agents} for _ in range(256)]
-    start = time.perf_counter()
-    for i in range(steps):
-        env.step(pool[i % 256])
-    return steps / (time.perf_counter() - start)
+
+        self.env = simple_spread_v3.parallel_env(N=n_agents, max_cycles=10**9, continuous_actions=True)
+        self.env.reset(seed=seed)
+        rng = np.random.default_rng(seed)
+        space = self.env.action_space(self.env.agents[0])
+        self.pool = [{a: rng.uniform(space.low, space.high).astype(np.float32) for a in self.env.agents} for _ in range(256)]
+
+    def step(self, i: int) -> None:
+        self.env.step(self.pool[i % 256])
+
+
+def make_loops(n: int) -> dict[str, object]:
+    loops: dict[str, object] = {"teamgym": TeamgymLoop(n), "bare pymunk": BareLoop(n)}
+    with contextlib.suppress(ImportError):
+        loops["MPE2 simple_spread"] = MPE2Loop(n)
+    return loops
+
+
+CLOCKS = {"wall": time.perf_counter, "cpu": time.process_time}
+
+
+def chunk_rate(loop, start: int, steps: int, clock=time.perf_counter) -> float:
+    """Steps per second over ``steps`` steps of ``loop`` starting at step ``start``, timed by ``clock``."""
+    begin = clock()
+    for i in range(start, start + steps):
+        loop.step(i)
+    return steps / (clock() - begin)
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--steps", type=int, default=3000)
-    parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument("--chunk", type=int, default=200, help="steps per timed chunk")
+    parser.add_argument("--rounds", type=int, default=15, help="chunks per contender, interleaved")
     parser.add_argument("--robots", type=int, nargs="+", default=[3, 5])
     parser.add_argument("--json", type=str, default=None)
+    parser.add_argument(
+        "--clock",
+        choices=sorted(CLOCKS),
+        default="wall",
+        help="wall time, or this process's CPU time (for a machine busy with other jobs)",
+    )
     args = parser.parse_args()
-    best: dict[tuple[str, int], float] = {}
-    for _ in range(args.rounds):
-        for n in args.robots:
-            for name, fn in (("teamgym", time_teamgym), ("bare pymunk", time_bare), ("MPE2 simple_spread", time_mpe2)):
-                rate = fn(n, args.steps)
-                if rate is not None:
-                    best[(name, n)] = max(best.get((name, n), 0.0), rate)
+    clock = CLOCKS[args.clock]
+    rates: dict[tuple[str, int], list[float]] = {}
+    for n in args.robots:
+        loops = make_loops(n)
+        for loop in loops.values():
+            chunk_rate(loop, 0, args.chunk, clock)  # warm-up
+        for k in range(args.rounds):
+            for name, loop in loops.items():
+                rates.setdefault((name, n), []).append(chunk_rate(loop, (k + 1) * args.chunk, args.chunk, clock))
     machine = platform.processor() or platform.machine()
-    print(f"Navigation-v0 speed, best of {args.rounds} rounds x {args.steps} steps ({machine})")
-    print(f"{'N':>3}  {'teamgym':>10}  {'bare pymunk':>12}  {'MPE2':>10}  {'env/bare time':>13}  {'teamgym/MPE2':>12}")
+    print(
+        f"Navigation-v0 steps/s ({args.clock} clock): fastest (median) of {args.rounds} interleaved chunks "
+        f"x {args.chunk} steps ({machine})"
+    )
+    print(f"{'N':>3}  {'teamgym':>14}  {'bare pymunk':>14}  {'MPE2':>14}  {'env/bare time':>13}  {'teamgym/MPE2':>12}")
     rows = []
     for n in args.robots:
-        env_rate, bare_rate = best[("teamgym", n)], best[("bare pymunk", n)]
-        mpe_rate = best.get(("MPE2 simple_spread", n))
-        ratio_bare = bare_rate / env_rate
+        best = {name: max(r) for (name, m), r in rates.items() if m == n}
+        median = {name: float(np.median(r)) for (name, m), r in rates.items() if m == n}
+        env_rate, bare_rate, mpe_rate = best["teamgym"], best["bare pymunk"], best.get("MPE2 simple_spread")
+
+        def cell(name: str, best: dict = best, median: dict = median) -> str:
+            return f"{best[name]:6.0f} ({median[name]:5.0f})" if name in best else f"{'n/a':>14}"
+
         ratio_mpe = env_rate / mpe_rate if mpe_rate else float("nan")
-        mpe_text = f"{mpe_rate:10.0f}" if mpe_rate else f"{'n/a':>10}"
-        print(f"{n:>3}  {env_rate:10.0f}  {bare_rate:12.0f}  {mpe_text}  {ratio_bare:12.2f}x  {ratio_mpe:11.2f}x")
-        rows.append({"n_robots": n, "teamgym": env_rate, "bare_pymunk": bare_rate, "mpe2": mpe_rate})
-    print("targets (N=5): env/bare time <= 2.00x, teamgym/MPE2 >= 2.00x")
+        print(
+            f"{n:>3}  {cell('teamgym'):>14}  {cell('bare pymunk'):>14}  {cell('MPE2 simple_spread'):>14}  "
+            f"{bare_rate / env_rate:12.2f}x  {ratio_mpe:11.2f}x"
+        )
+        rows.append({"n_robots": n, "teamgym": env_rate, "bare_pymunk": bare_rate, "mpe2": mpe_rate, "median": median})
+    print("targets (N=5): env/bare time <= 2.00x (issue 2), <= 1.20x (issue 15); teamgym/MPE2 >= 2.00x")
     if args.json:
         with open(args.json, "w") as handle:
             json.dump(rows, handle, indent=2)

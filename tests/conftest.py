@@ -7,33 +7,9 @@ os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
 os.environ.setdefault("SDL_AUDIODRIVER", "dummy")
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 
-import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
-from teamgym.sim import Category  # noqa: E402
-
-
-class PenetrationProbe:
-    """Records the deepest overlap of every contact involving a robot, in every physics substep.
-
-    Uses a ``post_solve`` collision callback, which Chipmunk calls in each substep for every
-    touching pair (however the world drives its substeps), so it sees the worst overlap
-    rather than only the state at the end of a control step.
-    """
-
-    def __init__(self, space, kind=Category.ROBOT):
-        self.worst = {}
-        self.calls = 0
-        space.on_collision(int(kind), post_solve=self._post_solve)
-
-    def _post_solve(self, arbiter, space, data):
-        self.calls += 1
-        key = frozenset(getattr(getattr(s, "entity", None), "kind", None) for s in arbiter.shapes)
-        depth = max((-p.distance for p in arbiter.contact_point_set.points), default=0.0)
-        self.worst[key] = max(self.worst.get(key, -np.inf), depth)
-
-    def deepest(self, kind_a, kind_b):
-        return self.worst.get(frozenset((kind_a, kind_b)), 0.0)
+from teamgym.sim.contacts import PenetrationProbe  # noqa: E402
 
 
 @pytest.fixture

@@ -37,6 +37,11 @@ def env_cases():
                 continue  # a discrete action type
             cases.append(pytest.param(env_id, config, id=f"{env_id}-{kind or 'default'}-unit"))
     cases.append(pytest.param("Navigation-v0", {"max_cycles": 25, "local_features": True}, id="Navigation-v0-local"))
+    cases.append(
+        pytest.param(
+            "Navigation-v0", {"max_cycles": 25, "local_features": True, "mate_goals": True}, id="Navigation-v0-mate-goals"
+        )
+    )
     return cases
 
 

@@ -25,6 +25,7 @@ EVERY_KEY = dict(
     max_cycles=500,
     dt=0.05,
     substeps=10,
+    coarse_substeps=5,
     map="lab7",
     n_robots=2,
     action_type="operator",
@@ -101,6 +102,7 @@ def test_every_key_is_covered_and_accepted():
     env.reset(seed=0)
     assert not env.doors["D2"].is_open and env.doors["D1"].is_open
     assert env.world.of_kind(Category.FURNITURE) == []
+    assert env.world.coarse_substeps == 5
 
 
 @pytest.mark.parametrize(

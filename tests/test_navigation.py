@@ -17,6 +17,8 @@ EVERY_KEY = dict(
     max_cycles=50,
     dt=0.05,
     substeps=10,
+    coarse_substeps=4,
+    mate_goals=True,
     n_robots=4,
     n_obstacles=3,
     arena_size=1.5,
@@ -71,7 +73,7 @@ def test_make_with_every_key():
     observations, _ = env.reset(seed=0)
     assert env.possible_agents == [f"robot_{i}" for i in range(4)]
     assert len(env.obstacles) == 3
-    assert env.world.size == (1.5, 1.5) and env.world.dt == 0.05 and env.world.substeps == 10
+    assert env.world.size == (1.5, 1.5) and env.world.dt == 0.05 and env.world.substeps == 10 and env.world.coarse_substeps == 4
     assert all(r.spec.radius == 0.03 and r.spec.max_motor_force == 0.8 for r in env.robots.values())
     assert env.action_space("robot_0")["motion"] == spaces.Discrete(7)
     assert env.action_space("robot_0")["message"].shape == (2,)

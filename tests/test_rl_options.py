@@ -86,3 +86,19 @@ def test_local_features_are_the_world_fields_in_the_robot_frame():
     assert np.allclose(d["obstacles_local"][:, 2:4], d["obstacles"][:, 2:4] @ rotation.T, atol=1e-5)
     mate_velocity = d["mates"][:, 3:4] * np.stack([np.cos(d["mates"][:, 2]), np.sin(d["mates"][:, 2])], axis=1)
     assert np.allclose(d["mates_local"][:, 2:4], mate_velocity @ rotation.T, atol=1e-5)
+
+
+@pytest.mark.parametrize("local_features", [False, True])
+def test_mate_goals_are_the_mates_goals_relative_to_the_robot(local_features):
+    env = teamgym.make("Navigation-v0", n_robots=3, mate_goals=True, local_features=local_features)
+    observations, _ = env.reset(seed=4)
+    observations, *_ = env.step({a: np.array([0.2, 1.0], dtype=np.float32) for a in env.agents})
+    plain_width = teamgym.make("Navigation-v0", n_robots=3, local_features=local_features).observation_space("robot_0").shape[0]
+    assert env.observation_space("robot_0").shape[0] == plain_width + 4
+    for i, agent in enumerate(env.possible_agents):
+        d = env.decode(observations[agent])
+        mates = [j for j in range(3) if j != i]
+        world = env.goals[mates] - env.robot_positions[i]
+        theta = env.robot_headings[i]
+        rotation = np.array([[np.cos(theta), np.sin(theta)], [-np.sin(theta), np.cos(theta)]])
+        assert np.allclose(d["mate_goals"], world @ rotation.T if local_features else world, atol=1e-5)

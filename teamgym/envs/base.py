@@ -289,12 +289,11 @@ class TeamEnv(ParallelEnv):
         self._record_trails()
 
     def _record_trails(self) -> None:
-        states = self.world.robot_states
-        index = {robot.name: i for i, robot in enumerate(self.world.robots)} if len(states) else {}
+        points = self.world.robot_states[:, :2].tolist()
+        rows, trails = self.world.robot_rows if points else {}, self._trails
         for agent in self.agents:
-            row = index.get(agent)
-            point = tuple(states[row, :2].tolist()) if row is not None else self.robots[agent].position
-            self._trails[agent].append(point)
+            row = rows.get(agent)
+            trails[agent].append(tuple(points[row]) if row is not None else self.robots[agent].position)
         self._record_object_trails()
 
     def _record_object_trails(self) -> None:
@@ -308,7 +307,19 @@ class TeamEnv(ParallelEnv):
         """Validate every action before anything changes; raise naming the culprit."""
         if not isinstance(actions, dict):
             raise TypeError(f"actions must be a dict from agent name to action, got {type(actions).__name__}")
-        unknown = [a for a in actions if a not in self.possible_agents]
+        checkers, live = self._checkers, self.agents
+        if len(actions) == len(live) and all(a in actions for a in live):  # the usual case: exactly the live agents
+            checked = {a: checkers[a].check(a, actions[a]) for a in live}
+        else:
+            checked = self._check_agent_names(actions)
+        if self._masks:
+            for agent, action in checked.items():
+                self._check_admissible(agent, action)
+        return checked
+
+    def _check_agent_names(self, actions: dict) -> dict:
+        """The slow path of :meth:`_check_actions`: raise naming unknown, finished or missing agents."""
+        unknown = [a for a in actions if a not in self._row]
         if unknown:
             raise KeyError(f"actions for unknown agent(s) {unknown}; live agents are {self.agents}")
         finished = [a for a in actions if a not in self.agents]
@@ -318,11 +329,7 @@ class TeamEnv(ParallelEnv):
         if missing:
             raise ValueError(f"no action for live agent(s) {missing}; every live agent must act each step")
         checkers = self._checkers
-        checked = {a: checkers[a].check(a, actions[a]) for a in self.agents}
-        if self._masks:
-            for agent, action in checked.items():
-                self._check_admissible(agent, action)
-        return checked
+        return {a: checkers[a].check(a, actions[a]) for a in self.agents}
 
     def _check_admissible(self, agent: str, action: Any) -> None:
         mask = self._masks.get(agent)

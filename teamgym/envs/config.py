@@ -115,6 +115,13 @@ class EnvConfig:
         Physics substeps per control step. 20 keeps the worst penetration of a robot driven
         at full wheel speed (0.4 m/s) into a wall under 2 mm (0.4 m/s × 5 ms); no body may
         move more than ``MAX_SUBSTEP_TRAVEL`` (5 mm) in one substep.
+    coarse_substeps:
+        Adaptive substeps (0: off, the default). A control step in which no contact can begin
+        (every moving body's bounding box, grown by the distance a body at ``body_speed``
+        covers in Δt plus margin, is clear of what it may collide with) is integrated in
+        this many substeps instead of ``substeps``; contacts are still resolved with
+        ``substeps``. The joint-driven motion differs slightly with the substep length, so
+        trajectories are not those of ``coarse_substeps=0`` (``benchmarks/bench_adaptive_substeps.py``).
     obs_format:
         ``"flat"`` (one float32 vector per agent) or ``"dict"`` (named, typed fields).
     comm_dim:
@@ -132,6 +139,7 @@ class EnvConfig:
     max_cycles: int = 400
     dt: float = 0.1
     substeps: int = 20
+    coarse_substeps: int = 0
     obs_format: Literal["flat", "dict"] = "flat"
     comm_dim: int = 0
     comm_range: float | None = None
@@ -193,6 +201,7 @@ class EnvConfig:
         require(self, "max_cycles", self.max_cycles >= 1, "must be >= 1")
         require(self, "dt", 0 < self.dt <= 10, "must be in (0, 10] s")
         require(self, "substeps", 1 <= self.substeps <= 1000, "must be in [1, 1000]")
+        require(self, "coarse_substeps", 0 <= self.coarse_substeps <= self.substeps, "must be in [0, substeps] (0: off)")
         require(self, "comm_dim", 0 <= self.comm_dim <= 1024, "must be in [0, 1024] (0: no learned message)")
         require(self, "comm_range", self.comm_range is None or self.comm_range >= 0, "must be >= 0 m or None (unlimited)")
         require(self, "comm_throughput", 0 <= self.comm_throughput <= 1, "must be in [0, 1]")
@@ -206,6 +215,16 @@ class EnvConfig:
             f"is too few for dt={self.dt} s: a body at {self.body_speed()} m/s would move {travel * 1000:.1f} mm per "
             f"substep, more than {MAX_SUBSTEP_TRAVEL * 1000:.0f} mm (raise substeps or lower dt)",
         )
+
+    def world_options(self) -> dict[str, Any]:
+        """Keyword arguments of :class:`~teamgym.sim.world.World` for this config: Δt and the substep settings.
+
+        The contact reach of adaptive substeps is the distance a body at ``body_speed`` covers
+        in Δt (each of two moving bodies is grown by it), with a quarter more and one
+        substep's travel as margin (Chipmunk's bounding boxes lag the bodies by up to one substep).
+        """
+        reach = 1.25 * self.body_speed() * self.dt + MAX_SUBSTEP_TRAVEL
+        return {"dt": self.dt, "substeps": self.substeps, "coarse_substeps": self.coarse_substeps, "contact_reach": reach}
 
     def as_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)

@@ -88,6 +88,28 @@ _ffi = pymunk._chipmunk.ffi
 _NULL = _ffi.NULL
 
 
+_POINT_INFO = _ffi.new("cpPointQueryInfo *")
+
+
+def shape_bbs(shapes: list[pymunk.Shape]) -> np.ndarray:
+    """``(len(shapes), 4)`` bounding boxes ``(left, bottom, right, top)`` as Chipmunk last computed them."""
+    get_bb = _lib.cpShapeGetBB
+    boxes = [get_bb(shape._shape) for shape in shapes]
+    return np.array([(bb.l, bb.b, bb.r, bb.t) for bb in boxes], dtype=float).reshape(len(shapes), 4)
+
+
+def can_collide(a: pymunk.ShapeFilter, b: pymunk.ShapeFilter) -> bool:
+    """Chipmunk's filter test (``cpShapeFilterReject`` negated): whether shapes with these filters may touch."""
+    if a.group != 0 and a.group == b.group:
+        return False
+    return bool(a.categories & b.mask) and bool(b.categories & a.mask)
+
+
+def shape_distance(shape: pymunk.Shape, point: tuple[float, float]) -> float:
+    """``shape.point_query(point).distance`` (negative inside) without building pymunk's result objects."""
+    return _lib.cpShapePointQuery(shape._shape, point, _POINT_INFO)
+
+
 class RayCaster:
     """First-hit segment queries without building pymunk result objects.
 

@@ -15,6 +15,9 @@ built (an entity removed and added again under the same name keeps its total).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
+
+import pymunk
 
 from teamgym.sim.categories import Category
 
@@ -51,3 +54,28 @@ class ContactCounter:
         for name in (contact.a, contact.b):
             new[name] = new.get(name, 0) + 1
             total[name] = total.get(name, 0) + 1
+
+
+class PenetrationProbe:
+    """Records the deepest overlap (m) of every touching pair involving ``kind``, in every physics substep.
+
+    Installs a ``post_solve`` collision callback on ``space``, which Chipmunk calls in each
+    substep for every touching pair (however the world drives its substeps), so it sees the
+    worst overlap rather than only the state at the end of a control step. For physics tests
+    and benchmarks; envs do not install it.
+    """
+
+    def __init__(self, space: pymunk.Space, kind: Category = Category.ROBOT) -> None:
+        self.worst: dict[frozenset, float] = {}
+        self.calls = 0
+        space.on_collision(int(kind), post_solve=self._post_solve)
+
+    def _post_solve(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data: Any) -> None:
+        self.calls += 1
+        key = frozenset(getattr(getattr(s, "entity", None), "kind", None) for s in arbiter.shapes)
+        depth = max((-p.distance for p in arbiter.contact_point_set.points), default=0.0)
+        self.worst[key] = max(self.worst.get(key, -float("inf")), depth)
+
+    def deepest(self, kind_a: Category, kind_b: Category) -> float:
+        """The deepest overlap seen between kinds ``kind_a`` and ``kind_b`` (0 if they never touched)."""
+        return self.worst.get(frozenset((kind_a, kind_b)), 0.0)

@@ -211,7 +211,7 @@ class DiffDriveRobot(Entity):
         self.command = (0.0, 0.0)
         self.applied_command = (0.0, 0.0)
         self.actuation_delay = 0.0
-        self.encoders = EncoderReading()
+        self._encoder_values = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
         self.odometer = 0.0
         self.enabled = True
         self._start_pose = (float(position[0]), float(position[1]), float(angle))
@@ -304,16 +304,33 @@ class DiffDriveRobot(Entity):
             omega = share * self.applied_command[1] + (1 - share) * omega
         self.applied_command = self.command
         actual_left, actual_right = (ds - half_base * da) / r, (ds + half_base * da) / r
-        before = self.encoders
-        self.encoders = EncoderReading(
-            commanded_left=(v - half_base * omega) * dt / r,
-            commanded_right=(v + half_base * omega) * dt / r,
-            actual_left=actual_left,
-            actual_right=actual_right,
-            total_left=before.total_left + actual_left,
-            total_right=before.total_right + actual_right,
+        before = self._encoder_values
+        # Plain floats: the EncoderReading is built only when someone reads ``encoders``.
+        self._encoder_values = (
+            (v - half_base * omega) * dt / r,
+            (v + half_base * omega) * dt / r,
+            actual_left,
+            actual_right,
+            before[4] + actual_left,
+            before[5] + actual_right,
         )
         self.odometer += math.hypot(dx, dy)
+
+    @property
+    def encoders(self) -> EncoderReading:
+        """The wheel encoders' reading of the last control step (see :class:`EncoderReading`)."""
+        return EncoderReading(*self._encoder_values)
+
+    @encoders.setter
+    def encoders(self, reading: EncoderReading) -> None:
+        self._encoder_values = (
+            reading.commanded_left,
+            reading.commanded_right,
+            reading.actual_left,
+            reading.actual_right,
+            reading.total_left,
+            reading.total_right,
+        )
 
     # -- world hooks ------------------------------------------------------------------------
     def before_step(self, world: World, state: list[float]) -> float | None:

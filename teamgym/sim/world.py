@@ -17,7 +17,7 @@ import numpy as np
 import pymunk
 
 from teamgym.sim.categories import Category
-from teamgym.sim.chipmunk import BodyReader, space_step
+from teamgym.sim.chipmunk import BodyReader, can_collide, shape_bbs, space_step
 from teamgym.sim.contacts import Contact, ContactCounter
 from teamgym.sim.entity import Entity
 from teamgym.sim.objects import Wall
@@ -36,6 +36,13 @@ class World:
         Control step Δt in seconds (0.1 s in papers 001 and 004).
     substeps:
         Physics substeps per control step (fixed, so runs are deterministic).
+    coarse_substeps, contact_reach:
+        Adaptive substeps (``coarse_substeps`` = 0: off). A control step in which no contact
+        can begin is integrated in ``coarse_substeps`` substeps instead of ``substeps``: every
+        shape of an entity with a state row has its bounding box grown by ``contact_reach``
+        (m; the distance one body can travel in Δt, with margin) and no grown box meets a
+        grown box or a fixed shape it may collide with. The decision depends on the state only, so runs stay
+        deterministic; steps with actuation-delay switches always use ``substeps``.
     collision_slop:
         Allowed penetration in metres. pymunk's default (0.1) assumes pixels; in metres we
         allow 0.2 mm.
@@ -54,12 +61,25 @@ class World:
         substeps: int = 20,
         collision_slop: float = 2e-4,
         iterations: int = 10,
+        coarse_substeps: int = 0,
+        contact_reach: float = 0.0,
     ) -> None:
         if dt <= 0 or substeps < 1:
             raise ValueError(f"World needs dt > 0 and substeps >= 1, got dt={dt}, substeps={substeps}")
+        if not 0 <= coarse_substeps <= substeps or contact_reach < 0:
+            raise ValueError(
+                f"World needs 0 <= coarse_substeps <= substeps and contact_reach >= 0, "
+                f"got coarse_substeps={coarse_substeps}, contact_reach={contact_reach}"
+            )
         self.size = (float(size[0]), float(size[1]))
         self.dt = float(dt)
         self.substeps = int(substeps)
+        self.coarse_substeps = int(coarse_substeps)
+        self.contact_reach = float(contact_reach)
+        #: Control steps integrated with ``substeps`` / ``coarse_substeps`` since the world was built.
+        self.fine_steps = 0
+        self.coarse_steps = 0
+        self._contact_check: tuple | None = None
         self.space = pymunk.Space()
         self.space.gravity = (0.0, 0.0)
         self.space.collision_slop = collision_slop
@@ -71,6 +91,8 @@ class World:
         self.robots: list[Entity] = []
         self.movers: list[Entity] = []
         self.boxes: list[Entity] = []
+        #: Robot name -> its row in ``robot_states``.
+        self.robot_rows: dict[str, int] = {}
         self._stepped: list[Entity] = []
         self._rows_of: dict[Category, slice] = {}
         self._tracked: list[Entity] = []
@@ -118,12 +140,14 @@ class World:
         self.movers[:] = [e for e in entities if e.kind == Category.OBSTACLE]
         self.boxes[:] = [e for e in entities if e.kind == Category.BOX]
         self._tracked = [e for e in entities if e.tracked]
+        self.robot_rows = {e.name: row for row, e in enumerate(self.robots)}
         self._stepped = sorted((e for e in entities if e.has_state_row), key=lambda e: int(e.kind))
         self._rows_of = {}
         for row, entity in enumerate(self._stepped):
             first = self._rows_of.get(entity.kind, slice(row, row)).start
             self._rows_of[entity.kind] = slice(first, row + 1)
         self._reader = None
+        self._contact_check = None
 
     def of_kind(self, kind: Category) -> list[Entity]:
         return [e for e in self.entities.values() if e.kind == kind]
@@ -160,9 +184,14 @@ class World:
             if at is not None:
                 switches.setdefault(at, []).append(entity)
         h = dt / self.substeps
-        if not switches:
+        if not switches and self.coarse_substeps and self._contact_free():
+            self.coarse_steps += 1
+            self._integrate(dt / self.coarse_substeps, self.coarse_substeps)
+        elif not switches:
+            self.fine_steps += 1
             self._integrate(h, self.substeps)
         else:
+            self.fine_steps += 1
             elapsed = 0.0
             for boundary in [*sorted(switches), dt]:
                 duration = boundary - elapsed
@@ -205,6 +234,35 @@ class World:
             raw_step, handle = space_step, self.space._space
             for _ in range(n - 1):
                 raw_step(handle, h)
+
+    def _contact_free(self) -> bool:
+        """Whether no contact can begin in the next control step (see ``coarse_substeps``)."""
+        if self._contact_check is None:
+            self._contact_check = self._prepare_contact_check()
+        moving, fixed_boxes, may_touch = self._contact_check
+        if not moving:
+            return True
+        grown = shape_bbs(moving)
+        grown[:, :2] -= self.contact_reach
+        grown[:, 2:] += self.contact_reach
+        boxes = np.concatenate([grown, fixed_boxes]) if len(fixed_boxes) else grown
+        meets = (
+            (grown[:, None, 0] <= boxes[None, :, 2])
+            & (boxes[None, :, 0] <= grown[:, None, 2])
+            & (grown[:, None, 1] <= boxes[None, :, 3])
+            & (boxes[None, :, 1] <= grown[:, None, 3])
+        )
+        return not (meets & may_touch).any()
+
+    def _prepare_contact_check(self) -> tuple[list[pymunk.Shape], np.ndarray, np.ndarray]:
+        """Shapes that move, bounding boxes of those that do not, and which pairs may collide."""
+        moving = [(e, s) for e in self._stepped for s in e.shapes]
+        fixed = [(e, s) for e in self.entities.values() if not e.has_state_row for s in e.shapes]
+        everything = moving + fixed
+        may_touch = np.array(
+            [[ea is not eb and can_collide(sa.filter, sb.filter) for eb, sb in everything] for ea, sa in moving], dtype=bool
+        ).reshape(len(moving), len(everything))
+        return [s for _, s in moving], shape_bbs([s for _, s in fixed]), may_touch
 
     def _on_contact_begin(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data) -> None:
         sa, sb = arbiter.shapes

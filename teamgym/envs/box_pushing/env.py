@@ -146,7 +146,7 @@ class BoxPushing(TeamEnv):
 
     def _build(self, rng: np.random.Generator) -> None:
         c = self.config
-        self.world = World((c.table_width, c.table_height), dt=c.dt, substeps=c.substeps)
+        self.world = World((c.table_width, c.table_height), **c.world_options())
         self.world.add_boundary()
         self.world.add(Lamp("lamp", c.lamp))
         n = len(self.possible_agents)

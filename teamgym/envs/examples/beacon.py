@@ -132,7 +132,7 @@ class Beacon(TeamEnv):
     # -- a new episode ----------------------------------------------------------------------
     def _build(self, rng: np.random.Generator) -> None:
         c = self.config
-        self.world = World((c.arena_size, c.arena_size), dt=c.dt, substeps=c.substeps)
+        self.world = World((c.arena_size, c.arena_size), **c.world_options())
         self.world.add_boundary()
         self.beacon, starts = self._scene(rng)
         self.robots = {

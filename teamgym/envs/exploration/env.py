@@ -149,7 +149,7 @@ class Exploration(TeamEnv):
 
     def _build(self, rng: np.random.Generator) -> None:
         c, office = self.config, self.map
-        self.world = World(office.size, dt=c.dt, substeps=c.substeps)
+        self.world = World(office.size, **c.world_options())
         self.doors = build_world(office, self.world, self._sample_doors(rng), furniture=c.furniture)
         starts, headings = self._sample_starts(rng)
         self.robots = {}

@@ -183,7 +183,7 @@ class Foraging(TeamEnv):
             targets = self._option("targets", (c.n_targets, 2), 0.0)
         if "starts" in self.reset_options:
             starts = self._option("starts", (c.n_robots, 3), self.spec.radius)
-        self.world = World(self.grid_size, dt=c.dt, substeps=c.substeps)
+        self.world = World(self.grid_size, **c.world_options())
         self.world.add_boundary()
         self.robots = {
             a: self.world.add(DiffDriveRobot(a, (x, y), th, self.spec)) for a, (x, y, th) in zip(self.possible_agents, starts)

@@ -15,6 +15,9 @@ class NavigationConfig(EnvConfig):
     ``local_features`` appends the goal, team mates and obstacles in the robot's own frame
     (fields ``goal_local``, ``mates_local``, ``obstacles_local``) after the paper's fields,
     which stay as they are; for learned policies (an MLP need not learn the rotation).
+    ``mate_goals`` appends field ``mate_goals`` (N−1, 2): each team mate's goal relative to
+    the robot (in its own frame with ``local_features``, else world axes), the information
+    that paper 001's central arbiter has and a robot's own observation lacks.
     """
 
     body_speed_keys: ClassVar[tuple[str, ...]] = ("max_wheel_speed", "obstacle_speed")
@@ -51,6 +54,7 @@ class NavigationConfig(EnvConfig):
     arrival_bonus: float = 10.0
     time_penalty: float = 0.01
     local_features: bool = False
+    mate_goals: bool = False
 
     def check(self) -> None:
         super().check()

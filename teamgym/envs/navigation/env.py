@@ -30,6 +30,11 @@ field              shape         meaning
 ``proximity``      (8,)          Khepera ring distances (m), ``sensor_range`` if free
 =================  ============  ===================================================
 
+With ``local_features`` the fields ``goal_local`` (2,), ``mates_local`` (N−1, 4: Δx, Δy,
+vx, vy) and ``obstacles_local`` (M, 4) follow, in the robot's own frame (x ahead, y left);
+with ``mate_goals`` then ``mate_goals`` (N−1, 2): each mate's goal relative to the robot
+(own frame with ``local_features``, else world axes). Both are off by default (for RL).
+
 This is the paper's "partially centralised sensory system": every robot knows the poses of
 its team mates and the positions of the obstacles (section 2).
 
@@ -70,6 +75,7 @@ from teamgym.envs.navigation.config import NavigationConfig
 from teamgym.envs.navigation.scene import NavigationScene, PlacementError, scatter
 from teamgym.envs.spaces import ObservationLayout
 from teamgym.sim.categories import SOLID, Category
+from teamgym.sim.chipmunk import shape_distance
 from teamgym.sim.objects import MovingPolygon, regular_polygon
 from teamgym.sim.render import Overlay, robot_colour
 from teamgym.sim.robot import DiffDriveRobot, RobotSpec
@@ -137,14 +143,13 @@ class Navigation(TeamEnv):
         )
 
     def _local_fields(self) -> list[tuple[str, tuple[int, ...]]]:
-        if not self.config.local_features:
-            return []
         n, m = self.config.n_robots, self.config.n_obstacles
-        return [("goal_local", (2,)), ("mates_local", (n - 1, 4)), ("obstacles_local", (m, 4))]
+        fields = [("goal_local", (2,)), ("mates_local", (n - 1, 4)), ("obstacles_local", (m, 4))]
+        return (fields if self.config.local_features else []) + ([("mate_goals", (n - 1, 2))] if self.config.mate_goals else [])
 
     def _build(self, rng: np.random.Generator) -> None:
         c = self.config
-        self.world = World((c.arena_size, c.arena_size), dt=c.dt, substeps=c.substeps)
+        self.world = World((c.arena_size, c.arena_size), **c.world_options())
         if c.walls:
             self.world.add_boundary()
         try:
@@ -171,6 +176,7 @@ class Navigation(TeamEnv):
         self._contact_radius = np.concatenate([np.full(n, 2 * c.robot_radius), c.robot_radius + self._obstacle_radii])
         self._robot_rows = np.arange(n)
         self._index = {a: i for i, a in enumerate(self.possible_agents)}
+        self._live_names: list[str] | None = None
         self._arrived = np.zeros(n, dtype=bool)
         self._arrival_time = np.full(n, np.nan)
         self._collisions = np.zeros(n, dtype=int)
@@ -265,9 +271,13 @@ class Navigation(TeamEnv):
         if len(robots) != len(self.robot_list):
             robots, movers = self.world.read_states()
         self._pos = robots[:, 0:2]
-        self._theta = np.pi - np.mod(np.pi - robots[:, 2], 2 * np.pi)
-        cos_t, sin_t = np.cos(robots[:, 2]), np.sin(robots[:, 2])
-        self._vel = np.column_stack([robots[:, 3] * cos_t + robots[:, 4] * sin_t, robots[:, 5]])
+        angle = robots[:, 2]
+        self._theta = np.pi - np.mod(np.pi - angle, 2 * np.pi)
+        vel = np.empty((len(robots), 2))
+        np.multiply(robots[:, 3], np.cos(angle), out=vel[:, 0])
+        vel[:, 0] += robots[:, 4] * np.sin(angle)
+        vel[:, 1] = robots[:, 5]
+        self._vel = vel
         self._obs_pos = movers[:, 0:2]
         self._obs_vel = movers[:, 3:5]
 
@@ -291,9 +301,9 @@ class Navigation(TeamEnv):
             near = gaps[:, n:] < 0.1
             if near.any():
                 exact_obstacles = gaps[:, n:].copy()
-                r = self.config.robot_radius
+                r, points = self.config.robot_radius, pos.tolist()
                 for i, k in zip(*np.nonzero(near)):
-                    exact_obstacles[i, k] = self.obstacles[k].shape.point_query(tuple(pos[i])).distance - r
+                    exact_obstacles[i, k] = shape_distance(self.obstacles[k].shape, points[i]) - r
                 exact = np.minimum(gaps[:, :n].min(axis=1), exact_obstacles.min(axis=1))
         self._object_gaps = gaps
         self._object_offsets = offsets
@@ -320,9 +330,10 @@ class Navigation(TeamEnv):
 
     def _before_physics(self) -> None:
         c = self.config
-        live = [self._index[a] for a in self.agents]
+        live = self._live_rows()
         self._prev_command[live] = self._last_command[live]
-        self._last_command[live] = [self.robot_list[i].command for i in live]
+        robots = self.robot_list
+        self._last_command[live] = [robots[i].command for i in live.tolist()]
         if c.actuation_delay > 0:
             delta = np.clip(self.np_random.normal(0.5, 0.25, size=len(self.robot_list)), 0.0, 1.0)
             for robot, d in zip(self.robot_list, delta.tolist()):
@@ -332,7 +343,7 @@ class Navigation(TeamEnv):
         """Poses, distances, contacts, progress towards the goals and smoothness (section 6.2)."""
         self._read_state()
         self._update_distances()
-        live = np.array([self._index[a] for a in self.agents], dtype=int)
+        live = self._live_rows()
         self._live = live
         hits = self.world.contacts_per(self.agents)
         self._collisions[live] += hits
@@ -365,7 +376,14 @@ class Navigation(TeamEnv):
 
     def _terminations(self) -> dict[str, bool]:
         """A robot that arrives terminates, stops and stays in the world."""
-        return dict(zip(self.agents, self._arrived[[self._index[a] for a in self.agents]].tolist()))
+        return dict(zip(self.agents, self._arrived[self._live_rows()].tolist()))
+
+    def _live_rows(self) -> np.ndarray:
+        """Rows (``possible_agents`` order) of the agents in ``agents``; recomputed only when ``agents`` changes."""
+        if self._live_names != self.agents:
+            self._live_names = list(self.agents)
+            self._live_array = np.array([self._index[a] for a in self.agents], dtype=int)
+        return self._live_array
 
     def _read_proximity(self, indices: np.ndarray) -> None:
         if len(indices) == 0:
@@ -376,7 +394,7 @@ class Navigation(TeamEnv):
         self._proximity[indices] = block
 
     def _observe(self, out: np.ndarray) -> None:
-        rows = np.array([self._index[a] for a in self.agents], dtype=int)
+        rows = self._live_rows()
         if len(rows) == 0:
             return
         s = self.layout.slices
@@ -405,6 +423,20 @@ class Navigation(TeamEnv):
         out[:, s["proximity"]] = self._proximity[rows]
         if self.config.local_features:
             self._observe_local(out, rows)
+        if self.config.mate_goals and self.config.n_robots > 1:
+            self._observe_mate_goals(out, rows)
+
+    def _observe_mate_goals(self, out: np.ndarray, rows: np.ndarray) -> None:
+        """Team mates' goals relative to each robot (own frame with ``local_features``, else world axes)."""
+        k = len(rows)
+        offset = self.goals[self._others[rows]] - self._pos[rows][:, None, :]
+        if self.config.local_features:
+            theta = self._theta[rows][:, None]
+            cos, sin = np.cos(theta), np.sin(theta)
+            offset = np.stack(
+                [cos * offset[:, :, 0] + sin * offset[:, :, 1], -sin * offset[:, :, 0] + cos * offset[:, :, 1]], axis=2
+            )
+        out[:, self.layout.slices["mate_goals"]] = offset.reshape(k, -1)
 
     def _observe_local(self, out: np.ndarray, rows: np.ndarray) -> None:
         """Goal offset, mates' and obstacles' offsets and velocities rotated into each robot's frame (x ahead, y left)."""

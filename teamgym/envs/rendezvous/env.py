@@ -157,7 +157,7 @@ class Rendezvous(TeamEnv):
     def _build(self, rng: np.random.Generator) -> None:
         c = self.config
         width, height = self.map.size
-        self.world = World((2 * _MARGIN + width * c.scale, 2 * _MARGIN + height * c.scale), dt=c.dt, substeps=c.substeps)
+        self.world = World((2 * _MARGIN + width * c.scale, 2 * _MARGIN + height * c.scale), **c.world_options())
         for k, (a, b) in enumerate(self._walls):
             self.world.add(Wall(f"wall_{k}", a, b, 0.01))
         n = c.n_robots
