@@ -19,7 +19,14 @@ pytest.importorskip("stable_baselines3")
 import teamgym  # noqa: E402
 from baselines.policy import Policy  # noqa: E402
 from baselines.registry import _POLICIES, register_policy  # noqa: E402
-from baselines.rl.imitation import ExpertActions, behaviour_clone, collect_expert_data  # noqa: E402
+from baselines.rl.imitation import (  # noqa: E402
+    ExpertActions,
+    behaviour_clone,
+    collect_expert_data,
+    collect_learner_data,
+    make_expert,
+    pretrain,
+)
 from baselines.rl.sb3_env import TeamVecEnv  # noqa: E402
 from baselines.train import main as train_main  # noqa: E402
 
@@ -197,6 +204,49 @@ def test_behaviour_cloning_of_discrete_actions():
     behaviour_clone(model, train, epochs=20, learning_rate=3e-3, seed=0)
     after = accuracy_and_likelihood()
     assert after[0] > majority and after[1] > 2 * before[1], (majority, before, after)
+    venv.close()
+
+
+def test_dagger_data_follow_the_learner_and_carry_the_expert_labels():
+    model, venv = make_model("heading")
+    env = teamgym.make("Navigation-v0", n_robots=2, action_type="heading", max_cycles=30)
+    data = collect_learner_data(env, model, "goto", 120, seed=7)
+    assert len(data) == 120 and data.actions.dtype.kind == "i"
+    # Replay the first episode: the states are the ones the learner's own (deterministic) actions lead
+    # to, the labels goto's; rows come per agent (each agent's transitions in time order).
+    replay = teamgym.make("Navigation-v0", n_robots=2, action_type="heading", max_cycles=30)
+    expert = make_expert("goto", replay)
+    observations, infos = replay.reset(seed=7)
+    expert.reset(seed=7)
+    tracks: dict[str, list] = {}
+    learner_differs = False
+    while replay.agents:
+        live = list(replay.agents)
+        labels = expert.act({a: observations[a] for a in live}, infos)
+        actions, _ = model.predict(np.stack([observations[a] for a in live]), deterministic=True)
+        for agent, action in zip(live, actions.tolist()):
+            tracks.setdefault(agent, []).append((observations[agent], labels[agent]))
+            learner_differs |= action != labels[agent]
+        observations, _, _, _, infos = replay.step({a: int(x) for a, x in zip(live, actions)})
+    rows = [row for track in tracks.values() for row in track]
+    assert len(rows) < len(data)
+    for k, (observation, label) in enumerate(rows):
+        np.testing.assert_array_equal(data.observations[k], observation)
+        assert data.actions[k] == label
+    assert learner_differs, "the untrained learner happened to act like goto everywhere; the test shows nothing"
+    merged = data.merged(data)
+    assert len(merged) == 240 and merged.episodes == 2 * data.episodes
+    venv.close()
+
+
+def test_dagger_rounds_refit_on_the_aggregated_data():
+    model, venv = make_model("heading")
+    make = lambda: teamgym.make("Navigation-v0", n_robots=2, action_type="heading", max_cycles=30)  # noqa: E731
+    record = pretrain(model, make, "goto", steps=150, epochs=2, seed=0, dagger_rounds=2, dagger_steps=100, dagger_epochs=1)
+    assert record["dagger_rounds"] == 2 and record["dagger_transitions"] == 350
+    assert len(record["dagger_learner_success"]) == 2 and np.isfinite(record["action_loss"])
+    with pytest.raises(ValueError, match="dagger_rounds must be >= 0"):
+        pretrain(model, make, "goto", steps=10, epochs=1, dagger_rounds=-1)
     venv.close()
 
 

@@ -42,12 +42,19 @@ def test_preset_values_and_command_line_overrides():
     )
     assert mine["timesteps"] == 64 and mine["n_envs"] == 2
     assert mine["config"]["collision_penalty"] == "2" and mine["hyperparameters"]["n_epochs"] == 3
+    other = plan("--preset", "navigation-ppo", "--bc-expert", "nash", "--set", "action_type=heading")
+    assert other["bc_expert"] == "nash" and other["bc_steps"] == preset.bc["steps"] and other["bc_epochs"] == preset.bc["epochs"]
+    assert plan("--preset", "navigation-ppo", "--bc-expert", "goto", "--bc-steps", "7")["bc_steps"] == 7
+    assert plan("--bc-expert", "goto", "--bc-dagger", "2")["bc_dagger"] == 2
+    assert plan("--bc-expert", "goto")["bc_dagger"] == 0
 
 
 @pytest.mark.parametrize(
     ("args", "needle"),
     [
         (["--preset", "no-such-preset"], "unknown preset 'no-such-preset'; available: "),
+        (["--bc-dagger", "2"], "--bc-dagger needs --bc-expert"),
+        (["--bc-expert", "goto", "--bc-dagger", "-1"], "--bc-dagger must be >= 0"),
         (["--preset", "navigation-ppo", "--env", "Exploration-v0"], "is for Navigation-v0, not Exploration-v0"),
         (["--preset", "navigation-ppo", "--resume", "m.zip"], "--preset starts a new run"),
         (["--workers", "3", "--n-envs", "2"], "workers must be in [1, n_envs=2]"),

@@ -56,6 +56,7 @@ __all__ = [
     "ExpertData",
     "behaviour_clone",
     "collect_expert_data",
+    "collect_learner_data",
     "learner_action",
     "make_expert",
     "pretrain",
@@ -188,6 +189,17 @@ class ExpertData:
     def __len__(self) -> int:
         return len(self.observations)
 
+    def merged(self, other: ExpertData) -> ExpertData:
+        """Both data sets in one (DAgger's aggregation); episode counts add, rates are ``other``'s."""
+        return ExpertData(
+            observations=np.concatenate([self.observations, other.observations]),
+            actions=np.concatenate([self.actions, other.actions]),
+            returns=np.concatenate([self.returns, other.returns]),
+            episodes=self.episodes + other.episodes,
+            success_rate=other.success_rate,
+            mean_return=other.mean_return,
+        )
+
 
 def collect_expert_data(
     env: ParallelEnv,
@@ -206,10 +218,49 @@ def collect_expert_data(
     ``seed``) while the labels stay the expert's, so the data cover states next to the
     expert's path. ``returns`` are each agent's discounted rewards from that step on.
     """
+    rng = np.random.default_rng(seed)
+    wrapped = ExpertActions(env, expert, **policy_kwargs)
+
+    def perturbed(observations: Mapping[str, Any], labels: Mapping[str, Any]) -> dict[str, Any]:
+        return {a: _perturb(wrapped.action_space(a), label, noise, rng) for a, label in labels.items()}
+
+    return _labelled_rollouts(wrapped, steps, seed, gamma, perturbed)
+
+
+def collect_learner_data(
+    env: ParallelEnv,
+    model: Any,
+    expert: str,
+    steps: int,
+    seed: int,
+    gamma: float = 0.99,
+    **policy_kwargs: Any,
+) -> ExpertData:
+    """``steps`` agent transitions in which ``model`` (deterministic) drives and expert ``expert`` labels (DAgger's data).
+
+    As :func:`collect_expert_data`, but the executed actions are the learner's, so the data
+    cover the states the learner reaches, with the expert's action in each as the label.
+    """
+    wrapped = ExpertActions(env, expert, **policy_kwargs)
+
+    def learner(observations: Mapping[str, Any], labels: Mapping[str, Any]) -> dict[str, Any]:
+        live = list(labels)
+        actions, _ = model.predict(np.stack([observations[a] for a in live]), deterministic=True)
+        return {a: learner_action(wrapped.action_space(a), action) for a, action in zip(live, actions)}
+
+    return _labelled_rollouts(wrapped, steps, seed, gamma, learner)
+
+
+def _labelled_rollouts(
+    wrapped: ExpertActions,
+    steps: int,
+    seed: int,
+    gamma: float,
+    choose: Callable[[Mapping[str, Any], Mapping[str, Any]], dict[str, Any]],
+) -> ExpertData:
+    """Whole episodes until ``steps`` agent transitions: ``choose(observations, labels)`` acts, the expert labels."""
     if steps < 1:
         raise ValueError(f"steps must be >= 1, got {steps}")
-    wrapped = ExpertActions(env, expert, **policy_kwargs)
-    rng = np.random.default_rng(seed)
     observations: list[np.ndarray] = []
     actions: list[Any] = []
     returns: list[float] = []
@@ -222,7 +273,7 @@ def collect_expert_data(
         while wrapped.agents:
             live = list(wrapped.agents)
             labels = {a: infos[a]["expert_action"] for a in live}
-            executed = {a: _perturb(wrapped.action_space(a), labels[a], noise, rng) for a in live}
+            executed = choose(obs, labels)
             next_obs, rewards, _, _, infos = wrapped.step(executed)
             for a in live:
                 tracks.setdefault(a, []).append((np.asarray(obs[a], dtype=np.float32), labels[a], float(rewards.get(a, 0.0))))
@@ -348,26 +399,44 @@ def pretrain(
     epochs: int = DEFAULT_BC_EPOCHS,
     seed: int = 0,
     noise: float = DEFAULT_BC_NOISE,
+    dagger_rounds: int = 0,
+    dagger_steps: int | None = None,
+    dagger_epochs: int | None = None,
     **options: Any,
 ) -> dict[str, Any]:
     """Collect ``steps`` expert transitions on ``make_env()`` and clone them into ``model``; returns a sidecar record.
 
     ``noise`` goes to :func:`collect_expert_data`, ``options`` to :func:`behaviour_clone`.
-    The record holds the expert's success rate and mean return on the collected episodes,
-    the final losses and the wall time; the model's timestep counter is not changed.
+    Then ``dagger_rounds`` rounds of DAgger (Ross, Gordon and Bagnell 2011): the clone drives
+    ``dagger_steps`` transitions (default ``steps``) labelled by the expert
+    (:func:`collect_learner_data`, round ``k`` reset with ``seed + 1 + k``), which join the
+    data, and the clone is refitted on all of it for ``dagger_epochs`` passes (default
+    ``epochs``), continuing from its weights. The record holds the expert's success rate
+    and mean return on the collected episodes, the clone's success rate in each DAgger
+    round, the final losses and the wall time; the model's timestep counter is not changed.
     """
+    if dagger_rounds < 0:
+        raise ValueError(f"dagger_rounds must be >= 0, got {dagger_rounds}")
     started = time.time()
+    gamma = float(getattr(model, "gamma", 0.99))
     env = make_env()
     try:
-        data = collect_expert_data(env, expert, steps, seed, gamma=float(getattr(model, "gamma", 0.99)), noise=noise)
+        data = collect_expert_data(env, expert, steps, seed, gamma=gamma, noise=noise)
+        expert_record = {
+            "expert_episodes": data.episodes,
+            "expert_success_rate": data.success_rate,
+            "expert_mean_return": data.mean_return,
+        }
+        stats = behaviour_clone(model, data, epochs, seed=seed, **options)
+        learner_success = []
+        for k in range(dagger_rounds):
+            fresh = collect_learner_data(env, model, expert, dagger_steps or steps, seed + 1 + k, gamma=gamma)
+            learner_success.append(fresh.success_rate)
+            data = data.merged(fresh)
+            stats = behaviour_clone(model, data, dagger_epochs or epochs, seed=seed + 1 + k, **options)
     finally:
         env.close()
-    stats = behaviour_clone(model, data, epochs, seed=seed, **options)
-    return {
-        "expert_episodes": data.episodes,
-        "expert_success_rate": data.success_rate,
-        "expert_mean_return": data.mean_return,
-        "noise": noise,
-        **stats,
-        "wall_time_s": round(time.time() - started, 3),
-    }
+    record = {**expert_record, "noise": noise, **stats, "wall_time_s": round(time.time() - started, 3)}
+    if dagger_rounds:
+        record.update(dagger_rounds=dagger_rounds, dagger_transitions=len(data), dagger_learner_success=learner_success)
+    return record

@@ -40,8 +40,10 @@ Research tooling (all off by default; see ``docs/training.md``):
   ``--jobs`` processes; ``<out>/runs.json`` lists them.
 * ``--bc-expert NAME``: before training, behaviour-clone the scripted policy ``NAME``
   (``--bc-steps`` expert transitions, ``--bc-epochs`` passes; PPO and A2C only) into the new
-  model, value head included (:func:`baselines.rl.imitation.pretrain`); the sidecar's ``bc``
-  records the settings and the expert's success on the collected episodes.
+  model, value head included (:func:`baselines.rl.imitation.pretrain`); ``--bc-dagger R``
+  adds R rounds of DAgger (the clone drives, the expert labels, the clone is refitted on
+  all data); the sidecar's ``bc`` records the settings and the expert's and the clone's
+  success on the collected episodes.
 
 Bad arguments exit with code 2 and one ``error: ...`` line before training starts; a
 failure during training exits 1 with one line (``TEAMGYM_TRACEBACK=1`` shows the traceback).
@@ -170,6 +172,10 @@ class Training:
         bc_expert: str | None = None,
         bc_steps: int = DEFAULT_BC_STEPS,
         bc_epochs: int = DEFAULT_BC_EPOCHS,
+        bc_dagger: int = 0,
+        bc_dagger_steps: int | None = None,
+        bc_dagger_epochs: int | None = None,
+        bc_batch_size: int | None = None,
         workers: int = 1,
         preset: str | None = None,
     ) -> None:
@@ -218,7 +224,16 @@ class Training:
                 raise ValueError(f"behaviour cloning (--bc-expert) needs ppo or a2c (an actor-critic policy), not {self.algo}")
             if bc_steps < 1 or bc_epochs < 1:
                 raise ValueError(f"bc_steps and bc_epochs must be >= 1, got {bc_steps} and {bc_epochs}")
+            if bc_dagger < 0 or (bc_dagger_steps or 1) < 1 or (bc_dagger_epochs or 1) < 1:
+                raise ValueError(
+                    f"bc_dagger must be >= 0 and its steps and epochs >= 1, "
+                    f"got {bc_dagger}, {bc_dagger_steps}, {bc_dagger_epochs}"
+                )
             self.bc = {"expert": bc_expert, "steps": int(bc_steps), "epochs": int(bc_epochs)}
+            if bc_dagger:
+                self.bc.update(dagger_rounds=int(bc_dagger), dagger_steps=bc_dagger_steps, dagger_epochs=bc_dagger_epochs)
+            if bc_batch_size:
+                self.bc["batch_size"] = int(bc_batch_size)
         if threads is not None:
             import torch
 
@@ -419,7 +434,16 @@ class Training:
         assert self.bc is not None
         bc = self.bc
         record = pretrain(
-            self.model, lambda: teamgym.make(self.env_id, **self.config), bc["expert"], bc["steps"], bc["epochs"], self.seed
+            self.model,
+            lambda: teamgym.make(self.env_id, **self.config),
+            bc["expert"],
+            bc["steps"],
+            bc["epochs"],
+            self.seed,
+            dagger_rounds=bc.get("dagger_rounds", 0),
+            dagger_steps=bc.get("dagger_steps"),
+            dagger_epochs=bc.get("dagger_epochs"),
+            **({"batch_size": bc["batch_size"]} if bc.get("batch_size") else {}),
         )
         self.bc.update(record)
         self.bc_pending = False
@@ -468,8 +492,9 @@ def train(
     ``progress_bar``, ``checkpoint_every``, ``eval_every``, ``eval_episodes``,
     ``eval_seed``, ``resume`` (a saved model to continue: ``timesteps`` more, its counter
     kept; ``env_id``, ``algo`` and ``config`` must fit it), ``callback`` (extra SB3
-    callbacks) and ``bc_expert``, ``bc_steps``, ``bc_epochs`` (behaviour cloning before
-    training); see the module docstring.
+    callbacks) and ``bc_expert``, ``bc_steps``, ``bc_epochs``, ``bc_dagger``,
+    ``bc_dagger_steps``, ``bc_dagger_epochs``, ``bc_batch_size`` (behaviour cloning and
+    DAgger rounds before training); see the module docstring.
     """
     run = Training(env_id, algo, timesteps, seed, out, config, n_envs, hyperparameters, verbose, threads, **options)
     return run.learn()
@@ -644,6 +669,13 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--bc-epochs", type=count, default=None, metavar="K", help=f"passes over them (default: {DEFAULT_BC_EPOCHS})"
     )
+    parser.add_argument(
+        "--bc-dagger",
+        type=int,
+        default=None,
+        metavar="R",
+        help="then R rounds of DAgger: the clone drives, the expert labels, the clone is refitted on all data (default: 0)",
+    )
     return parser
 
 
@@ -698,6 +730,8 @@ def _plan(args: argparse.Namespace) -> tuple[dict[str, Any], list[int] | None]:
         raise ValueError("--progress-bar shows one run; it cannot be combined with --jobs > 1")
     if args.bc_expert is None and (args.bc_steps is not None or args.bc_epochs is not None):
         raise ValueError("--bc-steps and --bc-epochs need --bc-expert")
+    if args.bc_dagger is not None and args.bc_dagger < 0:
+        raise ValueError(f"--bc-dagger must be >= 0, got {args.bc_dagger}")
     if args.bc_expert is not None and args.resume:
         raise ValueError("--bc-expert pre-trains a new model; it cannot be combined with --resume")
     sets: dict[str, Any] = _pairs(args.set, "--set")
@@ -753,10 +787,17 @@ def _plan(args: argparse.Namespace) -> tuple[dict[str, Any], list[int] | None]:
         kwargs["bc_expert"] = bc["expert"]
         kwargs["bc_steps"] = _pick(args.bc_steps, bc.get("steps"), DEFAULT_BC_STEPS)
         kwargs["bc_epochs"] = _pick(args.bc_epochs, bc.get("epochs"), DEFAULT_BC_EPOCHS)
-    if args.bc_expert is not None:
+    if args.bc_expert is not None:  # another expert than the preset's keeps the preset's amounts unless given
         kwargs["bc_expert"] = args.bc_expert
-        kwargs["bc_steps"] = _pick(args.bc_steps, None, DEFAULT_BC_STEPS)
-        kwargs["bc_epochs"] = _pick(args.bc_epochs, None, DEFAULT_BC_EPOCHS)
+        kwargs["bc_steps"] = _pick(args.bc_steps, (bc or {}).get("steps"), DEFAULT_BC_STEPS)
+        kwargs["bc_epochs"] = _pick(args.bc_epochs, (bc or {}).get("epochs"), DEFAULT_BC_EPOCHS)
+    if "bc_expert" in kwargs:
+        kwargs["bc_dagger"] = _pick(args.bc_dagger, (bc or {}).get("dagger_rounds"), 0)
+        kwargs["bc_dagger_steps"] = (bc or {}).get("dagger_steps")
+        kwargs["bc_dagger_epochs"] = (bc or {}).get("dagger_epochs")
+        kwargs["bc_batch_size"] = (bc or {}).get("batch_size")
+    elif args.bc_dagger:
+        raise ValueError("--bc-dagger needs --bc-expert (or a preset with behaviour cloning)")
     if args.seeds is not None:
         out_dir = Path(args.out) if args.out else Path("results") / "models" / f"{env_id}_{algo}"
         if out_dir.suffix == ".zip" or out_dir.is_file():
