@@ -409,17 +409,15 @@ class Navigation(TeamEnv):
         k = len(rows)
         if self.config.n_robots > 1:
             others = self._others[rows]
-            mates = out[:, s["mates"]].reshape(k, -1, 5)
+            mates = out[:, s["mates"]].reshape(k, -1, 5)  # a view: writes land in ``out``
             mates[:, :, 0:2] = pos[others] - own[:, None, :]
             mates[:, :, 2] = theta[others]
             mates[:, :, 3:5] = vel[others]
-            out[:, s["mates"]] = mates.reshape(k, -1)
         if self.obstacles:
-            block = out[:, s["obstacles"]].reshape(k, -1, 5)
+            block = out[:, s["obstacles"]].reshape(k, -1, 5)  # a view
             block[:, :, 0:2] = self._obs_pos[None, :, :] - own[:, None, :]
             block[:, :, 2:4] = self._obs_vel[None, :, :]
             block[:, :, 4] = self._obstacle_radii[None, :]
-            out[:, s["obstacles"]] = block.reshape(k, -1)
         out[:, s["proximity"]] = self._proximity[rows]
         if self.config.local_features:
             self._observe_local(out, rows)
