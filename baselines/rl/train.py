@@ -176,6 +176,7 @@ class Training:
         bc_dagger_steps: int | None = None,
         bc_dagger_epochs: int | None = None,
         bc_batch_size: int | None = None,
+        bc_noise: float | None = None,
         workers: int = 1,
         preset: str | None = None,
     ) -> None:
@@ -234,6 +235,10 @@ class Training:
                 self.bc.update(dagger_rounds=int(bc_dagger), dagger_steps=bc_dagger_steps, dagger_epochs=bc_dagger_epochs)
             if bc_batch_size:
                 self.bc["batch_size"] = int(bc_batch_size)
+            if bc_noise is not None:
+                if not 0 <= bc_noise <= 1:
+                    raise ValueError(f"bc_noise must be in [0, 1], got {bc_noise}")
+                self.bc["noise"] = float(bc_noise)
         if threads is not None:
             import torch
 
@@ -443,6 +448,7 @@ class Training:
             dagger_rounds=bc.get("dagger_rounds", 0),
             dagger_steps=bc.get("dagger_steps"),
             dagger_epochs=bc.get("dagger_epochs"),
+            **({"noise": bc["noise"]} if bc.get("noise") is not None else {}),
             **({"batch_size": bc["batch_size"]} if bc.get("batch_size") else {}),
         )
         self.bc.update(record)
@@ -493,7 +499,7 @@ def train(
     ``eval_seed``, ``resume`` (a saved model to continue: ``timesteps`` more, its counter
     kept; ``env_id``, ``algo`` and ``config`` must fit it), ``callback`` (extra SB3
     callbacks) and ``bc_expert``, ``bc_steps``, ``bc_epochs``, ``bc_dagger``,
-    ``bc_dagger_steps``, ``bc_dagger_epochs``, ``bc_batch_size`` (behaviour cloning and
+    ``bc_dagger_steps``, ``bc_dagger_epochs``, ``bc_batch_size``, ``bc_noise`` (behaviour cloning and
     DAgger rounds before training); see the module docstring.
     """
     run = Training(env_id, algo, timesteps, seed, out, config, n_envs, hyperparameters, verbose, threads, **options)
@@ -796,6 +802,7 @@ def _plan(args: argparse.Namespace) -> tuple[dict[str, Any], list[int] | None]:
         kwargs["bc_dagger_steps"] = (bc or {}).get("dagger_steps")
         kwargs["bc_dagger_epochs"] = (bc or {}).get("dagger_epochs")
         kwargs["bc_batch_size"] = (bc or {}).get("batch_size")
+        kwargs["bc_noise"] = (bc or {}).get("noise")
     elif args.bc_dagger:
         raise ValueError("--bc-dagger needs --bc-expert (or a preset with behaviour cloning)")
     if args.seeds is not None:
