@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pytest
 
 from baselines.episode import EpisodeResult
@@ -135,3 +136,25 @@ def test_wrong_env_agent_is_refused(tmp_path, monkeypatch):
     monkeypatch.setattr(sb3_policy, "AGENT_DIR", tmp_path)
     with pytest.raises(ValueError, match="trained on Exploration-v0"):
         compare("Navigation-v0", "m", episodes=1)
+
+
+@pytest.mark.parametrize("metric", ["success_rate", "mean_collisions"])
+def test_learning_curve_of_any_metric_with_the_scripted_rows_as_lines(tmp_path, monkeypatch, metric):
+    pytest.importorskip("matplotlib")
+    from baselines.rl import plot_curves, sb3_policy
+
+    (tmp_path / "agent.zip").write_bytes(b"not read")
+    (tmp_path / "agent_eval.csv").write_text("timesteps,success_rate,mean_collisions\n0,0.5,0.9\n100,1.0,0.3\n")
+    monkeypatch.setattr(sb3_policy, "AGENT_DIR", tmp_path)
+    drawn = {}
+    monkeypatch.setattr(
+        plot_curves, "plot_curves", lambda curves, path, m, lines, title: drawn.update(m=m, lines=lines, y=curves)
+    )
+    rows = [
+        {"label": "goto", "policy": "goto", "success": 1.0, "collisions": {"mean": 0.65}, "path_length": {"mean": 1.2}},
+        {"label": "trained", "policy": "sb3:x", "success": 1.0, "collisions": {"mean": 0.1}, "path_length": {"mean": 1.0}},
+    ]
+    compare_module._curve("agent", rows, tmp_path, metric)
+    assert drawn["m"] == metric
+    assert drawn["lines"] == [("goto", 1.0 if metric == "success_rate" else 0.65, "")]
+    assert np.allclose(np.ravel(drawn["y"][0].values), [0.5, 1.0] if metric == "success_rate" else [0.9, 0.3])

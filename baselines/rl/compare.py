@@ -18,7 +18,8 @@ policy: success with its Wilson 95 % interval; *clean* success (success and no c
 robot, for envs that count collisions); the time to success (s: the last robot's arrival where
 the env reports ``time_to_goal``, else ``length × dt`` of successful episodes); path length per
 robot (m) and collisions per robot, as means with 95 % intervals. With ``--curve``, the agent's
-learning curve (its ``<agent>_eval.csv``) is drawn with the scripted rows' success as lines.
+learning curve (its ``<agent>_eval.csv``; ``--curve-metric``: success rate, collisions or path length) is
+drawn with the scripted rows' values as lines.
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ import argparse
 import json
 import math
 import sys
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -156,10 +157,24 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="task config for every policy")
     parser.add_argument("--out", default=None, help="directory for comparison.md/.json (and curve.png)")
     parser.add_argument("--curve", action="store_true", help="draw the agent's learning curve (needs its _eval.csv)")
+    parser.add_argument(
+        "--curve-metric",
+        choices=sorted(CURVE_METRICS),
+        default="success_rate",
+        help="what the curve shows (default: success_rate); the scripted rows' values are drawn as lines",
+    )
     return parser
 
 
-def _curve(agent: str, rows: Sequence[Mapping[str, Any]], out: Path) -> Path:
+#: Learning-curve metrics (columns of an ``_eval.csv``) and the comparison-row value drawn beside them.
+CURVE_METRICS: dict[str, Callable[[Mapping[str, Any]], float]] = {
+    "success_rate": lambda row: row["success"],
+    "mean_collisions": lambda row: row["collisions"]["mean"],
+    "mean_path_length": lambda row: row["path_length"]["mean"],
+}
+
+
+def _curve(agent: str, rows: Sequence[Mapping[str, Any]], out: Path, metric: str = "success_rate") -> Path:
     from baselines.rl.plot_curves import load_curves, plot_curves
     from baselines.rl.sb3_policy import resolve_model
 
@@ -167,9 +182,10 @@ def _curve(agent: str, rows: Sequence[Mapping[str, Any]], out: Path) -> Path:
     csv = path.with_name(f"{path.stem}_eval.csv")
     if not csv.is_file():
         raise FileNotFoundError(f"no learning curve beside the agent: {str(csv)!r}")
-    curves = load_curves({f"trained: {agent}": [csv]}, "success_rate")
-    lines = [(row["label"], row["success"], "") for row in rows if not row["policy"].startswith("sb3:")]
-    return plot_curves(curves, out / "curve.png", "success_rate", lines, title=f"{agent}: held-out success while training")
+    curves = load_curves({f"trained: {agent}": [csv]}, metric)
+    value = CURVE_METRICS[metric]
+    lines = [(row["label"], value(row), "") for row in rows if not row["policy"].startswith("sb3:")]
+    return plot_curves(curves, out / "curve.png", metric, lines, title=f"{agent}: {metric} on held-out seeds while training")
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -206,7 +222,7 @@ def _report(args: argparse.Namespace, rows: Sequence[Mapping[str, Any]]) -> int:
         record = {"env": args.env, "seed": args.seed, "episodes": args.episodes, "task": args.set, "rows": rows}
         (out / "comparison.json").write_text(json.dumps(record, indent=2))
         if args.curve:
-            print(f"wrote {_curve(args.agent, rows, out)}")
+            print(f"wrote {_curve(args.agent, rows, out, args.curve_metric)}")
     return 0
 
 
