@@ -44,7 +44,7 @@ def test_driving_into_a_wall_from_afar_never_penetrates(angle_deg, penetration_p
         robot.set_wheel_speeds(spec.max_wheel_speed, spec.max_wheel_speed)
         world.step()
     assert probe.calls > 0, "the robot never touched the wall"
-    assert world.coarse_steps > 0 and world.fine_steps > 0
+    assert world.coarse_steps > 0 and world.fine_steps > 0 and world.coarse_contacts == 0
     assert probe.deepest(Category.ROBOT, Category.WALL) < MAX_OVERLAP
 
 
@@ -56,6 +56,7 @@ def test_crowded_episode_with_coarse_steps_keeps_overlaps_small(penetration_prob
     while env.agents:
         env.step(random_policy(env, rng))
     assert env.world.coarse_steps > 0 and env.world.fine_steps > 0
+    assert env.world.coarse_contacts == 0  # every contact began in a fine step
     assert frozenset({Category.ROBOT}) in probe.worst, "no robot-robot contact happened"
     for kind in (Category.ROBOT, Category.WALL, Category.OBSTACLE):
         assert probe.deepest(Category.ROBOT, kind) < MAX_OVERLAP

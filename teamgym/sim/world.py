@@ -79,6 +79,9 @@ class World:
         #: Control steps integrated with ``substeps`` / ``coarse_substeps`` since the world was built.
         self.fine_steps = 0
         self.coarse_steps = 0
+        #: Contacts that began during a coarse control step (the reach check should make this 0).
+        self.coarse_contacts = 0
+        self._coarse_now = False
         self._contact_check: tuple | None = None
         self.space = pymunk.Space()
         self.space.gravity = (0.0, 0.0)
@@ -186,7 +189,9 @@ class World:
         h = dt / self.substeps
         if not switches and self.coarse_substeps and self._contact_free():
             self.coarse_steps += 1
+            self._coarse_now = True
             self._integrate(dt / self.coarse_substeps, self.coarse_substeps)
+            self._coarse_now = False
         elif not switches:
             self.fine_steps += 1
             self._integrate(h, self.substeps)
@@ -270,6 +275,7 @@ class World:
         eb = getattr(sb, "entity", None)
         if ea is not None and eb is not None:
             self._contacts.record(Contact(ea.name, eb.name, ea.kind, eb.kind))
+            self.coarse_contacts += self._coarse_now
 
     # -- contacts -------------------------------------------------------------------
     @property
