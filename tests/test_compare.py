@@ -35,6 +35,9 @@ def test_row_statistics():
     no_times = row_of("y", "p", [result(0, True, [0], [None], length=40)], dt=0.1)
     assert no_times["time_to_success"]["mean"] == pytest.approx(4.0)  # length × dt
     assert "| y | 100 % [21, 100] | 100 % [21, 100] | 4.0 |" in markdown([no_times])
+    # Macro actions: length counts decisions; the env's reported time is the time to success.
+    explored = EpisodeResult(0, 23, True, {"a": 0.0, "b": 0.0}, {"a": {"explore_time": 17.5}, "b": {"explore_time": 17.5}})
+    assert row_of("z", "p", [explored], dt=0.1)["time_to_success"]["mean"] == pytest.approx(17.5)
 
 
 def test_compare_runs_every_policy_on_the_same_seeds(monkeypatch):

@@ -15,8 +15,9 @@ is judged on the same task.
 
 The table (printed, and written to ``DIR/comparison.md`` and ``DIR/comparison.json``) gives per
 policy: success with its Wilson 95 % interval; *clean* success (success and no contact of any
-robot, for envs that count collisions); the time to success (s: the last robot's arrival where
-the env reports ``time_to_goal``, else ``length × dt`` of successful episodes); path length per
+robot, for envs that count collisions); the time to success (s: the latest simulated time the
+env reports, ``time_to_goal``, ``explore_time`` or ``meeting_time``, else ``length × dt`` of
+successful episodes); path length per
 robot (m) and collisions per robot, as means with 95 % intervals. With ``--curve``, the agent's
 learning curve (its ``<agent>_eval.csv``; ``--curve-metric``: success rate, collisions or path length) is
 drawn with the scripted rows' values as lines.
@@ -52,12 +53,22 @@ def _metric(result: EpisodeResult, name: str) -> list[float]:
     return [float(m[name]) for m in result.metrics.values() if name in m and m[name] is not None]
 
 
+#: Metrics in which envs report the simulated time (s) at which their goal was reached.
+TIME_METRICS = ("time_to_goal", "explore_time", "meeting_time")
+
+
 def _time_to_success(result: EpisodeResult, dt: float | None) -> float | None:
+    """Simulated seconds to success: the latest of the env's reported times, else ``length × dt``.
+
+    Envs with macro actions (Exploration's operators) count ``length`` in decisions, not
+    control steps, so their reported time is the only right one.
+    """
     if not result.success:
         return None
-    arrivals = _metric(result, "time_to_goal")
-    if arrivals:
-        return max(arrivals)
+    for name in TIME_METRICS:
+        times = _metric(result, name)
+        if times:
+            return max(times)
     return result.length * dt if dt else None
 
 
