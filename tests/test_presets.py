@@ -75,3 +75,29 @@ def test_training_in_worker_processes_records_workers_and_padding(tmp_path):
     sidecar = json.loads(out.with_suffix(".json").read_text())
     assert sidecar["workers"] == 2 and sidecar["trained_timesteps"] >= 128
     assert 0.0 <= sidecar["padding_share"] < 1.0
+
+
+@pytest.mark.parametrize("name", ["navigation-ppo", "navigation-dagger-ppo", "exploration-maskable-ppo"])
+def test_shipped_agent_plays_its_env_from_its_sidecar(name):
+    import teamgym
+    from baselines.episode import run_episode
+    from baselines.registry import make_policy
+    from baselines.rl.sb3_policy import read_sidecar, resolve_model, shipped_agents
+
+    assert name in shipped_agents()
+    sidecar = read_sidecar(resolve_model(name))
+    assert sidecar["preset"] == name and name in presets()
+    env = teamgym.make(sidecar["env"], **{**sidecar["config"], "max_cycles": 15})
+    result = run_episode(env, make_policy(f"sb3:{name}", env), 20000, record_trajectories=False)
+    assert set(result.returns) == set(env.possible_agents) and 1 <= result.length <= 15
+
+
+def test_dagger_preset_plans_its_imitation():
+    kwargs = plan("--preset", "navigation-dagger-ppo")
+    bc = load_preset("navigation-dagger-ppo").bc
+    assert (kwargs["bc_expert"], kwargs["bc_steps"], kwargs["bc_noise"], kwargs["bc_batch_size"]) == ("nash", 100_000, 0.3, 1024)
+    assert (kwargs["bc_dagger"], kwargs["bc_dagger_steps"], kwargs["bc_dagger_epochs"]) == (
+        bc["dagger_rounds"],
+        bc["dagger_steps"],
+        bc["dagger_epochs"],
+    )
