@@ -161,3 +161,27 @@ def test_learning_curve_of_any_metric_with_the_scripted_rows_as_lines(tmp_path, 
     assert drawn["m"] == metric
     assert drawn["lines"] == [("goto", 1.0 if metric == "success_rate" else 0.65, "")]
     assert np.allclose(np.ravel(drawn["y"][0].values), [0.5, 1.0] if metric == "success_rate" else [0.9, 0.3])
+
+
+def test_agent_config_is_its_training_overrides_so_a_task_option_can_change(tmp_path, monkeypatch):
+    from baselines import evaluate as evaluate_module
+    from baselines.rl import sb3_policy
+
+    (tmp_path / "s1agent.zip").write_bytes(b"not read")
+    sidecar = {
+        "env": "BoxPushing-v0",
+        "config": {"situation": "S1", "n_robots": 1, "n_light_boxes": 1, "n_heavy_boxes": 0, "action_type": "primitives"},
+        "overrides": {"situation": "S1", "action_type": "primitives"},
+    }
+    (tmp_path / "s1agent.json").write_text(json.dumps(sidecar))
+    monkeypatch.setattr(sb3_policy, "AGENT_DIR", tmp_path)
+    seen = {}
+
+    def spy(env_id, policy, episodes, seed, config, workers):
+        seen[policy] = dict(config)
+        return [EpisodeResult(seed, 5, False, {"robot_0": 0.0}, {"robot_0": {}})]
+
+    monkeypatch.setattr(evaluate_module, "evaluate", spy)
+    compare("BoxPushing-v0", "s1agent", episodes=1, task={"situation": "S3"}, policies=[])
+    (config,) = seen.values()
+    assert config == {"situation": "S3", "action_type": "primitives"}  # no S1 robot count left to contradict S3

@@ -147,7 +147,11 @@ def compare(
         sidecar = read_sidecar(path) or {}
         if sidecar.get("env") not in (None, env_id):
             raise ValueError(f"agent {agent!r} was trained on {sidecar['env']}, not {env_id}")
-        agent_config = dict(sidecar.get("config") or {})
+        # The settings it was trained with (``overrides``), as ``baselines.evaluate`` applies them: the
+        # resolved ``config`` would also pin keys a task option derives (BoxPushing's situation
+        # sets the robot and box counts) and contradict a ``--set situation=...``.
+        overrides = sidecar.get("overrides")
+        agent_config = dict(overrides if isinstance(overrides, dict) else sidecar.get("config") or {})
         entries.insert(-1 if entries and entries[-1][0] == "random" else len(entries), (f"trained: {agent}", f"sb3:{path}"))
     dt = float(teamgym.make(env_id, **task).config.dt)
     rows = []
