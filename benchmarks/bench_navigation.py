@@ -166,6 +166,35 @@ def make_loops(n: int) -> dict[str, object]:
 CLOCKS = {"wall": time.perf_counter, "cpu": time.process_time}
 
 
+def physics_share(n_robots: int, steps: int, clock=time.perf_counter) -> float:
+    """Share of ``Navigation-v0``'s step time spent in the physics substeps (``World._integrate``).
+
+    Measured in a separate run with a timer around ``World._integrate``, so the timed chunks
+    above carry no timer overhead.
+    """
+    from teamgym.sim.world import World
+
+    spent = [0.0]
+    original = World._integrate
+
+    def timed(world: World, h: float, n: int) -> None:
+        begin = clock()
+        original(world, h, n)
+        spent[0] += clock() - begin
+
+    World._integrate = timed
+    try:
+        loop = TeamgymLoop(n_robots)
+        chunk_rate(loop, 0, steps, clock)  # warm-up
+        spent[0] = 0.0
+        begin = clock()
+        for i in range(steps, 2 * steps):
+            loop.step(i)
+        return spent[0] / (clock() - begin)
+    finally:
+        World._integrate = original
+
+
 def chunk_rate(loop, start: int, steps: int, clock=time.perf_counter) -> float:
     """Steps per second over ``steps`` steps of ``loop`` starting at step ``start``, timed by ``clock``."""
     begin = clock()
@@ -218,6 +247,9 @@ def main() -> None:
         )
         rows.append({"n_robots": n, "teamgym": env_rate, "bare_pymunk": bare_rate, "mpe2": mpe_rate, "median": median})
     print("targets (N=5): env/bare time <= 2.00x (issue 2), <= 1.20x (issue 15); teamgym/MPE2 >= 2.00x")
+    for row in rows:
+        row["physics_share"] = physics_share(row["n_robots"], args.chunk * 5, clock)
+        print(f"N={row['n_robots']}: physics substeps are {100 * row['physics_share']:.0f} % of a teamgym step")
     if args.json:
         with open(args.json, "w") as handle:
             json.dump(rows, handle, indent=2)

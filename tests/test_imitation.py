@@ -288,3 +288,12 @@ def test_sidecar_records_the_behaviour_cloning(tmp_path):
     plain = tmp_path / "p.zip"
     assert train_main([*ENV_ARGS, *PPO_ARGS, "--timesteps", "64", "--out", str(plain)]) == 0
     assert json.loads(plain.with_suffix(".json").read_text())["bc"] is None
+
+
+@pytest.mark.parametrize("bad", [{"bc_dagger_steps": 0}, {"bc_dagger_epochs": 0}, {"bc_batch_size": 0}, {"bc_noise": 1.5}])
+def test_invalid_dagger_and_fit_settings_are_refused_before_any_work(bad, tmp_path):
+    from baselines.rl.train import train
+
+    with pytest.raises(ValueError, match="bc_"):
+        train("Navigation-v0", "ppo", 64, out=tmp_path / "m.zip", bc_expert="goto", bc_dagger=1, **bad)
+    assert not list(tmp_path.iterdir())

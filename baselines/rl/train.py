@@ -65,7 +65,7 @@ from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from baselines.rl.imitation import DEFAULT_BC_EPOCHS, DEFAULT_BC_STEPS
+from baselines.rl.imitation import DEFAULT_BC_EPOCHS, DEFAULT_BC_NOISE, DEFAULT_BC_STEPS
 
 __all__ = ["DEFAULT_EVAL_SEED", "Training", "build_parser", "default_hyperparameters", "main", "train", "train_seeds"]
 
@@ -225,15 +225,15 @@ class Training:
                 raise ValueError(f"behaviour cloning (--bc-expert) needs ppo or a2c (an actor-critic policy), not {self.algo}")
             if bc_steps < 1 or bc_epochs < 1:
                 raise ValueError(f"bc_steps and bc_epochs must be >= 1, got {bc_steps} and {bc_epochs}")
-            if bc_dagger < 0 or (bc_dagger_steps or 1) < 1 or (bc_dagger_epochs or 1) < 1:
+            if bc_dagger < 0 or any(n is not None and n < 1 for n in (bc_dagger_steps, bc_dagger_epochs, bc_batch_size)):
                 raise ValueError(
-                    f"bc_dagger must be >= 0 and its steps and epochs >= 1, "
-                    f"got {bc_dagger}, {bc_dagger_steps}, {bc_dagger_epochs}"
+                    f"bc_dagger must be >= 0 and its steps and epochs and bc_batch_size >= 1, "
+                    f"got {bc_dagger}, {bc_dagger_steps}, {bc_dagger_epochs}, {bc_batch_size}"
                 )
             self.bc = {"expert": bc_expert, "steps": int(bc_steps), "epochs": int(bc_epochs)}
             if bc_dagger:
                 self.bc.update(dagger_rounds=int(bc_dagger), dagger_steps=bc_dagger_steps, dagger_epochs=bc_dagger_epochs)
-            if bc_batch_size:
+            if bc_batch_size is not None:
                 self.bc["batch_size"] = int(bc_batch_size)
             if bc_noise is not None:
                 if not 0 <= bc_noise <= 1:
@@ -448,8 +448,8 @@ class Training:
             dagger_rounds=bc.get("dagger_rounds", 0),
             dagger_steps=bc.get("dagger_steps"),
             dagger_epochs=bc.get("dagger_epochs"),
-            **({"noise": bc["noise"]} if bc.get("noise") is not None else {}),
-            **({"batch_size": bc["batch_size"]} if bc.get("batch_size") else {}),
+            noise=bc.get("noise", DEFAULT_BC_NOISE),
+            **({"batch_size": bc["batch_size"]} if "batch_size" in bc else {}),
         )
         self.bc.update(record)
         self.bc_pending = False
@@ -788,21 +788,17 @@ def _plan(args: argparse.Namespace) -> tuple[dict[str, Any], list[int] | None]:
         kwargs["preset"] = args.preset
     if args.workers is not None:
         kwargs["workers"] = args.workers
-    bc = saved.get("bc") if args.preset and isinstance(saved.get("bc"), dict) else None
-    if args.bc_expert is None and bc:
-        kwargs["bc_expert"] = bc["expert"]
+    bc = saved.get("bc") if args.preset and isinstance(saved.get("bc"), dict) else {}
+    expert = args.bc_expert if args.bc_expert is not None else bc.get("expert")
+    if expert:  # a --bc-expert other than the preset's keeps the preset's amounts unless given
+        kwargs["bc_expert"] = expert
         kwargs["bc_steps"] = _pick(args.bc_steps, bc.get("steps"), DEFAULT_BC_STEPS)
         kwargs["bc_epochs"] = _pick(args.bc_epochs, bc.get("epochs"), DEFAULT_BC_EPOCHS)
-    if args.bc_expert is not None:  # another expert than the preset's keeps the preset's amounts unless given
-        kwargs["bc_expert"] = args.bc_expert
-        kwargs["bc_steps"] = _pick(args.bc_steps, (bc or {}).get("steps"), DEFAULT_BC_STEPS)
-        kwargs["bc_epochs"] = _pick(args.bc_epochs, (bc or {}).get("epochs"), DEFAULT_BC_EPOCHS)
-    if "bc_expert" in kwargs:
-        kwargs["bc_dagger"] = _pick(args.bc_dagger, (bc or {}).get("dagger_rounds"), 0)
-        kwargs["bc_dagger_steps"] = (bc or {}).get("dagger_steps")
-        kwargs["bc_dagger_epochs"] = (bc or {}).get("dagger_epochs")
-        kwargs["bc_batch_size"] = (bc or {}).get("batch_size")
-        kwargs["bc_noise"] = (bc or {}).get("noise")
+        kwargs["bc_dagger"] = _pick(args.bc_dagger, bc.get("dagger_rounds"), 0)
+        kwargs["bc_dagger_steps"] = bc.get("dagger_steps")
+        kwargs["bc_dagger_epochs"] = bc.get("dagger_epochs")
+        kwargs["bc_batch_size"] = bc.get("batch_size")
+        kwargs["bc_noise"] = bc.get("noise")
     elif args.bc_dagger:
         raise ValueError("--bc-dagger needs --bc-expert (or a preset with behaviour cloning)")
     if args.seeds is not None:

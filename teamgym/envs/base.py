@@ -82,6 +82,8 @@ class TeamEnv(ParallelEnv):
         self.possible_agents: list[str] = self._agent_names()
         self.agents: list[str] = []
         self._row = {a: i for i, a in enumerate(self.possible_agents)}
+        self._live_names: list[str] | None = None
+        self._live_array = np.zeros(0, dtype=int)
         self._setup()
         self._ensure_feasible()
         c = self.config
@@ -302,6 +304,17 @@ class TeamEnv(ParallelEnv):
         for entity in self.world.tracked():
             if entity.name not in agents:
                 trails.setdefault(entity.name, []).append(entity.position)
+
+    def _live_rows(self) -> np.ndarray:
+        """Rows (``possible_agents`` order) of the agents in ``agents``, rebuilt only when ``agents`` changes.
+
+        The array is shared between calls and read-only: index with it, do not write to it.
+        """
+        if self._live_names != self.agents:
+            self._live_names = list(self.agents)
+            self._live_array = np.array([self._row[a] for a in self.agents], dtype=int)
+            self._live_array.flags.writeable = False
+        return self._live_array
 
     def _check_actions(self, actions: dict) -> dict:
         """Validate every action before anything changes; raise naming the culprit."""

@@ -41,8 +41,9 @@ class World:
         can begin is integrated in ``coarse_substeps`` substeps instead of ``substeps``: every
         shape of an entity with a state row has its bounding box grown by ``contact_reach``
         (m; the distance one body can travel in Δt, with margin) and no grown box meets a
-        grown box or a fixed shape it may collide with. The decision depends on the state only, so runs stay
-        deterministic; steps with actuation-delay switches always use ``substeps``.
+        grown box or a fixed shape it may collide with. The decision depends on the state
+        only, so runs stay deterministic; steps with actuation-delay switches always use
+        ``substeps``.
     collision_slop:
         Allowed penetration in metres. pymunk's default (0.1) assumes pixels; in metres we
         allow 0.2 mm.
@@ -187,16 +188,16 @@ class World:
             if at is not None:
                 switches.setdefault(at, []).append(entity)
         h = dt / self.substeps
-        if not switches and self.coarse_substeps and self._contact_free():
-            self.coarse_steps += 1
+        coarse = not switches and self.coarse_substeps > 0 and self._contact_free()
+        self.coarse_steps += coarse
+        self.fine_steps += not coarse
+        if coarse:
             self._coarse_now = True
             self._integrate(dt / self.coarse_substeps, self.coarse_substeps)
             self._coarse_now = False
         elif not switches:
-            self.fine_steps += 1
             self._integrate(h, self.substeps)
         else:
-            self.fine_steps += 1
             elapsed = 0.0
             for boundary in [*sorted(switches), dt]:
                 duration = boundary - elapsed

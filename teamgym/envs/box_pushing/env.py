@@ -221,7 +221,7 @@ class BoxPushing(TeamEnv):
         """The team's shared reward: progress of the boxes, time penalty, success bonus."""
         c = self.config
         reward = c.progress_reward * self._step_progress - c.time_penalty + (c.success_bonus if self._newly_successful else 0.0)
-        total[[self._index[a] for a in self.agents]] += reward
+        total[self._live_rows()] += reward
 
     def _sense(self) -> None:
         """Sensors of the robots that go on, including robots added by events in this step."""
@@ -240,7 +240,7 @@ class BoxPushing(TeamEnv):
     def _observe(self, out: np.ndarray) -> None:
         if not self.agents:
             return
-        rows = [self._index[a] for a in self.agents]
+        rows = self._live_rows()
         s = self.layout.slices
         out[:, : self.sensors.width] = self._readings[rows]
         out[:, s["busy"].start] = [float(self.executors[a].busy) for a in self.agents]

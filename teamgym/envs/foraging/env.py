@@ -305,7 +305,7 @@ class Foraging(TeamEnv):
         c = self.config
         before, self._nearest = self._nearest, self._nearest_target_distance()
         progress = np.where(self._finished_now > 0, 0.0, before - self._nearest)
-        rows = [self._row[a] for a in self.agents]
+        rows = self._live_rows()
         total[rows] += c.consume_reward * self._finished_now + c.progress_reward * progress[rows] - c.time_penalty
 
     def _sense(self) -> None:

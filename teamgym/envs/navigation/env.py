@@ -61,6 +61,7 @@ and m/s (section 6.2).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -176,7 +177,6 @@ class Navigation(TeamEnv):
         self._contact_radius = np.concatenate([np.full(n, 2 * c.robot_radius), c.robot_radius + self._obstacle_radii])
         self._robot_rows = np.arange(n)
         self._index = {a: i for i, a in enumerate(self.possible_agents)}
-        self._live_names: list[str] | None = None
         self._arrived = np.zeros(n, dtype=bool)
         self._arrival_time = np.full(n, np.nan)
         self._collisions = np.zeros(n, dtype=int)
@@ -378,13 +378,6 @@ class Navigation(TeamEnv):
         """A robot that arrives terminates, stops and stays in the world."""
         return dict(zip(self.agents, self._arrived[self._live_rows()].tolist()))
 
-    def _live_rows(self) -> np.ndarray:
-        """Rows (``possible_agents`` order) of the agents in ``agents``; recomputed only when ``agents`` changes."""
-        if self._live_names != self.agents:
-            self._live_names = list(self.agents)
-            self._live_array = np.array([self._index[a] for a in self.agents], dtype=int)
-        return self._live_array
-
     def _read_proximity(self, indices: np.ndarray) -> None:
         if len(indices) == 0:
             return
@@ -426,25 +419,26 @@ class Navigation(TeamEnv):
 
     def _observe_mate_goals(self, out: np.ndarray, rows: np.ndarray) -> None:
         """Team mates' goals relative to each robot (own frame with ``local_features``, else world axes)."""
-        k = len(rows)
         offset = self.goals[self._others[rows]] - self._pos[rows][:, None, :]
         if self.config.local_features:
-            theta = self._theta[rows][:, None]
-            cos, sin = np.cos(theta), np.sin(theta)
-            offset = np.stack(
-                [cos * offset[:, :, 0] + sin * offset[:, :, 1], -sin * offset[:, :, 0] + cos * offset[:, :, 1]], axis=2
-            )
-        out[:, self.layout.slices["mate_goals"]] = offset.reshape(k, -1)
+            offset = np.stack(self._robot_frame(rows)(offset[:, :, 0], offset[:, :, 1]), axis=2)
+        out[:, self.layout.slices["mate_goals"]] = offset.reshape(len(rows), -1)
 
-    def _observe_local(self, out: np.ndarray, rows: np.ndarray) -> None:
-        """Goal offset, mates' and obstacles' offsets and velocities rotated into each robot's frame (x ahead, y left)."""
-        s, k = self.layout.slices, len(rows)
-        own, theta = self._pos[rows], self._theta[rows]
+    def _robot_frame(self, rows: np.ndarray) -> Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]:
+        """``rotate(dx, dy)``: world-axis vectors (one row per robot of ``rows``) in that robot's frame (x ahead, y left)."""
+        theta = self._theta[rows]
         cos, sin = np.cos(theta)[:, None], np.sin(theta)[:, None]
 
         def rotate(dx: np.ndarray, dy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             return cos * dx + sin * dy, -sin * dx + cos * dy
 
+        return rotate
+
+    def _observe_local(self, out: np.ndarray, rows: np.ndarray) -> None:
+        """Goal offset, mates' and obstacles' offsets and velocities rotated into each robot's frame (x ahead, y left)."""
+        s, k = self.layout.slices, len(rows)
+        own = self._pos[rows]
+        rotate = self._robot_frame(rows)
         gx, gy = rotate(self.goals[rows, 0:1] - own[:, 0:1], self.goals[rows, 1:2] - own[:, 1:2])
         out[:, s["goal_local"]] = np.concatenate([gx, gy], axis=1)
         if self.config.n_robots > 1:
