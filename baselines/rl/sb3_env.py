@@ -81,11 +81,17 @@ class TeamVecEnv(VecEnv):
     module docstring for how slots are refilled when robots finish early.
     """
 
-    def __init__(self, env_fn: Callable[[], TeamEnv], n_envs: int = 1) -> None:
+    def __init__(self, env_fn: Callable[[], TeamEnv], n_envs: int = 1, batched: bool | None = None) -> None:
         if n_envs < 1:
             raise ValueError(f"n_envs must be >= 1, got {n_envs}")
         self._env_fn = env_fn
-        self.envs: list[TeamEnv] = [env_fn() for _ in range(n_envs)]
+        first = env_fn()
+        self._batch = self._make_batch(first, n_envs, batched)
+        if self._batch is not None:
+            first.close()
+            self.envs: list[TeamEnv] = self._batch.copies  # the batch's list: copies it adds appear here
+        else:
+            self.envs = [first] + [env_fn() for _ in range(n_envs - 1)]
         first = self.envs[0]
         self.agent_names: list[str] = list(first.possible_agents)
         if not self.agent_names:
@@ -102,6 +108,9 @@ class TeamVecEnv(VecEnv):
         self._actions: np.ndarray | None = None
         A = self.agents_per_env
         self._copy_of = [k // A for k in range(self.num_envs)]  # the copy each slot serves (or served last)
+        self._slot_copy = np.array(self._copy_of, dtype=np.int64)  # the same, as an array (batched stepping)
+        self._slot_row = np.full(self.num_envs, -1, dtype=np.int64)  # row of the slot's robot in its copy; -1 while waiting
+        self._row_of = {agent: i for i, agent in enumerate(self.agent_names)}
         self._agent_of: list[str | None] = [None] * self.num_envs  # the robot in each slot; None while waiting
         self._slots: list[dict[str, int]] = [{} for _ in self.envs]  # per copy: live robot -> slot
         self._started = [0.0 for _ in self.envs]
@@ -116,6 +125,22 @@ class TeamVecEnv(VecEnv):
         self.slot_offset = 0
         self.slot_steps = 0
         self.padding_steps = 0
+
+    @staticmethod
+    def _make_batch(first: TeamEnv, n_envs: int, batched: bool | None) -> Any | None:
+        """The env's batch form (``make_batch``) for ``batched`` = True or None (when it has one); None for False."""
+        if batched is False:
+            return None
+        make = getattr(first, "make_batch", None)
+        batch = make(n_envs) if make is not None and getattr(first, "render_mode", None) is None else None
+        if batch is None and batched:
+            raise ValueError(f"{type(first).__name__} has no batch form (make_batch); use batched=False or None")
+        return batch
+
+    @property
+    def batched(self) -> bool:
+        """Whether the copies are stepped together by the env's batch form (one numpy pass) rather than one by one."""
+        return self._batch is not None
 
     def _check_copy(self, env: TeamEnv, observation_space: spaces.Space, action_space: spaces.Space) -> None:
         if list(env.possible_agents) != self.agent_names:
@@ -136,7 +161,11 @@ class TeamVecEnv(VecEnv):
     def _start_copy(self, e: int, slots: Sequence[int], seed: int | None, options: dict | None) -> list[int]:
         """Reset copy ``e`` and put its robots in ``slots`` (in ``possible_agents`` order); returns unused slots."""
         env = self.envs[e]
-        observations, infos = env.reset(seed=seed, options=options or None)
+        if self._batch is not None:
+            rows, infos = self._batch.reset_copy(e, seed=seed, options=options or None)
+            observations = {agent: rows[self._row_of[agent]] for agent in env.agents}
+        else:
+            observations, infos = env.reset(seed=seed, options=options or None)
         binding: dict[str, int] = {}
         free = list(slots)
         for agent in self.agent_names:
@@ -146,6 +175,8 @@ class TeamVecEnv(VecEnv):
             binding[agent] = k
             self._agent_of[k] = agent
             self._copy_of[k] = e
+            self._slot_copy[k] = e
+            self._slot_row[k] = self._row_of[agent]
             self._obs[k] = observations[agent]
             self._returns[k] = 0.0
             self._lengths[k] = 0
@@ -158,9 +189,12 @@ class TeamVecEnv(VecEnv):
         """An idle copy (continuing its random stream), or a new one seeded after the others."""
         if self._idle:
             return self._idle.popleft(), None
-        env = self._env_fn()
-        self._check_copy(env, self.observation_space, self.action_space)
-        self.envs.append(env)
+        if self._batch is not None:
+            self._batch.add_copy()  # appears in self.envs, the batch's list
+        else:
+            env = self._env_fn()
+            self._check_copy(env, self.observation_space, self.action_space)
+            self.envs.append(env)
         self._slots.append({})
         self._started.append(0.0)
         e = len(self.envs) - 1
@@ -214,8 +248,12 @@ class TeamVecEnv(VecEnv):
         self._base_seed = None if first is None else first - self.slot_offset
         for env in self.envs[self.num_envs // A :]:  # copies added by refills: a reset starts afresh
             env.close()
-        del self.envs[self.num_envs // A :]
+        if self._batch is not None:
+            self._batch.truncate(self.num_envs // A)
+        else:
+            del self.envs[self.num_envs // A :]
         self._agent_of = [None] * self.num_envs
+        self._slot_row[:] = -1
         self._slots = [{} for _ in self.envs]
         self._started = [0.0 for _ in self.envs]
         self._waiting.clear()
@@ -250,6 +288,15 @@ class TeamVecEnv(VecEnv):
         self.padding_steps += len(self._waiting)
         for k in self._waiting:
             infos[k] = {"padding": True}
+        if self._batch is not None:
+            self._step_batch(actions, rewards, dones, infos)
+        else:
+            self._step_copies(actions, rewards, dones, infos)
+        self._refill(dones, infos)
+        return self._obs.copy(), rewards, dones, infos
+
+    def _step_copies(self, actions: np.ndarray, rewards: np.ndarray, dones: np.ndarray, infos: list[dict[str, Any]]) -> None:
+        """Step the copies one after another through the PettingZoo API."""
         for e, env in enumerate(self.envs):
             binding = self._slots[e]
             if not binding:
@@ -270,24 +317,8 @@ class TeamVecEnv(VecEnv):
                 terminated = bool(terminations.get(agent, False))
                 truncated = bool(truncations.get(agent, False))
                 if terminated or truncated or agent not in still_live:
-                    dones[k] = True
                     final = observations.get(agent)
-                    info["terminal_observation"] = (
-                        np.array(final, dtype=self._obs.dtype) if final is not None else np.zeros_like(self._obs[k])
-                    )
-                    info["TimeLimit.truncated"] = truncated and not terminated
-                    info["episode"] = {
-                        "r": float(self._returns[k]),
-                        "l": int(self._lengths[k]),
-                        "t": round(time.time() - self._started[e], 6),
-                    }
-                    if outcome is not None:
-                        info["is_success"] = outcome
-                        outcome = None  # once per team episode
-                    del binding[agent]
-                    self._agent_of[k] = None
-                    self._obs[k] = 0
-                    self._waiting.append(k)
+                    outcome = self._finish_slot(k, e, final, terminated, truncated, info, outcome, dones)
                 else:
                     self._obs[k] = observations[agent]
                 infos[k] = info
@@ -295,8 +326,68 @@ class TeamVecEnv(VecEnv):
                 for agent in list(binding):  # robots the env dropped without a done flag
                     self._waiting.append(binding.pop(agent))
                 self._idle.append(e)
-        self._refill(dones, infos)
-        return self._obs.copy(), rewards, dones, infos
+
+    def _step_batch(self, actions: np.ndarray, rewards: np.ndarray, dones: np.ndarray, infos: list[dict[str, Any]]) -> None:
+        """Step every copy at once through the env's batch form; slots read their rows of its arrays.
+
+        Slots whose robot goes on get an empty ``info``; a robot that finishes gets its metrics
+        (``batch.infos``) as the PettingZoo path gives them on that step.
+        """
+        batch = self._batch
+        bound = np.flatnonzero(self._slot_row >= 0)
+        ks, rows = self._slot_copy[bound], self._slot_row[bound]
+        space = self.action_space
+        moves = np.zeros((batch.n_copies, batch.n_robots, *space.shape), dtype=space.dtype)
+        chosen = np.asarray(actions)[bound]
+        moves[ks, rows] = np.clip(chosen, space.low, space.high) if isinstance(space, spaces.Box) else chosen
+        observations, step_rewards, terminated, truncated = batch.step(moves)
+        reward = step_rewards[ks, rows]
+        rewards[bound] = reward
+        self._returns[bound] += reward
+        self._lengths[bound] += 1
+        self._obs[bound] = observations[ks, rows]
+        finished = np.flatnonzero(terminated[ks, rows] | truncated[ks, rows])
+        if len(finished) == 0:
+            return
+        order = sorted(finished.tolist(), key=lambda j: (ks[j], rows[j]))  # copy, then agent order: as _step_copies
+        over = batch.episode_over()
+        for e in sorted({int(ks[j]) for j in order}):
+            copy_infos = batch.infos(e)
+            outcome = bool(batch.copies[e].episode_success()) if over[e] else None
+            for j in (j for j in order if ks[j] == e):
+                k, i = int(bound[j]), int(rows[j])
+                info = copy_infos[self.agent_names[i]]
+                term, trunc = bool(terminated[e, i]), bool(truncated[e, i])
+                outcome = self._finish_slot(k, e, observations[e, i], term, trunc, info, outcome, dones)
+                infos[k] = info
+            if over[e]:
+                self._idle.append(e)
+
+    def _finish_slot(
+        self, k: int, e: int, final: Any, terminated: bool, truncated: bool, info: dict, outcome: bool | None, dones: np.ndarray
+    ) -> bool | None:
+        """Slot ``k``'s robot finished: ``done``, its terminal observation and episode in ``info``; the slot waits.
+
+        ``outcome`` (the team's success, once the copy's episode is over) goes to the first robot
+        that finishes then; returns what is left of it for the others.
+        """
+        dones[k] = True
+        zeros = np.zeros_like(self._obs[k])
+        info["terminal_observation"] = np.array(final, dtype=self._obs.dtype) if final is not None else zeros
+        info["TimeLimit.truncated"] = truncated and not terminated
+        elapsed = round(time.time() - self._started[e], 6)
+        info["episode"] = {"r": float(self._returns[k]), "l": int(self._lengths[k]), "t": elapsed}
+        if outcome is not None:
+            info["is_success"] = outcome
+            outcome = None  # once per team episode
+        agent = self._agent_of[k]
+        if agent is not None:
+            self._slots[e].pop(agent, None)
+        self._agent_of[k] = None
+        self._slot_row[k] = -1
+        self._obs[k] = 0
+        self._waiting.append(k)
+        return outcome
 
     def action_masks(self) -> np.ndarray:
         """One mask row per slot for sb3-contrib's ``MaskablePPO`` (waiting slots: every action allowed)."""

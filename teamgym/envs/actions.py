@@ -48,6 +48,14 @@ class ActionType(ABC):
     def act(self, env: TeamEnv, agent: str, action: Any) -> tuple[float, float]:
         """The body command ``(v, ω)`` (m/s, rad/s) of ``agent`` in the current control step."""
 
+    def commands(self, actions: np.ndarray) -> np.ndarray | None:
+        """:meth:`act` for many checked actions at once (rows of ``actions``): ``(R, 2)`` commands ``(v, ω)``.
+
+        ``None`` when the type needs its env per robot (a batch then calls :meth:`act` row by row).
+        The values equal :meth:`act`'s exactly, so a batched env steps as the single env does.
+        """
+        return None
+
     def stage_over(self, env: TeamEnv) -> bool:
         """After a control step of a macro type: whether this ``step`` ends."""
         return True
@@ -89,6 +97,9 @@ class VelocityAction(ActionType):
     def act(self, env: TeamEnv, agent: str, action: Any) -> tuple[float, float]:
         return float(action[0]), float(action[1])
 
+    def commands(self, actions: np.ndarray) -> np.ndarray:
+        return np.asarray(actions, dtype=np.float64)[:, :2]
+
 
 class WheelSpeedAction(ActionType):
     """Continuous wheel rim speeds ``(v_L, v_R)`` in m/s, converted by eq. (6) of paper 001."""
@@ -104,6 +115,10 @@ class WheelSpeedAction(ActionType):
 
     def act(self, env: TeamEnv, agent: str, action: Any) -> tuple[float, float]:
         return body_command(float(action[0]), float(action[1]), self.spec.wheel_base)
+
+    def commands(self, actions: np.ndarray) -> np.ndarray:
+        left, right = np.asarray(actions, dtype=np.float64).T
+        return np.stack(body_command(left, right, self.spec.wheel_base), axis=1)
 
 
 class UnitScaled(ActionType):
@@ -143,6 +158,9 @@ class UnitScaled(ActionType):
 
     def act(self, env: TeamEnv, agent: str, action: Any) -> tuple[float, float]:
         return self.inner.act(env, agent, self.native(action))
+
+    def commands(self, actions: np.ndarray) -> np.ndarray | None:
+        return self.inner.commands(self.native(actions))
 
     def stage_over(self, env: TeamEnv) -> bool:
         return self.inner.stage_over(env)

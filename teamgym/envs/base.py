@@ -197,6 +197,14 @@ class TeamEnv(ParallelEnv):
     def _overlay(self) -> Overlay:
         return Overlay()
 
+    def make_batch(self, n_copies: int) -> Any | None:
+        """``n_copies`` copies of this env (its config) stepped together with arrays, or ``None`` if the task has no batch form.
+
+        Navigation-v0 returns a :class:`~teamgym.envs.navigation.batch.NavigationBatch`; the
+        SB3 adapter uses it when it exists.
+        """
+        return None
+
     def _admit(self, agent: str) -> None:
         """Let ``agent`` (a new robot) join ``agents`` at the end of the current step."""
         self._joining.append(agent)

@@ -180,6 +180,44 @@ class ActionChecker:
         return self._check(agent, "", action)
 
 
+class ActionRowsChecker:
+    """Validates a whole array of actions for one Box or Discrete space (a batch of env copies).
+
+    ``check(actions, names)`` takes ``(R, *shape)`` actions (``(R,)`` for ``Discrete``) and the
+    name of each row's agent, and returns them as float64 (Box) or int64 (Discrete). It accepts
+    exactly what :class:`ActionChecker` accepts row by row; the rows are tested in one numpy
+    pass, and a failing row is handed to :class:`ActionChecker`, whose error names its agent.
+    """
+
+    def __init__(self, space: spaces.Space) -> None:
+        if not isinstance(space, (spaces.Box, spaces.Discrete)):
+            raise TypeError(f"ActionRowsChecker needs a Box or Discrete space, got {space!r}")
+        self.space = space
+        self._rows = ActionChecker(space)
+        self._shape = space.shape if isinstance(space, spaces.Box) else ()
+
+    def check(self, actions: Any, names: list[str]) -> np.ndarray:
+        space = self.space
+        try:
+            raw = np.asarray(actions)
+        except (TypeError, ValueError):
+            raise TypeError(f"actions must be a numeric array of shape ({len(names)}, *{self._shape}), got {actions!r}") from None
+        if raw.shape != (len(names), *self._shape):
+            raise ValueError(f"actions have shape {raw.shape}, expected {(len(names), *self._shape)} for the space {space}")
+        if raw.dtype.kind in "biuf":
+            if isinstance(space, spaces.Box):
+                cast = raw.astype(space.dtype)
+                if np.all(cast >= space.low) and np.all(cast <= space.high):  # NaN fails both: in bounds is finite
+                    return raw.astype(np.float64)
+            else:
+                values = raw.astype(np.float64)
+                start, n = int(space.start), int(space.n)
+                if np.all((values >= start) & (values < start + n) & (values == np.floor(values))) and raw.dtype.kind != "b":
+                    return raw.astype(np.int64)
+        checked = [self._rows.check(name, action) for name, action in zip(names, raw)]  # raises naming the row
+        return np.array(checked, dtype=np.float64 if isinstance(space, spaces.Box) else np.int64)
+
+
 def check_action(agent: str, action: Any, space: spaces.Space) -> Any:
     """One-off form of :class:`ActionChecker` (builds the checker each call)."""
     return ActionChecker(space).check(agent, action)

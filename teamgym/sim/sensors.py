@@ -148,11 +148,34 @@ class NoisyRowSensor:
         poses: np.ndarray,
         rng: np.random.Generator | None,
         out: np.ndarray,
+        free: Sequence[bool] | None = None,
     ) -> None:
+        """Readings of ``robots`` (poses ``(x, y, θ, ...)`` per row) into the rows of ``out``, noise included.
+
+        ``free`` (optional, one flag per robot) marks robots the caller knows have nothing within
+        the sensor's reach; their rows read :meth:`_free_reading` without a query (same values).
+        """
         space = world.space
-        for robot, (x, y, theta), row in zip(robots, _check_rows(self, robots, poses, out), out):
-            self._read_one(robot, space, x, y, theta, row)
+        rows = _check_rows(self, robots, poses, out)
+        if free is None:
+            for robot, (x, y, theta), row in zip(robots, rows, out):
+                self._read_one(robot, space, x, y, theta, row)
+        else:
+            for robot, (x, y, theta), row, nothing in zip(robots, rows, out, free):
+                if nothing:
+                    self._free_reading(row)
+                else:
+                    self._read_one(robot, space, x, y, theta, row)
         self._add_noise(rng, out, robots)
+
+    def _free_reading(self, out: np.ndarray) -> None:
+        """Noise-free reading of a robot with nothing within reach (subclasses that accept ``free`` define it)."""
+        raise NotImplementedError(f"{type(self).__name__} does not take free rows")
+
+    @property
+    def noiseless(self) -> bool:
+        """Whether readings carry no noise and no gains (then they draw nothing from the random stream)."""
+        return self.noise_std == 0 and self.relative_noise == 0 and not self._gains
 
     def _add_noise(self, rng: np.random.Generator | None, out: np.ndarray, robots: Sequence[DiffDriveRobot]) -> None:
         """Gains, relative and additive noise on the rows ``out`` of ``robots`` (see the class docstring)."""
@@ -225,6 +248,9 @@ class ProximityRing(NoisyRowSensor):
     def _noise_mask(self, out: np.ndarray) -> np.ndarray:
         """Relative noise applies to rays that hit something: a free ray reads the sensor's noise floor, beyond range."""
         return out < self.max_range
+
+    def _free_reading(self, out: np.ndarray) -> None:
+        out.fill(self.max_range)
 
     def _read_one(self, robot: DiffDriveRobot, space: pymunk.Space, x: float, y: float, theta: float, out: np.ndarray) -> None:
         """Noise-free distances of one robot into ``out``."""

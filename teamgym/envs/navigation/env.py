@@ -61,8 +61,7 @@ and m/s (section 6.2).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from gymnasium import spaces
@@ -74,14 +73,17 @@ from teamgym.envs.config import ConfigError
 from teamgym.envs.navigation.actions import HeadingAction
 from teamgym.envs.navigation.config import NavigationConfig
 from teamgym.envs.navigation.scene import NavigationScene, PlacementError, scatter
+from teamgym.envs.navigation.team_state import TeamState
 from teamgym.envs.spaces import ObservationLayout
 from teamgym.sim.categories import SOLID, Category
-from teamgym.sim.chipmunk import shape_distance
 from teamgym.sim.objects import MovingPolygon, regular_polygon
 from teamgym.sim.render import Overlay, robot_colour
 from teamgym.sim.robot import DiffDriveRobot, RobotSpec
 from teamgym.sim.sensors import KHEPERA_RING, ProximityRing
 from teamgym.sim.world import World
+
+if TYPE_CHECKING:
+    from teamgym.envs.navigation.batch import NavigationBatch
 
 __all__ = ["Navigation", "NavigationConfig", "env", "parallel_env"]
 
@@ -105,7 +107,7 @@ class Navigation(TeamEnv):
         self.ring = ProximityRing(KHEPERA_RING, c.sensor_range, c.sensor_noise)
         n, m = c.n_robots, c.n_obstacles
         self.state_space = spaces.Box(-np.inf, np.inf, shape=(7 * n + 4 * m,), dtype=np.float32)
-        self._others = np.array([[j for j in range(n) if j != i] for i in range(n)], dtype=int).reshape(n, n - 1)
+        self._bind(TeamState(c, 1, self.ring.width), 0)
 
     def _check_feasible(self) -> None:
         """Refuse at ``make()`` a config whose scenes cannot be sampled (tried on 32 seeds)."""
@@ -170,29 +172,16 @@ class Navigation(TeamEnv):
             self.world.add(MovingPolygon(f"obstacle_{k}", vertices, centre, velocity, bounce=bounce, collides_with=mask))
             for k, (vertices, centre, velocity) in enumerate(scene.obstacles)
         ]
-        n = c.n_robots
-        self._obstacle_radii = np.array([o.bounding_radius for o in self.obstacles], dtype=float)
-        # Centre distance at which a robot touches each object (robots first, then obstacles'
-        # bounding circles): gap = centre distance − contact radius.
-        self._contact_radius = np.concatenate([np.full(n, 2 * c.robot_radius), c.robot_radius + self._obstacle_radii])
-        self._robot_rows = np.arange(n)
+        radii = np.array([o.bounding_radius for o in self.obstacles], dtype=float)
         self._index = {a: i for i, a in enumerate(self.possible_agents)}
-        self._arrived = np.zeros(n, dtype=bool)
-        self._arrival_time = np.full(n, np.nan)
-        self._collisions = np.zeros(n, dtype=int)
-        self._new_collisions = np.zeros(n, dtype=int)
-        self._smooth_sum = np.zeros(n)
-        self._smooth_steps = np.zeros(n, dtype=int)
-        self._last_command = np.zeros((n, 2))
-        self._prev_command = np.zeros((n, 2))
+        team, ks = self._team, self._ks
+        team.start(self._k, goals, radii, [o.shape for o in self.obstacles])
         self.world.read_states()
         self._read_state()
-        self._goal_distance = np.linalg.norm(self.goals - self._pos, axis=1)
-        self._min_clearance = np.full(n, np.inf)
-        self._min_center = np.full(n, np.inf)
-        self._update_distances()
-        self._proximity = np.full((n, self.ring.n_rays), c.sensor_range, dtype=np.float32)
-        self._read_proximity(np.arange(n))
+        offset = team.goals[ks] - team.pos[ks]
+        team.goal_distance[ks] = np.linalg.norm(offset, axis=2)
+        team.update_distances(ks)
+        self._read_proximity(np.arange(c.n_robots))
 
     def _sample_scene(self, rng: np.random.Generator, attempts: int = 20) -> NavigationScene:
         """Random starts, headings, goals and obstacles.
@@ -264,65 +253,37 @@ class Navigation(TeamEnv):
             obstacles.append((vertices, (float(centre[0]), float(centre[1])), velocity))
         return obstacles
 
-    # -- per-step state --------------------------------------------------------------
+    # -- per-step state (this copy's rows of ``self._team``) ----------------------------
+    def _bind(self, team: TeamState, k: int) -> None:
+        """Keep this env's per-step arrays in row ``k`` of ``team`` (a batch's; see :class:`TeamState`)."""
+        self._team, self._k, self._ks = team, k, slice(k, k + 1)
+
+    def _live_mask(self) -> np.ndarray:
+        """``(1, N)``: which robots are in ``agents``."""
+        mask = np.zeros((1, self.config.n_robots), dtype=bool)
+        mask[0, self._live_rows()] = True
+        return mask
+
     def _read_state(self) -> None:
         """Copy robot and obstacle states from the world's last batch read."""
         robots, movers = self.world.robot_states, self.world.mover_states
         if len(robots) != len(self.robot_list):
             robots, movers = self.world.read_states()
-        self._pos = robots[:, 0:2]
-        angle = robots[:, 2]
-        self._theta = np.pi - np.mod(np.pi - angle, 2 * np.pi)
-        vel = np.empty((len(robots), 2))
-        np.multiply(robots[:, 3], np.cos(angle), out=vel[:, 0])
-        vel[:, 0] += robots[:, 4] * np.sin(angle)
-        vel[:, 1] = robots[:, 5]
-        self._vel = vel
-        self._obs_pos = movers[:, 0:2]
-        self._obs_vel = movers[:, 3:5]
-
-    def _update_distances(self) -> None:
-        """Nearest-object distances of every robot (to other robots and obstacles).
-
-        Sets the offsets from each robot to each object (robots, then obstacles) and the gaps by
-        centre distance minus radii (bounding radius for obstacles), used by the speed rule of
-        eq. (12), and updates the clearance and centre-distance minima.
-        """
-        pos = self._pos
-        n = len(pos)
-        points = np.concatenate([pos, self._obs_pos]) if self.obstacles else pos
-        offsets = points[None, :, :] - pos[:, None, :]
-        d = np.sqrt(np.einsum("ijk,ijk->ij", offsets, offsets))
-        d[self._robot_rows, self._robot_rows] = np.inf
-        gaps = d - self._contact_radius
-        exact = gaps.min(axis=1)
-        if self.obstacles:
-            # Bounding circles under-estimate the gap; measure the polygon exactly when near.
-            near = gaps[:, n:] < 0.1
-            if near.any():
-                exact_obstacles = gaps[:, n:].copy()
-                r, points = self.config.robot_radius, pos.tolist()
-                for i, k in zip(*np.nonzero(near)):
-                    exact_obstacles[i, k] = shape_distance(self.obstacles[k].shape, points[i]) - r
-                exact = np.minimum(gaps[:, :n].min(axis=1), exact_obstacles.min(axis=1))
-        self._object_gaps = gaps
-        self._object_offsets = offsets
-        np.minimum(self._min_clearance, exact, out=self._min_clearance)
-        np.minimum(self._min_center, d.min(axis=1), out=self._min_center)
+        self._team.read(self._ks, robots[None], movers[None])
 
     def speed_inputs(self, agent: str) -> tuple[float, float]:
         """Inputs of the speed rule, eqs. (12)–(13): distance to the goal and L_min (m)."""
         i = self._index[agent]
-        return float(self._goal_distance[i]), self._nearest_for_speed(i)
+        return float(self._team.goal_distance[self._k, i]), self._nearest_for_speed(i)
 
     def _nearest_for_speed(self, i: int) -> float:
         """L_min,i of eq. (12), by :func:`teamgym.control.heading.nearest_gap` (``speed_rule``)."""
-        c = self.config
+        c, team, k = self.config, self._team, self._k
         return nearest_gap(
-            self._object_offsets[i],
-            self._object_gaps[i],
-            float(self._theta[i]),
-            self._proximity[i],
+            team.object_offsets[k, i],
+            team.object_gaps[k, i],
+            float(team.theta[k, i]),
+            team.proximity[k, i],
             self.ring.angles,
             c.sensor_range,
             c.speed_rule,
@@ -330,184 +291,120 @@ class Navigation(TeamEnv):
 
     def _before_physics(self) -> None:
         c = self.config
-        live = self._live_rows()
-        self._prev_command[live] = self._last_command[live]
-        robots = self.robot_list
-        self._last_command[live] = [robots[i].command for i in live.tolist()]
+        live = self._live_mask()
+        commands = np.array([robot.command for robot in self.robot_list], dtype=float)
+        self._team.command(self._ks, live, commands[None])
         if c.actuation_delay > 0:
-            delta = np.clip(self.np_random.normal(0.5, 0.25, size=len(self.robot_list)), 0.0, 1.0)
-            for robot, d in zip(self.robot_list, delta.tolist()):
-                robot.actuation_delay = 0.5 * c.actuation_delay * (1.0 + d)
+            self._delay_actuation(self.robot_list, self.np_random)
+
+    def _delay_actuation(self, robots: list[DiffDriveRobot], rng: np.random.Generator) -> None:
+        """Section 6.1: each robot keeps its previous command for ½ T0 (1 + δt) of the step, δt ~ N(0.5, 0.25²) in [0, 1]."""
+        delay = self.config.actuation_delay
+        delta = np.clip(rng.normal(0.5, 0.25, size=len(robots)), 0.0, 1.0)
+        for robot, d in zip(robots, delta.tolist()):
+            robot.actuation_delay = 0.5 * delay * (1.0 + d)
 
     def _update_state(self) -> None:
         """Poses, distances, contacts, progress towards the goals and smoothness (section 6.2)."""
         self._read_state()
-        self._update_distances()
-        live = self._live_rows()
-        self._live = live
-        hits = self.world.contacts_per(self.agents)
-        self._collisions[live] += hits
-        self._new_collisions[live] += hits
-        offset = self.goals - self._pos
-        distance = np.sqrt(np.einsum("ij,ij->i", offset, offset))
-        self._progress = self._goal_distance - distance
-        self._goal_distance = distance
-        du = self._last_command[live] - self._prev_command[live]
-        self._smooth_sum[live] += np.einsum("ij,ij->i", du, du)
-        self._smooth_steps[live] += 1
+        team, ks = self._team, self._ks
+        team.update_distances(ks)
+        self._live = self._live_mask()
+        hits = self.world.contacts_per(self.possible_agents)
+        team.after_physics(ks, self._live, hits[None])
 
     def _check_goals(self) -> None:
-        live = self._live
-        self._arriving = self._goal_distance[live] < self.config.goal_tolerance
-        newly = live[self._arriving]
-        self._arrived[newly] = True
-        self._arrival_time[newly] = self.cycles * self.config.dt
+        self._arriving = self._team.check_goals(self._ks, self._live, self.cycles * self.config.dt)
 
     def _accumulate_rewards(self, total: np.ndarray) -> None:
-        c, live = self.config, self._live
-        reward = c.progress_reward * self._progress[live] - c.time_penalty - c.collision_penalty * self._new_collisions[live]
-        reward += c.arrival_bonus * self._arriving
-        self._new_collisions[live] = 0
-        total[live] += reward
+        total += self._team.rewards(self._ks, self._live)[0]
 
     def _sense(self) -> None:
         """Proximity rings of the robots that go on (arrived robots stop sensing)."""
-        self._read_proximity(self._live[~self._arriving])
+        self._read_proximity(np.flatnonzero(self._live[0] & ~self._arriving[0]))
 
     def _terminations(self) -> dict[str, bool]:
         """A robot that arrives terminates, stops and stays in the world."""
-        return dict(zip(self.agents, self._arrived[self._live_rows()].tolist()))
+        return dict(zip(self.agents, self._team.arrived[self._k, self._live_rows()].tolist()))
 
-    def _read_proximity(self, indices: np.ndarray) -> None:
+    def _read_proximity(self, indices: np.ndarray, free: np.ndarray | None = None) -> None:
+        """Ring readings of robots ``indices``; rays are cast only for robots with something within range."""
         if len(indices) == 0:
             return
+        if free is None:
+            free = self._team.sensing_free(self._ks)[0, indices]
         robots = [self.robot_list[i] for i in indices.tolist()]
         block = np.empty((len(indices), self.ring.width), dtype=np.float32)
-        self.ring.read_rows(self.world, robots, self.world.robot_states[indices], self.np_random, block)
-        self._proximity[indices] = block
+        self.ring.read_rows(self.world, robots, self.world.robot_states[indices], self.np_random, block, free.tolist())
+        self._team.proximity[self._k, indices] = block
 
     def _observe(self, out: np.ndarray) -> None:
         rows = self._live_rows()
         if len(rows) == 0:
             return
-        s = self.layout.slices
-        pos, theta, vel = self._pos, self._theta, self._vel
-        own = pos[rows]
-        out[:, 0:2] = own
-        out[:, 2] = theta[rows]
-        out[:, s["velocity"]] = vel[rows]
-        out[:, s["last_command"]] = self._last_command[rows]
-        out[:, s["radius"]] = self.config.robot_radius
-        out[:, s["goal_offset"]] = self.goals[rows] - own
-        k = len(rows)
-        if self.config.n_robots > 1:
-            others = self._others[rows]
-            mates = out[:, s["mates"]].reshape(k, -1, 5)  # a view: writes land in ``out``
-            mates[:, :, 0:2] = pos[others] - own[:, None, :]
-            mates[:, :, 2] = theta[others]
-            mates[:, :, 3:5] = vel[others]
-        if self.obstacles:
-            block = out[:, s["obstacles"]].reshape(k, -1, 5)  # a view
-            block[:, :, 0:2] = self._obs_pos[None, :, :] - own[:, None, :]
-            block[:, :, 2:4] = self._obs_vel[None, :, :]
-            block[:, :, 4] = self._obstacle_radii[None, :]
-        out[:, s["proximity"]] = self._proximity[rows]
-        if self.config.local_features:
-            self._observe_local(out, rows)
-        if self.config.mate_goals and self.config.n_robots > 1:
-            self._observe_mate_goals(out, rows)
-
-    def _observe_mate_goals(self, out: np.ndarray, rows: np.ndarray) -> None:
-        """Team mates' goals relative to each robot (own frame with ``local_features``, else world axes)."""
-        offset = self.goals[self._others[rows]] - self._pos[rows][:, None, :]
-        if self.config.local_features:
-            offset = np.stack(self._robot_frame(rows)(offset[:, :, 0], offset[:, :, 1]), axis=2)
-        out[:, self.layout.slices["mate_goals"]] = offset.reshape(len(rows), -1)
-
-    def _robot_frame(self, rows: np.ndarray) -> Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]:
-        """``rotate(dx, dy)``: world-axis vectors (one row per robot of ``rows``) in that robot's frame (x ahead, y left)."""
-        theta = self._theta[rows]
-        cos, sin = np.cos(theta)[:, None], np.sin(theta)[:, None]
-
-        def rotate(dx: np.ndarray, dy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-            return cos * dx + sin * dy, -sin * dx + cos * dy
-
-        return rotate
-
-    def _observe_local(self, out: np.ndarray, rows: np.ndarray) -> None:
-        """Goal offset, mates' and obstacles' offsets and velocities rotated into each robot's frame (x ahead, y left)."""
-        s, k = self.layout.slices, len(rows)
-        own = self._pos[rows]
-        rotate = self._robot_frame(rows)
-        gx, gy = rotate(self.goals[rows, 0:1] - own[:, 0:1], self.goals[rows, 1:2] - own[:, 1:2])
-        out[:, s["goal_local"]] = np.concatenate([gx, gy], axis=1)
-        if self.config.n_robots > 1:
-            others = self._others[rows]
-            block = np.empty((k, others.shape[1], 4))
-            offset = self._pos[others] - own[:, None, :]
-            block[:, :, 0], block[:, :, 1] = rotate(offset[:, :, 0], offset[:, :, 1])
-            speed, heading = self._vel[others, 0], self._theta[others]
-            block[:, :, 2], block[:, :, 3] = rotate(speed * np.cos(heading), speed * np.sin(heading))
-            out[:, s["mates_local"]] = block.reshape(k, -1)
-        if self.obstacles:
-            block = np.empty((k, len(self._obs_pos), 4))
-            offset = self._obs_pos[None, :, :] - own[:, None, :]
-            block[:, :, 0], block[:, :, 1] = rotate(offset[:, :, 0], offset[:, :, 1])
-            velocity = np.broadcast_to(self._obs_vel[None, :, :], offset.shape)
-            block[:, :, 2], block[:, :, 3] = rotate(velocity[:, :, 0], velocity[:, :, 1])
-            out[:, s["obstacles_local"]] = block.reshape(k, -1)
+        every = np.empty((1, self.config.n_robots, out.shape[1]), dtype=out.dtype)
+        self._team.observe(self._ks, self.layout, every)
+        out[:] = every[0, rows]
 
     def _metrics(self, agent: str) -> dict[str, Any]:
-        i = self._index[agent]
+        i, k, team = self._index[agent], self._k, self._team
+        steps = int(team.smooth_steps[k, i])
         metrics = {
-            "arrived": bool(self._arrived[i]),
-            "distance_to_goal": float(self._goal_distance[i]),
+            "arrived": bool(team.arrived[k, i]),
+            "distance_to_goal": float(team.goal_distance[k, i]),
             "path_length": float(self.robot_list[i].odometer),
-            "collisions": int(self._collisions[i]),
-            "min_clearance": float(self._min_clearance[i]),
-            "min_center_distance": float(self._min_center[i]),
-            "smoothness": float(self._smooth_sum[i] / self._smooth_steps[i]) if self._smooth_steps[i] else 0.0,
+            "collisions": int(team.collisions[k, i]),
+            "min_clearance": float(team.min_clearance[k, i]),
+            "min_center_distance": float(team.min_center[k, i]),
+            "smoothness": float(team.smooth_sum[k, i] / steps) if steps else 0.0,
         }
-        if self._arrived[i]:
-            metrics["time_to_goal"] = float(self._arrival_time[i])
+        if team.arrived[k, i]:
+            metrics["time_to_goal"] = float(team.arrival_time[k, i])
         return metrics
 
     def episode_success(self) -> bool:
         """Every robot has reached its goal (collisions are counted in the metrics, not here)."""
-        return self.world is not None and bool(self._arrived.all())
+        return self.world is not None and bool(self._team.arrived[self._k].all())
 
     # -- read-only views of the simulation, for analysis (copies; rows follow possible_agents) --
     @property
     def robot_positions(self) -> np.ndarray:
         """``(N, 2)`` robot centres (m) after the last step."""
-        return self._pos.copy()
+        return self._team.pos[self._k].copy()
 
     @property
     def robot_headings(self) -> np.ndarray:
         """``(N,)`` robot headings θ (rad, in (−π, π])."""
-        return self._theta.copy()
+        return self._team.theta[self._k].copy()
 
     @property
     def obstacle_positions(self) -> np.ndarray:
         """``(M, 2)`` obstacle centres (m)."""
-        return self._obs_pos.copy()
+        return self._team.obs_pos[self._k].copy()
 
     @property
     def obstacle_velocities(self) -> np.ndarray:
         """``(M, 2)`` obstacle velocities (m/s)."""
-        return self._obs_vel.copy()
+        return self._team.obs_vel[self._k].copy()
 
     @property
     def goal_distances(self) -> np.ndarray:
         """``(N,)`` distances from each robot to its goal (m)."""
-        return np.linalg.norm(self.goals - self._pos, axis=1)
+        return np.linalg.norm(self.goals - self._team.pos[self._k], axis=1)
 
     def state(self) -> np.ndarray:
         if self.world is None:
             raise RuntimeError("state() called before reset()")
-        robots = np.column_stack([self._pos, self._theta, self._vel, self.goals]).ravel()
-        obstacles = np.column_stack([self._obs_pos, self._obs_vel]).ravel() if self.obstacles else np.zeros(0)
+        team, k = self._team, self._k
+        robots = np.column_stack([team.pos[k], team.theta[k], team.vel[k], self.goals]).ravel()
+        obstacles = np.column_stack([team.obs_pos[k], team.obs_vel[k]]).ravel() if self.obstacles else np.zeros(0)
         return np.concatenate([robots, obstacles]).astype(np.float32)
+
+    def make_batch(self, n_copies: int) -> NavigationBatch:
+        """``n_copies`` copies with this env's config, stepped together (:class:`NavigationBatch`)."""
+        from teamgym.envs.navigation.batch import NavigationBatch
+
+        return NavigationBatch(n_copies, **self.config.as_dict())
 
     def _overlay(self) -> Overlay:
         return Overlay(points=[(tuple(g), robot_colour(i)) for i, g in enumerate(self.goals)])

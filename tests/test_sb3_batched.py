@@ -1,0 +1,66 @@
+"""The SB3 adapter over Navigation's batch form gives what it gives over the PettingZoo copies."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+pytest.importorskip("stable_baselines3")
+
+import teamgym  # noqa: E402
+from baselines.rl.sb3_env import TeamVecEnv  # noqa: E402
+
+
+def goal_seeking(venv: TeamVecEnv, observations: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """Unit-scaled (v, ω) towards each slot's goal with noise, so robots arrive one by one and slots refill."""
+    layout = venv.envs[0].layout
+    goal = observations[:, layout.slices["goal_offset"]]
+    error = np.arctan2(goal[:, 1], goal[:, 0]) - observations[:, 2]
+    error = np.arctan2(np.sin(error), np.cos(error)) + rng.normal(0.0, 0.5, size=len(error))
+    v = np.where(np.abs(error) < 0.6, 0.6, -0.8)
+    return np.clip(np.stack([v, 0.8 * error], axis=1), -1, 1).astype(np.float32)
+
+
+@pytest.mark.parametrize("n_envs", [1, 3])
+def test_batched_and_pettingzoo_copies_agree(n_envs):
+    config = {"n_robots": 3, "normalize_actions": True, "max_cycles": 120}
+    make = lambda: teamgym.make("Navigation-v0", **config)  # noqa: E731
+    batched, plain = TeamVecEnv(make, n_envs=n_envs), TeamVecEnv(make, n_envs=n_envs, batched=False)
+    assert batched.batched and not plain.batched
+    batched.seed(7)
+    plain.seed(7)
+    observations = batched.reset()
+    assert np.array_equal(observations, plain.reset())
+    rng = np.random.default_rng(0)
+    dones_seen = 0
+    for _ in range(300):
+        actions = goal_seeking(batched, observations, rng)
+        batched.step_async(actions)
+        plain.step_async(actions)
+        observations, rewards, dones, infos = batched.step_wait()
+        plain_obs, plain_rewards, plain_dones, plain_infos = plain.step_wait()
+        assert np.array_equal(observations, plain_obs)
+        assert np.array_equal(rewards, plain_rewards) and np.array_equal(dones, plain_dones)
+        for info, plain_info in zip(infos, plain_infos):
+            for key in ("TimeLimit.truncated", "is_success", "padding"):
+                assert info.get(key) == plain_info.get(key), key
+            assert ("episode" in info) == ("episode" in plain_info)
+            if "episode" in info:
+                assert (info["episode"]["r"], info["episode"]["l"]) == (plain_info["episode"]["r"], plain_info["episode"]["l"])
+                assert np.array_equal(info["terminal_observation"], plain_info["terminal_observation"])
+                assert info["collisions"] == plain_info["collisions"]  # the finishing robot's metrics
+        dones_seen += int(dones.sum())
+    assert dones_seen > 3 * n_envs  # robots finished and slots were refilled
+    assert len(batched.envs) == len(plain.envs) and batched.padding_share == plain.padding_share
+    assert batched.padding_share > 0  # slots waited for a copy
+    assert len(batched.envs) > n_envs or n_envs == 1  # with several copies, freed slots filled a new copy
+    batched.seed(7)
+    plain.seed(7)
+    assert np.array_equal(batched.reset(), plain.reset())  # a reset drops the added copies in both
+    assert len(batched.envs) == len(plain.envs) == n_envs
+
+
+def test_batched_refused_for_envs_without_a_batch_form():
+    with pytest.raises(ValueError, match="no batch form"):
+        TeamVecEnv(lambda: teamgym.make("Exploration-v0"), n_envs=1, batched=True)
+    assert not TeamVecEnv(lambda: teamgym.make("Exploration-v0"), n_envs=1).batched
