@@ -13,6 +13,9 @@ timing; no rendering.
   public API and nothing else; it builds a plain observation per robot (pose, velocities,
   ray hits) but computes no rewards and checks nothing.
 * ``MPE2 simple_spread``: N agents, continuous actions, ``max_cycles`` large.
+* ``batch/K`` (``--batch K``, default 16): K copies stepped as one
+  :class:`~teamgym.envs.navigation.batch.NavigationBatch` (arrays in and out, one numpy pass
+  for all copies), counted as K env steps per call: the cost of an env step when copies share it.
 
 Targets: issue 2, N = 5: teamgym time per step at most 2x the bare loop, and teamgym
 env-steps/s at least 2x MPE2's; issue 15: at most 1.2x the bare loop.
@@ -53,6 +56,26 @@ class TeamgymLoop:
             env.reset()
         actions = self.pool[i % 256]
         env.step({a: actions[a] for a in env.agents})
+
+
+class BatchLoop:
+    """``batch`` copies of ``Navigation-v0`` stepped together (:class:`NavigationBatch`); one call is ``batch`` env steps."""
+
+    def __init__(self, n_robots: int, batch: int, seed: int = 0) -> None:
+        from teamgym.envs.navigation.batch import NavigationBatch
+
+        self.steps_per_call = batch
+        self.batch = NavigationBatch(batch, n_robots=n_robots, n_obstacles=2)
+        self.batch.reset(seed=seed)
+        space = self.batch.action_space
+        rng = np.random.default_rng(seed)
+        self.pool = rng.uniform(space.low, space.high, size=(256, batch, n_robots, 2)).astype(np.float32)
+
+    def step(self, i: int) -> None:
+        batch = self.batch
+        for k in np.flatnonzero(batch.episode_over()).tolist():
+            batch.reset_copy(k)
+        batch.step(self.pool[i % 256])
 
 
 class BareLoop:
@@ -156,8 +179,10 @@ class MPE2Loop:
         self.env.step(self.pool[i % 256])
 
 
-def make_loops(n: int) -> dict[str, object]:
+def make_loops(n: int, batch: int = 0) -> dict[str, object]:
     loops: dict[str, object] = {"teamgym": TeamgymLoop(n), "bare pymunk": BareLoop(n)}
+    if batch:
+        loops[f"batch/{batch}"] = BatchLoop(n, batch)
     with contextlib.suppress(ImportError):
         loops["MPE2 simple_spread"] = MPE2Loop(n)
     return loops
@@ -200,7 +225,7 @@ def chunk_rate(loop, start: int, steps: int, clock=time.perf_counter) -> float:
     begin = clock()
     for i in range(start, start + steps):
         loop.step(i)
-    return steps / (clock() - begin)
+    return steps * getattr(loop, "steps_per_call", 1) / (clock() - begin)
 
 
 def main() -> None:
@@ -209,6 +234,9 @@ def main() -> None:
     parser.add_argument("--rounds", type=int, default=15, help="chunks per contender, interleaved")
     parser.add_argument("--robots", type=int, nargs="+", default=[3, 5])
     parser.add_argument("--json", type=str, default=None)
+    parser.add_argument(
+        "--batch", type=int, default=16, help="also time this many copies stepped as one NavigationBatch (0: not)"
+    )
     parser.add_argument(
         "--clock",
         choices=sorted(CLOCKS),
@@ -219,12 +247,13 @@ def main() -> None:
     clock = CLOCKS[args.clock]
     rates: dict[tuple[str, int], list[float]] = {}
     for n in args.robots:
-        loops = make_loops(n)
+        loops = make_loops(n, args.batch)
         for loop in loops.values():
-            chunk_rate(loop, 0, args.chunk, clock)  # warm-up
+            chunk_rate(loop, 0, max(1, args.chunk // getattr(loop, "steps_per_call", 1)), clock)  # warm-up
         for k in range(args.rounds):
             for name, loop in loops.items():
-                rates.setdefault((name, n), []).append(chunk_rate(loop, (k + 1) * args.chunk, args.chunk, clock))
+                calls = max(1, args.chunk // getattr(loop, "steps_per_call", 1))  # about the same time per contender
+                rates.setdefault((name, n), []).append(chunk_rate(loop, (k + 1) * calls, calls, clock))
     machine = platform.processor() or platform.machine()
     print(
         f"Navigation-v0 steps/s ({args.clock} clock): fastest (median) of {args.rounds} interleaved chunks "
@@ -245,7 +274,14 @@ def main() -> None:
             f"{n:>3}  {cell('teamgym'):>14}  {cell('bare pymunk'):>14}  {cell('MPE2 simple_spread'):>14}  "
             f"{bare_rate / env_rate:12.2f}x  {ratio_mpe:11.2f}x"
         )
-        rows.append({"n_robots": n, "teamgym": env_rate, "bare_pymunk": bare_rate, "mpe2": mpe_rate, "median": median})
+        row = {"n_robots": n, "teamgym": env_rate, "bare_pymunk": bare_rate, "mpe2": mpe_rate, "median": median}
+        if args.batch:
+            row["batch"] = best[f"batch/{args.batch}"]
+            print(
+                f"{'':>3}  {args.batch} copies as one NavigationBatch: {cell(f'batch/{args.batch}')} env-steps/s, "
+                f"env/bare time per copy {bare_rate / row['batch']:.2f}x"
+            )
+        rows.append(row)
     print("targets (N=5): env/bare time <= 2.00x (issue 2), <= 1.20x (issue 15); teamgym/MPE2 >= 2.00x")
     for row in rows:
         row["physics_share"] = physics_share(row["n_robots"], args.chunk * 5, clock)

@@ -43,6 +43,22 @@ def make(env_id: str, render_mode: str | None = None, **config: Any) -> TeamEnv:
     return env_class(env_id)(render_mode=render_mode, **config)
 
 
+def make_batch(env_id: str, n_copies: int, **config: Any) -> Any:
+    """``n_copies`` copies of ``env_id`` stepped together with arrays, e.g. ``make_batch("Navigation-v0", 16)``.
+
+    Raises ``ValueError`` for an env without a batch form (see ``TeamEnv.make_batch``).
+    """
+    env = make(env_id, **config)
+    try:
+        batch = env.make_batch(n_copies)
+    finally:
+        env.close()
+    if batch is None:
+        batched = [e for e in envs() if env_class(e).make_batch is not TeamEnv.make_batch]
+        raise ValueError(f"{env_id} has no batch form; envs with one: {batched}")
+    return batch
+
+
 def make_aec(env_id: str, render_mode: str | None = None, **config: Any):
     """The AEC form of ``make(...)`` (PettingZoo's ``parallel_to_aec``)."""
     from pettingzoo.utils.conversions import parallel_to_aec

@@ -175,3 +175,9 @@ def test_free_rings_read_what_the_rays_read():
 def test_make_batch_only_where_a_task_has_one():
     assert isinstance(teamgym.make("Navigation-v0").make_batch(2), NavigationBatch)
     assert teamgym.make("Exploration-v0").make_batch(2) is None
+    batch = teamgym.make_batch("Navigation-v0", 2, n_robots=4)
+    assert batch.reset(seed=0).shape == (2, 4, batch.layout.size) and batch.config.n_robots == 4
+    with pytest.raises(ValueError, match="Exploration-v0 has no batch form"):
+        teamgym.make_batch("Exploration-v0", 2)
+    with pytest.raises(ValueError, match="n_copies"):
+        teamgym.make_batch("Navigation-v0", 0)

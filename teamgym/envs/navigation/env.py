@@ -259,10 +259,14 @@ class Navigation(TeamEnv):
         self._team, self._k, self._ks = team, k, slice(k, k + 1)
 
     def _live_mask(self) -> np.ndarray:
-        """``(1, N)``: which robots are in ``agents``."""
-        mask = np.zeros((1, self.config.n_robots), dtype=bool)
-        mask[0, self._live_rows()] = True
-        return mask
+        """``(1, N)``: which robots are in ``agents`` (shared and read-only, rebuilt when ``agents`` changes)."""
+        rows = self._live_rows()
+        if getattr(self, "_mask_rows", None) is not rows:
+            mask = np.zeros((1, self.config.n_robots), dtype=bool)
+            mask[0, rows] = True
+            mask.flags.writeable = False
+            self._mask_rows, self._mask = rows, mask
+        return self._mask
 
     def _read_state(self) -> None:
         """Copy robot and obstacle states from the world's last batch read."""
@@ -328,19 +332,21 @@ class Navigation(TeamEnv):
         return dict(zip(self.agents, self._team.arrived[self._k, self._live_rows()].tolist()))
 
     def _read_proximity(self, indices: np.ndarray, free: np.ndarray | None = None) -> None:
-        """Ring readings of robots ``indices``; rays are cast only for robots with something within range."""
+        """Ring readings of robots ``indices``; ``free`` flags robots known to have nothing within range (no rays cast)."""
         if len(indices) == 0:
             return
-        if free is None:
-            free = self._team.sensing_free(self._ks)[0, indices]
         robots = [self.robot_list[i] for i in indices.tolist()]
         block = np.empty((len(indices), self.ring.width), dtype=np.float32)
-        self.ring.read_rows(self.world, robots, self.world.robot_states[indices], self.np_random, block, free.tolist())
+        flags = None if free is None else free.tolist()
+        self.ring.read_rows(self.world, robots, self.world.robot_states[indices], self.np_random, block, flags)
         self._team.proximity[self._k, indices] = block
 
     def _observe(self, out: np.ndarray) -> None:
         rows = self._live_rows()
         if len(rows) == 0:
+            return
+        if len(rows) == self.config.n_robots:  # everyone live: rows in order, straight into ``out``
+            self._team.observe(self._ks, self.layout, out[None])
             return
         every = np.empty((1, self.config.n_robots, out.shape[1]), dtype=out.dtype)
         self._team.observe(self._ks, self.layout, every)

@@ -182,9 +182,10 @@ class TeamState:
 
     def after_physics(self, ks: slice, live: np.ndarray, hits: np.ndarray) -> None:
         """Contacts (``hits``, k × N), progress towards the goals and smoothness J_i (section 6.2) of the live robots."""
-        hits = np.where(live, hits, 0)
-        self.collisions[ks] += hits
-        self.new_collisions[ks] += hits
+        if hits.any():
+            hits = np.where(live, hits, 0)
+            self.collisions[ks] += hits
+            self.new_collisions[ks] += hits
         offset = self.goals[ks] - self.pos[ks]
         distance = np.sqrt(np.einsum("kij,kij->ki", offset, offset))
         np.subtract(self.goal_distance[ks], distance, out=self.progress[ks])
@@ -198,9 +199,10 @@ class TeamState:
         arriving = self.arriving[ks]
         np.less(self.goal_distance[ks], self.config.goal_tolerance, out=arriving)
         arriving &= live
-        self.arrived[ks] |= arriving
-        stamp = np.broadcast_to(np.asarray(time, dtype=float).reshape(-1, 1), arriving.shape)
-        np.copyto(self.arrival_time[ks], stamp, where=arriving)
+        if arriving.any():
+            self.arrived[ks] |= arriving
+            stamp = np.broadcast_to(np.asarray(time, dtype=float).reshape(-1, 1), arriving.shape)
+            np.copyto(self.arrival_time[ks], stamp, where=arriving)
         return arriving
 
     def rewards(self, ks: slice, live: np.ndarray) -> np.ndarray:
@@ -211,7 +213,7 @@ class TeamState:
         c = self.config
         reward = c.progress_reward * self.progress[ks] - c.time_penalty - c.collision_penalty * self.new_collisions[ks]
         reward += c.arrival_bonus * self.arriving[ks]
-        self.new_collisions[ks][live] = 0
+        self.new_collisions[ks] = 0  # robots not live count none (after_physics masks their contacts)
         return np.where(live, reward, 0.0)
 
     # -- observations ----------------------------------------------------------------
