@@ -7,7 +7,10 @@ transitions, and reports ``model.num_timesteps / wall time``. The env copies run
 training process (``workers = 1``: :class:`~baselines.rl.sb3_env.TeamVecEnv`) or in worker
 processes (:class:`~baselines.rl.subproc.SubprocTeamVecEnv`). MPE2's ``simple_spread``
 (``N`` agents, continuous actions, 25-step episodes) goes through the same adapters, so the
-comparison is of the envs and the process layout, not of the glue. Cases are interleaved
+comparison is of the envs and the process layout, not of the glue. Navigation-v0 runs twice:
+as ``TeamVecEnv`` steps it by default (its copies as one
+:class:`~teamgym.envs.navigation.batch.NavigationBatch`) and one copy at a time through the
+PettingZoo API (``batched=False``, "per copy"). Cases are interleaved
 over ``--rounds`` rounds and the best round of each is reported (the least disturbed by
 other load); quote the ratios, measured in one run.
 
@@ -44,9 +47,14 @@ def simple_spread(n_agents: int) -> Callable[[], object] | None:
     return lambda: simple_spread_v3.parallel_env(N=n_agents, continuous_actions=True)
 
 
-def throughput(env_fn: Callable[[], object], n_envs: int, workers: int, timesteps: int) -> tuple[float, float]:
+def throughput(
+    env_fn: Callable[[], object], n_envs: int, workers: int, timesteps: int, batched: bool | None = None
+) -> tuple[float, float]:
     """(agent-steps/s, padding share) of PPO trained for ``timesteps`` agent transitions."""
-    venv = TeamVecEnv(env_fn, n_envs=n_envs) if workers == 1 else SubprocTeamVecEnv(env_fn, n_envs, n_workers=workers)
+    if workers == 1:
+        venv = TeamVecEnv(env_fn, n_envs=n_envs, batched=batched)
+    else:
+        venv = SubprocTeamVecEnv(env_fn, n_envs, n_workers=workers, batched=batched)
     model = PPO("MlpPolicy", venv, seed=0, device="cpu", verbose=0, **default_hyperparameters("ppo", venv.num_envs))
     start = time.perf_counter()
     model.learn(timesteps)
@@ -65,14 +73,18 @@ def main() -> None:
     parser.add_argument("--json", type=str, default=None)
     args = parser.parse_args()
     torch.set_num_threads(1)
-    cases = {"teamgym Navigation-v0": navigation(args.agents), "MPE2 simple_spread": simple_spread(args.agents)}
+    cases = {
+        "teamgym Navigation-v0": (navigation(args.agents), None),
+        "MPE2 simple_spread": (simple_spread(args.agents), None),
+        "Navigation-v0 per copy": (navigation(args.agents), False),
+    }
     best: dict[tuple[str, int], tuple[float, float]] = {}
     for _ in range(args.rounds):
-        for name, env_fn in cases.items():
+        for name, (env_fn, batched) in cases.items():
             if env_fn is None:
                 continue
             for workers in (1, 2):
-                rate, padding = throughput(env_fn, args.n_envs, workers, args.timesteps)
+                rate, padding = throughput(env_fn, args.n_envs, workers, args.timesteps, batched)
                 if rate > best.get((name, workers), (0.0, 0.0))[0]:
                     best[(name, workers)] = (rate, padding)
     machine = f"{platform.machine()}, {os.cpu_count()} cores"
@@ -87,9 +99,10 @@ def main() -> None:
         one, two = best[(name, 1)][0], best[(name, 2)][0]
         print(f"{name:<24} {one:10.0f} {two:10.0f} {two / one:6.2f}x")
         rows.append({"env": name, "one_process": one, "two_workers": two, "padding_share": best[(name, 1)][1]})
-    if len(rows) == 2:
+    if len(rows) == 3:
         for label, key in (("1 process", "one_process"), ("2 workers", "two_workers")):
             print(f"teamgym / MPE2, {label}: {rows[0][key] / rows[1][key]:.2f}x")
+            print(f"teamgym batched / per copy, {label}: {rows[0][key] / rows[2][key]:.2f}x")
     print(f"padding share (teamgym, 1 process): {rows[0]['padding_share']:.1%}")
     if args.json:
         with open(args.json, "w") as handle:

@@ -57,15 +57,22 @@ def _one_thread() -> None:
     torch.set_num_threads(1)
 
 
-def _serve(remote: Any, parent_remote: Any, env_fn: CloudpickleWrapper, layout: tuple[int, int, int, int, int]) -> None:
+def _serve(
+    remote: Any,
+    parent_remote: Any,
+    env_fn: CloudpickleWrapper,
+    layout: tuple[int, int, int, int, int],
+    batched: bool | None = None,
+) -> None:
     """Worker loop: run a :class:`TeamVecEnv` over this worker's copies and answer the parent's commands.
 
-    ``layout`` is (copies here, index of the first, total copies, worker index, workers).
+    ``layout`` is (copies here, index of the first, total copies, worker index, workers);
+    ``batched`` is :class:`TeamVecEnv`'s.
     """
     parent_remote.close()
     _one_thread()
     n_envs, first_copy, total, worker, workers = layout
-    venv = TeamVecEnv(env_fn.var, n_envs=n_envs)
+    venv = TeamVecEnv(env_fn.var, n_envs=n_envs, batched=batched)
     venv.slot_offset = first_copy * venv.agents_per_env
     venv.extra_copy_numbers = (total + worker, workers)
     try:
@@ -98,7 +105,10 @@ def _serve(remote: Any, parent_remote: Any, env_fn: CloudpickleWrapper, layout: 
 
 
 class SubprocTeamVecEnv(VecEnv):
-    """``n_envs × A`` slots like :class:`TeamVecEnv`, with the copies stepped in ``n_workers`` processes."""
+    """``n_envs × A`` slots like :class:`TeamVecEnv`, with the copies stepped in ``n_workers`` processes.
+
+    Each worker steps its copies as one batch where the env has a batch form (``batched``, as :class:`TeamVecEnv`).
+    """
 
     def __init__(
         self,
@@ -106,6 +116,7 @@ class SubprocTeamVecEnv(VecEnv):
         n_envs: int,
         n_workers: int | None = None,
         start_method: str | None = None,
+        batched: bool | None = None,
     ) -> None:
         n_workers = min(n_envs, n_workers or os.cpu_count() or 1)
         self.shares = split_copies(n_envs, n_workers)
@@ -115,7 +126,8 @@ class SubprocTeamVecEnv(VecEnv):
         for w, share in enumerate(self.shares):
             parent, child = context.Pipe()
             layout = (share, int(firsts[w]), n_envs, w, n_workers)
-            process = context.Process(target=_serve, args=(child, parent, CloudpickleWrapper(env_fn), layout), daemon=True)
+            args = (child, parent, CloudpickleWrapper(env_fn), layout, batched)
+            process = context.Process(target=_serve, args=args, daemon=True)
             process.start()
             child.close()
             self.remotes.append(parent)
