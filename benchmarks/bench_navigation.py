@@ -31,6 +31,7 @@ import json
 import math
 import platform
 import time
+from collections.abc import Callable
 
 import numpy as np
 import pymunk
@@ -56,6 +57,29 @@ class TeamgymLoop:
             env.reset()
         actions = self.pool[i % 256]
         env.step({a: actions[a] for a in env.agents})
+
+
+def drive_on_arc(body: pymunk.Body, control: pymunk.Body, pivot: pymunk.PivotJoint, v: float, omega: float) -> None:
+    """Put a robot's kinematic control body on the arc of ``(v, ω)`` from the robot's pose (public pymunk API)."""
+    x, y = body.position
+    theta = body.angle
+    control.angle = theta
+    if abs(omega) < 1e-9:
+        control.position = (x, y)
+        control.velocity = (v * math.cos(theta), v * math.sin(theta))
+        control.angular_velocity = 0.0
+        pivot.anchor_a = (0.0, 0.0)
+    else:
+        radius = v / omega
+        control.position = (x - radius * math.sin(theta), y + radius * math.cos(theta))
+        control.velocity = (0.0, 0.0)
+        control.angular_velocity = omega
+        pivot.anchor_a = (0.0, -radius)
+
+
+def time_teamgym(n_robots: int, steps: int, seed: int = 0) -> float:
+    """Steps/s of ``Navigation-v0`` with ``n_robots`` robots over ``steps`` steps of random actions."""
+    return chunk_rate(TeamgymLoop(n_robots, seed), 0, steps)
 
 
 class BatchLoop:
@@ -123,20 +147,7 @@ class BareLoop:
 
     def step(self, i: int) -> None:
         for (body, control, pivot, _), (v, omega) in zip(self.robots, self.commands[i % 256].tolist()):
-            x, y = body.position
-            theta = body.angle
-            control.angle = theta
-            if abs(omega) < 1e-9:
-                control.position = (x, y)
-                control.velocity = (v * math.cos(theta), v * math.sin(theta))
-                control.angular_velocity = 0.0
-                pivot.anchor_a = (0.0, 0.0)
-            else:
-                radius = v / omega
-                control.position = (x - radius * math.sin(theta), y + radius * math.cos(theta))
-                control.velocity = (0.0, 0.0)
-                control.angular_velocity = omega
-                pivot.anchor_a = (0.0, -radius)
+            drive_on_arc(body, control, pivot, v, omega)
         for body, control in self.movers:
             x, y = body.position
             vx, vy = control.velocity
@@ -192,10 +203,15 @@ CLOCKS = {"wall": time.perf_counter, "cpu": time.process_time}
 
 
 def physics_share(n_robots: int, steps: int, clock=time.perf_counter) -> float:
-    """Share of ``Navigation-v0``'s step time spent in the physics substeps (``World._integrate``).
+    """Share of ``Navigation-v0``'s step time spent in the physics substeps (``World._integrate``)."""
+    return physics_share_of(lambda: TeamgymLoop(n_robots), steps, clock)
+
+
+def physics_share_of(make_loop: Callable[[], object], steps: int, clock=time.perf_counter) -> float:
+    """Share of a loop's step time spent in ``World._integrate``.
 
     Measured in a separate run with a timer around ``World._integrate``, so the timed chunks
-    above carry no timer overhead.
+    carry no timer overhead.
     """
     from teamgym.sim.world import World
 
@@ -209,7 +225,7 @@ def physics_share(n_robots: int, steps: int, clock=time.perf_counter) -> float:
 
     World._integrate = timed
     try:
-        loop = TeamgymLoop(n_robots)
+        loop = make_loop()
         chunk_rate(loop, 0, steps, clock)  # warm-up
         spent[0] = 0.0
         begin = clock()

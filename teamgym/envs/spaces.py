@@ -206,7 +206,8 @@ class ActionRowsChecker:
             raise ValueError(f"actions have shape {raw.shape}, expected {(len(names), *self._shape)} for the space {space}")
         if raw.dtype.kind in "biuf":
             if isinstance(space, spaces.Box):
-                cast = raw.astype(space.dtype)
+                with np.errstate(over="ignore"):  # a huge float64 casts to inf: out of bounds, refused below
+                    cast = raw.astype(space.dtype)
                 if np.all(cast >= space.low) and np.all(cast <= space.high):  # NaN fails both: in bounds is finite
                     return raw.astype(np.float64)
             else:
@@ -214,7 +215,8 @@ class ActionRowsChecker:
                 start, n = int(space.start), int(space.n)
                 if np.all((values >= start) & (values < start + n) & (values == np.floor(values))) and raw.dtype.kind != "b":
                     return raw.astype(np.int64)
-        checked = [self._rows.check(name, action) for name, action in zip(names, raw)]  # raises naming the row
+        rows = raw.tolist() if raw.dtype == object else raw  # object rows as plain values, as a single agent's action
+        checked = [self._rows.check(name, action) for name, action in zip(names, rows)]  # raises naming the row
         return np.array(checked, dtype=np.float64 if isinstance(space, spaces.Box) else np.int64)
 
 
