@@ -27,7 +27,7 @@ and may override the step phases, which :meth:`TeamEnv.step` runs in this order:
    phases 1–7 repeat while a macro action type says its stage goes on;
 8. **communication**: the channel delivers this step's messages;
 9. **agents**: robots admitted by events join; ``_terminations()`` decides who ends;
-   ``_metrics(agent)`` fills ``infos``; finished agents leave ``agents``.
+   ``_metrics(agent)`` (through ``_metrics_of``) fills ``infos``; finished agents leave ``agents``.
 """
 
 from __future__ import annotations
@@ -170,6 +170,10 @@ class TeamEnv(ParallelEnv):
     def _metrics(self, agent: str) -> dict[str, Any]:
         """Numbers and arrays only (no strings) for ``infos[agent]``."""
         return {}
+
+    def _metrics_of(self, agents: list[str]) -> dict[str, dict[str, Any]]:
+        """:meth:`_metrics` of each of ``agents``; a task overrides it to compute team-wide values once per step."""
+        return {a: self._metrics(a) for a in agents}
 
     # Step phases (see the module docstring); the defaults do nothing.
     def _before_physics(self) -> None:
@@ -442,7 +446,7 @@ class TeamEnv(ParallelEnv):
 
     def _collect_infos(self) -> dict[str, dict[str, Any]]:
         success = bool(self.episode_success())
-        infos = {a: self._metrics(a) for a in self.agents}
+        infos = self._metrics_of(self.agents)
         comm = bool(self.config.comm_dim) or self.uses_channel
         for agent, info in infos.items():
             info["success"] = success

@@ -416,31 +416,44 @@ class Exploration(TeamEnv):
             layout.view(buffer, "task")[0] = watcher.task.key if watcher.task is not None else -1
 
     def _metrics(self, agent: str) -> dict[str, Any]:
-        i = self._index[agent]
+        return self._metrics_of([agent])[agent]
+
+    def _metrics_of(self, agents: list[str]) -> dict[str, dict[str, Any]]:
+        """Per-robot metrics; the team-wide ones (explored set, team path, explore time) computed once."""
         explored = int(np.count_nonzero(self.visited & self.goal))
-        metrics: dict[str, Any] = {
+        team: dict[str, Any] = {
             "explored": explored,
             "explored_fraction": explored / int(np.count_nonzero(self.goal)),
             "explored_all": self._all_explored(),
-            "path_length": float(self.robot_list[i].odometer),
-            "team_path_length": float(sum(r.odometer for r in self.robot_list)),
-            "collisions": int(self._collisions[i]),
-            "sector": int(self._sector[i]),
-            "place": int(self._place[i]),
         }
-        if not math.isnan(self._explore_time):
-            metrics["explore_time"] = float(self._explore_time)
-        if self.action_type.is_macro:  # task bookkeeping exists only when operators run as tasks
-            watcher = self._watchers[i]
-            metrics.update(
-                stages=int(self._stages),
-                tasks_completed=int(self._completed[i]),
-                tasks_failed=int(self._failed[i]),
-                task=watcher.task.key if watcher.task is not None else -1,
-                task_status=int(watcher.state),
-                task_reason=TASK_REASONS.index(watcher.report.reason) if watcher.report is not None else 0,
-            )
-        return metrics
+        team_path = float(sum(r.odometer for r in self.robot_list))
+        collisions, sectors, places = self._collisions.tolist(), self._sector.tolist(), self._place.tolist()
+        macro = self.action_type.is_macro  # task bookkeeping exists only when operators run as tasks
+        out = {}
+        for agent in agents:
+            i = self._index[agent]
+            metrics = {
+                **team,
+                "path_length": float(self.robot_list[i].odometer),
+                "team_path_length": team_path,
+                "collisions": int(collisions[i]),
+                "sector": int(sectors[i]),
+                "place": int(places[i]),
+            }
+            if not math.isnan(self._explore_time):
+                metrics["explore_time"] = float(self._explore_time)
+            if macro:
+                watcher = self._watchers[i]
+                metrics.update(
+                    stages=int(self._stages),
+                    tasks_completed=int(self._completed[i]),
+                    tasks_failed=int(self._failed[i]),
+                    task=watcher.task.key if watcher.task is not None else -1,
+                    task_status=int(watcher.state),
+                    task_reason=TASK_REASONS.index(watcher.report.reason) if watcher.report is not None else 0,
+                )
+            out[agent] = metrics
+        return out
 
     def decode_info(self, info: dict[str, Any]) -> dict[str, Any]:
         """``info`` with its indices named: ``sector``/``place`` as map ids, ``task`` as the operator,
