@@ -147,7 +147,12 @@ def test_actions_of_finished_robots_are_ignored():
 
 @pytest.mark.parametrize(
     "kwargs, error",
-    [({"n_copies": 0}, ValueError), ({"n_copies": 2, "comm_dim": 2}, ConfigError), ({"n_copies": 1, "n_robots": 0}, ConfigError)],
+    [
+        ({"n_copies": 0}, ValueError),
+        ({"n_copies": 2, "comm_dim": 2}, ConfigError),
+        ({"n_copies": 2, "obs_format": "dict"}, ConfigError),
+        ({"n_copies": 1, "n_robots": 0}, ConfigError),
+    ],
 )
 def test_invalid_batches_are_refused(kwargs, error):
     with pytest.raises(error):
@@ -175,6 +180,7 @@ def test_free_rings_read_what_the_rays_read():
 def test_make_batch_only_where_a_task_has_one():
     assert isinstance(teamgym.make("Navigation-v0").make_batch(2), NavigationBatch)
     assert teamgym.make("Exploration-v0").make_batch(2) is None
+    assert teamgym.make("Navigation-v0", obs_format="dict").make_batch(2) is None  # the adapter then steps copies one by one
     batch = teamgym.make_batch("Navigation-v0", 2, n_robots=4)
     assert batch.reset(seed=0).shape == (2, 4, batch.layout.size) and batch.config.n_robots == 4
     with pytest.raises(ValueError, match="Exploration-v0 has no batch form"):

@@ -16,7 +16,8 @@ whose per-step arrays live in the batch; use them for metrics (``_metrics``), su
 ``active``; its rows read zero reward and ``False`` flags afterwards, and its actions are
 ignored. A copy whose robots are all done stops stepping until :meth:`reset_copy`; there is
 no automatic reset (the caller decides when and with which seed). Trails are not recorded
-and nothing renders. Learned messages (``comm_dim``) are not supported.
+and nothing renders. Learned messages (``comm_dim``) and ``obs_format="dict"`` are not supported
+(observations are flat; ``batch.layout.decode`` names their fields).
 """
 
 from __future__ import annotations
@@ -43,6 +44,8 @@ class NavigationBatch:
             raise ValueError(f"n_copies must be an integer >= 1, got {n_copies!r}")
         if config.get("comm_dim"):
             raise ConfigError("NavigationBatch does not support learned messages (comm_dim > 0)")
+        if config.get("obs_format", "flat") != "flat":
+            raise ConfigError("NavigationBatch observations are flat arrays (obs_format='flat'); decode them with batch.layout")
         config.pop("render_mode", None)
         self._config_kwargs = dict(config)
         self.copies: list[Navigation] = []

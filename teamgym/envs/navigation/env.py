@@ -406,10 +406,15 @@ class Navigation(TeamEnv):
         obstacles = np.column_stack([team.obs_pos[k], team.obs_vel[k]]).ravel() if self.obstacles else np.zeros(0)
         return np.concatenate([robots, obstacles]).astype(np.float32)
 
-    def make_batch(self, n_copies: int) -> NavigationBatch:
-        """``n_copies`` copies with this env's config, stepped together (:class:`NavigationBatch`)."""
+    def make_batch(self, n_copies: int) -> NavigationBatch | None:
+        """``n_copies`` copies with this env's config, stepped together (:class:`NavigationBatch`).
+
+        ``None`` for configs the batch does not take (learned messages, dict observations).
+        """
         from teamgym.envs.navigation.batch import NavigationBatch
 
+        if self.config.comm_dim or self.config.obs_format != "flat":
+            return None
         return NavigationBatch(n_copies, **self.config.as_dict())
 
     def _overlay(self) -> Overlay:
