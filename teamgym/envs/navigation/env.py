@@ -353,20 +353,31 @@ class Navigation(TeamEnv):
         out[:] = every[0, rows]
 
     def _metrics(self, agent: str) -> dict[str, Any]:
-        i, k, team = self._index[agent], self._k, self._team
-        steps = int(team.smooth_steps[k, i])
-        metrics = {
-            "arrived": bool(team.arrived[k, i]),
-            "distance_to_goal": float(team.goal_distance[k, i]),
-            "path_length": float(self.robot_list[i].odometer),
-            "collisions": int(team.collisions[k, i]),
-            "min_clearance": float(team.min_clearance[k, i]),
-            "min_center_distance": float(team.min_center[k, i]),
-            "smoothness": float(team.smooth_sum[k, i] / steps) if steps else 0.0,
-        }
-        if team.arrived[k, i]:
-            metrics["time_to_goal"] = float(team.arrival_time[k, i])
-        return metrics
+        return self._metrics_of([agent])[agent]
+
+    def _metrics_of(self, agents: list[str]) -> dict[str, dict[str, Any]]:
+        """Every agent's metrics from this copy's rows, read once per step."""
+        team, k = self._team, self._k
+        arrived, distance = team.arrived[k].tolist(), team.goal_distance[k].tolist()
+        collisions, clearance, centre = team.collisions[k].tolist(), team.min_clearance[k].tolist(), team.min_center[k].tolist()
+        smooth_sum, smooth_steps = team.smooth_sum[k].tolist(), team.smooth_steps[k].tolist()
+        arrival = team.arrival_time[k].tolist()
+        out = {}
+        for agent in agents:
+            i = self._index[agent]
+            metrics = {
+                "arrived": arrived[i],
+                "distance_to_goal": distance[i],
+                "path_length": float(self.robot_list[i].odometer),
+                "collisions": collisions[i],
+                "min_clearance": clearance[i],
+                "min_center_distance": centre[i],
+                "smoothness": smooth_sum[i] / smooth_steps[i] if smooth_steps[i] else 0.0,
+            }
+            if arrived[i]:
+                metrics["time_to_goal"] = arrival[i]
+            out[agent] = metrics
+        return out
 
     def episode_success(self) -> bool:
         """Every robot has reached its goal (collisions are counted in the metrics, not here)."""
