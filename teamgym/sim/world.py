@@ -167,8 +167,12 @@ class World:
             raise KeyError(f"no entity named {name!r} in the world") from None
 
     # -- stepping -------------------------------------------------------------------
-    def step(self) -> None:
+    def step(self, reuse_states: bool = False) -> None:
         """Advance one control step Δt.
+
+        ``reuse_states``: the caller guarantees that no body was moved since the last read (the
+        end of the previous step, or ``read_states``), so ``states`` is taken as the start rows
+        instead of reading the space again (a batch stepping its copies does this).
 
         Every entity with a state row gets :meth:`~teamgym.sim.entity.Entity.before_step`
         (moving obstacles plan their bounce, robots start their command), in state-row
@@ -180,7 +184,8 @@ class World:
         """
         dt = self.dt
         self._contacts.new_step()
-        before = self._read().tolist()
+        fresh = reuse_states and self._reader is not None and len(self.states) == len(self._stepped)
+        before = self.states.tolist() if fresh else self._read().tolist()
         stepped = self._stepped
         switches: dict[float, list[Entity]] = {}
         for entity, row in zip(stepped, before):

@@ -150,7 +150,7 @@ class NavigationBatch:
             env = self.copies[k]
             if self.config.actuation_delay > 0:
                 env._delay_actuation(env.robot_list, env.np_random)
-            env.world.step()
+            env.world.step(reuse_states=True)  # nothing moves a copy's bodies between its steps
             env.cycles += 1
         worlds = [env.world for env in self.copies]
         team.read(everything, np.stack([w.robot_states for w in worlds]), np.stack([w.mover_states for w in worlds]))
