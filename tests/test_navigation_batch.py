@@ -187,3 +187,33 @@ def test_make_batch_only_where_a_task_has_one():
         teamgym.make_batch("Exploration-v0", 2)
     with pytest.raises(ValueError, match="n_copies"):
         teamgym.make_batch("Navigation-v0", 0)
+
+
+@pytest.mark.parametrize("how", ["pickle", "deepcopy"])
+def test_a_batch_and_its_copies_pickle_mid_episode(how):
+    import copy
+    import pickle
+
+    config = {"n_robots": 2, "action_type": "heading", "max_cycles": 200}
+    batch = NavigationBatch(3, **config)
+    observations = batch.reset(seed=21)
+    rng = np.random.default_rng(5)
+    for _ in range(40):
+        observations, *_ = batch.step(steer(batch, observations, rng))
+    clone = pickle.loads(pickle.dumps(batch)) if how == "pickle" else copy.deepcopy(batch)
+    single = pickle.loads(pickle.dumps(batch.copies[1]))  # a copy alone continues as its copy in the batch
+    assert np.array_equal(clone.active, batch.active)
+    for _ in range(60):
+        if not batch.active.any():
+            break
+        actions = steer(batch, observations, rng)
+        observations, rewards, terminated, truncated = batch.step(actions)
+        again, again_rewards, *_ = clone.step(actions)
+        assert np.array_equal(observations, again) and np.array_equal(rewards, again_rewards)
+        if single.agents:
+            alone, alone_rewards, *_ = single.step(
+                {a: actions[1, i] for i, a in enumerate(single.possible_agents) if a in single.agents}
+            )
+            for i, agent in enumerate(single.possible_agents):
+                if agent in alone:
+                    assert np.array_equal(alone[agent], observations[1, i]) and alone_rewards[agent] == rewards[1, i]

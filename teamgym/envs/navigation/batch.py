@@ -142,6 +142,7 @@ class NavigationBatch:
         names = [self.possible_agents[i] for i in rows_i.tolist()]
         checked = self._checker.check(array[rows_k, rows_i], names)
         stepping = np.flatnonzero(live.any(axis=1))
+        self._log_actions(rows_k, rows_i, names, checked)
         self._command(rows_k, rows_i, checked)
         team, everything = self.team, slice(None)
         commands = np.array([[robot.command for robot in env.robot_list] for env in self.copies], dtype=float)
@@ -168,6 +169,15 @@ class NavigationBatch:
         if done.any():
             self._finish(done)
         return self._observations.copy(), rewards, terminated, truncated
+
+    def _log_actions(self, rows_k: np.ndarray, rows_i: np.ndarray, names: list[str], checked: np.ndarray) -> None:
+        """Each stepping copy logs its joint action as its own ``step`` would, so a copy pickles and replays exactly."""
+        joint: dict[int, dict[str, Any]] = {}
+        discrete = checked.ndim == 1
+        for k, name, action in zip(rows_k.tolist(), names, checked.tolist() if discrete else checked):
+            joint.setdefault(k, {})[name] = action
+        for k, actions in joint.items():
+            self.copies[k]._log.append(("step", actions))
 
     def _sense(self, sensing: np.ndarray) -> None:
         """Proximity rings of the ``sensing`` robots (k, N): rays only where something is within range.
@@ -207,6 +217,27 @@ class NavigationBatch:
             env.agents = [a for a in env.agents if a not in finished]
             for agent in finished:
                 env.robots[agent].set_command(0.0, 0.0)
+
+    # -- copying and pickling --------------------------------------------------------
+    def __getstate__(self) -> dict:
+        """The config and each copy's own pickled state (its reset and the joint actions it was stepped with)."""
+        return {"config": self._config_kwargs, "copies": [env.__getstate__() for env in self.copies], "active": self.active}
+
+    def __setstate__(self, state: dict) -> None:
+        copies = state["copies"]
+        self.__init__(len(copies), **state["config"])
+        for k, copy_state in enumerate(copies):
+            env = Navigation.__new__(Navigation)
+            env.__setstate__(copy_state)  # replays its episode in a state of its own
+            if env.world is not None:
+                for name in self.team._allocate(0):
+                    getattr(self.team, name)[k] = getattr(env._team, name)[0]
+                self.team.obstacle_shapes[k] = env._team.obstacle_shapes[0]
+            env._bind(self.team, k)
+            self.copies[k] = env
+            if env.world is not None:
+                self.team.observe(env._ks, self.layout, self._observations[k : k + 1])
+        self.active = np.array(state["active"], dtype=bool)
 
     # -- reading ---------------------------------------------------------------------
     def infos(self, k: int) -> dict[str, dict[str, Any]]:
