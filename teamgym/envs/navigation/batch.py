@@ -17,7 +17,10 @@ whose per-step arrays live in the batch; use them for metrics (``_metrics``), su
 ignored. A copy whose robots are all done stops stepping until :meth:`reset_copy`; there is
 no automatic reset (the caller decides when and with which seed). Trails are not recorded
 and nothing renders. Learned messages (``comm_dim``) and ``obs_format="dict"`` are not supported
-(observations are flat; ``batch.layout.decode`` names their fields).
+(observations are flat; ``batch.layout.decode`` names their fields). A batch, and each of its
+copies alone, survives ``pickle`` and ``copy.deepcopy`` mid-episode and continues identically:
+every copy logs the joint actions it was stepped with and is rebuilt by replaying them, as a
+single env is.
 """
 
 from __future__ import annotations
