@@ -64,3 +64,18 @@ def test_batched_refused_for_envs_without_a_batch_form():
     with pytest.raises(ValueError, match="no batch form"):
         TeamVecEnv(lambda: teamgym.make("Exploration-v0"), n_envs=1, batched=True)
     assert not TeamVecEnv(lambda: teamgym.make("Exploration-v0"), n_envs=1).batched
+
+
+def test_wrapped_envs_are_stepped_one_by_one():
+    """A wrapper (here the one that labels expert actions) must see every step: no batch behind its back."""
+    from baselines.rl.imitation import ExpertActions
+
+    venv = TeamVecEnv(lambda: ExpertActions(teamgym.make("Navigation-v0", n_robots=2), "goto"), n_envs=2)
+    assert not venv.batched
+    venv.seed(0)
+    venv.reset()
+    venv.step_async(np.zeros((venv.num_envs, 2), np.float32))
+    _, _, _, infos = venv.step_wait()
+    assert all("expert_action" in info for info in infos)
+    with pytest.raises(ValueError, match="no batch form"):
+        TeamVecEnv(lambda: ExpertActions(teamgym.make("Navigation-v0", n_robots=2), "goto"), n_envs=1, batched=True)

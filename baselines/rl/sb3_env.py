@@ -44,6 +44,18 @@ robot that finishes then (the first in ``possible_agents`` order), so SB3's
 ``rollout/success_rate`` counts each team episode once. Envs whose infos hold no
 ``success`` get no ``is_success``.
 
+Copies stepped as one batch
+---------------------------
+
+When ``env_fn()`` returns a bare :class:`~teamgym.envs.base.TeamEnv` with a batch form
+(:meth:`~teamgym.envs.base.TeamEnv.make_batch`: Navigation-v0 with flat observations), the
+copies are stepped together (``batched=None``, the default; ``True`` insists, ``False``
+refuses): one array of actions for all copies, one numpy pass for their observations and
+rewards. Slots, refills, seeding and what a finishing robot's ``info`` holds are exactly the
+PettingZoo path's (tests/test_sb3_batched.py); a slot whose robot goes on gets an empty
+``info`` instead of the robot's per-step metrics. Wrapped envs and other tasks are stepped
+one by one through the PettingZoo API.
+
 Box actions are clipped to the action space before they reach the env. For ``Discrete`` and
 ``MultiDiscrete`` actions with masks (Exploration's operator actions),
 :meth:`TeamVecEnv.action_masks` gives sb3-contrib's ``MaskablePPO`` one row per slot.
@@ -131,8 +143,9 @@ class TeamVecEnv(VecEnv):
         """The env's batch form (``make_batch``) for ``batched`` = True or None (when it has one); None for False."""
         if batched is False:
             return None
-        make = getattr(first, "make_batch", None)
-        batch = make(n_envs) if make is not None and getattr(first, "render_mode", None) is None else None
+        # Only a bare TeamEnv: a wrapper (say, one that labels expert actions) must see every step.
+        plain = isinstance(first, TeamEnv) and first.render_mode is None
+        batch = first.make_batch(n_envs) if plain else None
         if batch is None and batched:
             raise ValueError(f"{type(first).__name__} has no batch form (make_batch); use batched=False or None")
         return batch
