@@ -79,3 +79,17 @@ def test_wrapped_envs_are_stepped_one_by_one():
     assert all("expert_action" in info for info in infos)
     with pytest.raises(ValueError, match="no batch form"):
         TeamVecEnv(lambda: ExpertActions(teamgym.make("Navigation-v0", n_robots=2), "goto"), n_envs=1, batched=True)
+
+
+def test_ppo_learns_the_same_from_both_paths():
+    import torch
+    from stable_baselines3 import PPO
+
+    make = lambda: teamgym.make("Navigation-v0", n_robots=2, normalize_actions=True, max_cycles=40)  # noqa: E731
+    weights = []
+    for batched in (True, False):
+        venv = TeamVecEnv(make, n_envs=2, batched=batched)
+        model = PPO("MlpPolicy", venv, n_steps=64, batch_size=64, n_epochs=2, seed=3, device="cpu", verbose=0)
+        model.learn(256)
+        weights.append(torch.cat([p.detach().flatten() for p in model.policy.parameters()]))
+    assert torch.equal(weights[0], weights[1])
