@@ -113,13 +113,13 @@ class TeamVecEnv(VecEnv):
         action_space = first.action_space(self.agent_names[0])
         for env in self.envs:
             self._check_copy(env, observation_space, action_space)
-        super().__init__(n_envs * self.agents_per_env, observation_space, action_space)
+        A = self.agents_per_env
+        self._copy_of = [k // A for k in range(n_envs * A)]  # the copy each slot serves (or served last)
+        super().__init__(n_envs * A, observation_space, action_space)  # reads render_mode through get_attr
         self._obs = np.zeros((self.num_envs, *observation_space.shape), dtype=observation_space.dtype)
         self._returns = np.zeros(self.num_envs, dtype=np.float64)
         self._lengths = np.zeros(self.num_envs, dtype=np.int64)
         self._actions: np.ndarray | None = None
-        A = self.agents_per_env
-        self._copy_of = [k // A for k in range(self.num_envs)]  # the copy each slot serves (or served last)
         self._slot_copy = np.array(self._copy_of, dtype=np.int64)  # the same, as an array (batched stepping)
         self._slot_row = np.full(self.num_envs, -1, dtype=np.int64)  # row of the slot's robot in its copy; -1 while waiting
         self._row_of = {agent: i for i, agent in enumerate(self.agent_names)}
