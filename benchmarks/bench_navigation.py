@@ -12,6 +12,11 @@ timing; no rendering.
   20 substeps per control step and 8 ray casts per robot every step, written with pymunk's
   public API and nothing else; it builds a plain observation per robot (pose, velocities,
   ray hits) but computes no rewards and checks nothing.
+* ``bare + contract``: the bare loop behind the smallest PettingZoo parallel step: a dict of
+  actions in, checked in one numpy pass (agents, shape, bounds, NaN: invalid actions must be
+  refused before any work), and five dicts out keyed by agent (observation rows, a reward, termination,
+  truncation, ``infos`` with ``success``). No rewards worth the name, no metrics: the floor
+  of any env with this API on these bodies, beside which issue 15's 1.2x is judged.
 * ``MPE2 simple_spread``: N agents, continuous actions, ``max_cycles`` large.
 * ``batch/K`` (``--batch K``, default 16): K copies stepped as one
   :class:`~teamgym.envs.navigation.batch.NavigationBatch` (arrays in and out, one numpy pass
@@ -174,6 +179,37 @@ class BareLoop:
         self.observation = np.array(rows, dtype=np.float32)
 
 
+class ContractLoop(BareLoop):
+    """:class:`BareLoop` behind the smallest PettingZoo parallel ``step``: dicts in, checked, dicts out."""
+
+    def __init__(self, n_robots: int, seed: int = 0) -> None:
+        super().__init__(n_robots, seed)
+        self.agents = [f"robot_{k}" for k in range(n_robots)]
+        self.agent_set = frozenset(self.agents)
+        rng = np.random.default_rng(seed)
+        self.pool = [{a: rng.uniform(-1, 1, 2).astype(np.float32) for a in self.agents} for _ in range(256)]
+        self.scale = np.array([0.4, 15.0])
+
+    def step(self, i: int) -> None:
+        self.parallel_step(self.pool[i % 256])
+
+    def parallel_step(self, actions: dict[str, np.ndarray]) -> tuple[dict, ...]:
+        """One check of the whole joint action (agents, shape, bounds, NaN), then the bare step and five dicts."""
+        if actions.keys() != self.agent_set:
+            raise ValueError(f"actions for {sorted(actions)}, expected {self.agents}")
+        joint = np.stack([actions[a] for a in self.agents])
+        if joint.shape != (len(self.agents), 2) or not np.all((joint >= -1.0) & (joint <= 1.0)):
+            raise ValueError("an action is outside [-1, 1]^2 or NaN")
+        self.commands[0] = joint * self.scale
+        BareLoop.step(self, 0)
+        rows = self.observation
+        observations = {a: rows[k] for k, a in enumerate(self.agents)}
+        rewards = {a: -float(rows[k, 0]) for k, a in enumerate(self.agents)}
+        done = {a: False for a in self.agents}
+        infos = {a: {"success": False} for a in self.agents}
+        return observations, rewards, done, dict(done), infos
+
+
 class MPE2Loop:
     """MPE2's ``simple_spread`` with N agents and continuous random actions."""
 
@@ -191,7 +227,7 @@ class MPE2Loop:
 
 
 def make_loops(n: int, batch: int = 0) -> dict[str, object]:
-    loops: dict[str, object] = {"teamgym": TeamgymLoop(n), "bare pymunk": BareLoop(n)}
+    loops: dict[str, object] = {"teamgym": TeamgymLoop(n), "bare pymunk": BareLoop(n), "bare + contract": ContractLoop(n)}
     if batch:
         loops[f"batch/{batch}"] = BatchLoop(n, batch)
     with contextlib.suppress(ImportError):
@@ -297,6 +333,11 @@ def main() -> None:
                 f"{'':>3}  {args.batch} copies as one NavigationBatch: {cell(f'batch/{args.batch}')} env-steps/s, "
                 f"env/bare time per copy {bare_rate / row['batch']:.2f}x"
             )
+        row["contract"] = best["bare + contract"]
+        print(
+            f"{'':>3}  bare + PettingZoo contract: {cell('bare + contract')} steps/s, "
+            f"its time / bare time {bare_rate / row['contract']:.2f}x"
+        )
         rows.append(row)
     print("targets (N=5): env/bare time <= 2.00x (issue 2), <= 1.20x (issue 15); teamgym/MPE2 >= 2.00x")
     for row in rows:
