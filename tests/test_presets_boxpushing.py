@@ -31,6 +31,11 @@ def test_preset_loads_and_its_config_builds_the_s1_env():
     kwargs = _plan(build_parser().parse_args(["--preset", NAME, "--out", "m.zip"]))[0]
     assert kwargs["env_id"] == "BoxPushing-v0" and kwargs["timesteps"] == preset.timesteps
     assert kwargs["bc_expert"] == preset.bc["expert"] == "sbs"
+    # The teacher is sbs without its looks (no free-standing stop labels) on clean data.
+    assert kwargs["bc_expert_kwargs"] == preset.bc["expert_kwargs"] == {"look_cycles": 0}
+    assert kwargs["bc_noise"] == preset.bc["noise"] == 0
+    other = _plan(build_parser().parse_args(["--preset", NAME, "--bc-expert", "cooperative-push", "--out", "m.zip"]))[0]
+    assert other["bc_expert"] == "cooperative-push" and "bc_expert_kwargs" not in other
 
 
 @pytest.mark.skipif(NAME not in shipped_agents(), reason="agent not shipped")

@@ -44,6 +44,10 @@ class SituatedBehaviourSets(Policy):
         the simulator's state, :mod:`baselines.box_pushing.oracle`; the ``sbs-oracle`` policy).
     **recognizer:
         Overrides of :class:`~baselines.box_pushing.recognizer.RecognizerParams` (e.g. ``tm=60.0``, ``tt=10``).
+        ``look_cycles=0`` never stops to look (no M check while standing still): in S1, with
+        no other robot to notice, it only drops the 1-3-cycle stops, and it is the teacher of
+        the ``boxpushing-s1-ppo`` clone (a memoryless clone cannot tell a look's ``stop`` from
+        the readings; ``docs/training.md``).
     """
 
     name = "sbs"

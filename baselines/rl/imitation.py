@@ -402,11 +402,15 @@ def pretrain(
     dagger_rounds: int = 0,
     dagger_steps: int | None = None,
     dagger_epochs: int | None = None,
+    expert_kwargs: Mapping[str, Any] | None = None,
     **options: Any,
 ) -> dict[str, Any]:
     """Collect ``steps`` expert transitions on ``make_env()`` and clone them into ``model``; returns a sidecar record.
 
-    ``noise`` goes to :func:`collect_expert_data`, ``options`` to :func:`behaviour_clone`.
+    ``noise`` goes to :func:`collect_expert_data`, ``options`` to :func:`behaviour_clone`;
+    ``expert_kwargs`` are the expert's constructor arguments (``make_policy(expert, env,
+    **expert_kwargs)``) for the expert data and the DAgger labels alike, e.g.
+    ``{"look_cycles": 0}`` for an ``sbs`` teacher that never stops to look.
     Then ``dagger_rounds`` rounds of DAgger (Ross, Gordon and Bagnell 2011): the clone drives
     ``dagger_steps`` transitions (default ``steps``) labelled by the expert
     (:func:`collect_learner_data`, round ``k`` reset with ``seed + 1 + k``), which join the
@@ -419,9 +423,10 @@ def pretrain(
         raise ValueError(f"dagger_rounds must be >= 0, got {dagger_rounds}")
     started = time.time()
     gamma = float(getattr(model, "gamma", 0.99))
+    teacher = dict(expert_kwargs or {})
     env = make_env()
     try:
-        data = collect_expert_data(env, expert, steps, seed, gamma=gamma, noise=noise)
+        data = collect_expert_data(env, expert, steps, seed, gamma=gamma, noise=noise, **teacher)
         expert_record = {
             "expert_episodes": data.episodes,
             "expert_success_rate": data.success_rate,
@@ -430,13 +435,15 @@ def pretrain(
         stats = behaviour_clone(model, data, epochs, seed=seed, **options)
         learner_success = []
         for k in range(dagger_rounds):
-            fresh = collect_learner_data(env, model, expert, dagger_steps or steps, seed + 1 + k, gamma=gamma)
+            fresh = collect_learner_data(env, model, expert, dagger_steps or steps, seed + 1 + k, gamma=gamma, **teacher)
             learner_success.append(fresh.success_rate)
             data = data.merged(fresh)
             stats = behaviour_clone(model, data, dagger_epochs or epochs, seed=seed + 1 + k, **options)
     finally:
         env.close()
     record = {**expert_record, "noise": noise, **stats, "wall_time_s": round(time.time() - started, 3)}
+    if teacher:
+        record["expert_kwargs"] = teacher
     if dagger_rounds:
         record.update(dagger_rounds=dagger_rounds, dagger_transitions=len(data), dagger_learner_success=learner_success)
     return record

@@ -6,8 +6,9 @@ new ones): ``env``, ``algo``, ``config`` (env config keys: they change the encod
 actions and observations and the reward weights, never the task that success is judged
 on), ``n_envs``, ``timesteps``, ``hyperparameters`` (SB3 keyword arguments, including
 ``policy_kwargs``), ``bc`` (optional behaviour cloning: ``expert``, ``steps``,
-``epochs``, optional ``noise`` of the executed expert actions and ``batch_size`` of the
-fit, and optional DAgger rounds
+``epochs``, optional ``noise`` of the executed expert actions, ``batch_size`` of the
+fit and ``expert_kwargs`` (the expert's constructor arguments, e.g. ``{"look_cycles": 0}``
+for ``sbs``), and optional DAgger rounds
 ``dagger_rounds``, ``dagger_steps``, ``dagger_epochs``), ``eval`` (optional held-out evaluation while training: ``every``,
 ``episodes``, ``seed``), ``changes`` (each config key and hyper-parameter the preset sets, with
 why) and ``measured`` (what the preset reached, with the command). docs/training.md lists them.

@@ -42,8 +42,9 @@ Research tooling (all off by default; see ``docs/training.md``):
   (``--bc-steps`` expert transitions, ``--bc-epochs`` passes; PPO and A2C only) into the new
   model, value head included (:func:`baselines.rl.imitation.pretrain`); ``--bc-dagger R``
   adds R rounds of DAgger (the clone drives, the expert labels, the clone is refitted on
-  all data); the sidecar's ``bc`` records the settings and the expert's and the clone's
-  success on the collected episodes.
+  all data); a preset's ``bc.expert_kwargs`` are the expert's constructor arguments; the
+  sidecar's ``bc`` records the settings and the expert's and the clone's success on the
+  collected episodes.
 
 Bad arguments exit with code 2 and one ``error: ...`` line before training starts; a
 failure during training exits 1 with one line (``TEAMGYM_TRACEBACK=1`` shows the traceback).
@@ -177,6 +178,7 @@ class Training:
         bc_dagger_epochs: int | None = None,
         bc_batch_size: int | None = None,
         bc_noise: float | None = None,
+        bc_expert_kwargs: Mapping[str, Any] | None = None,
         workers: int = 1,
         preset: str | None = None,
     ) -> None:
@@ -239,6 +241,10 @@ class Training:
                 if not 0 <= bc_noise <= 1:
                     raise ValueError(f"bc_noise must be in [0, 1], got {bc_noise}")
                 self.bc["noise"] = float(bc_noise)
+            if bc_expert_kwargs:
+                if not isinstance(bc_expert_kwargs, Mapping) or not all(isinstance(k, str) for k in bc_expert_kwargs):
+                    raise ValueError(f"bc expert_kwargs must map argument names to values, got {bc_expert_kwargs!r}")
+                self.bc["expert_kwargs"] = dict(bc_expert_kwargs)
         if threads is not None:
             import torch
 
@@ -249,7 +255,7 @@ class Training:
             if bc_expert:
                 from baselines.rl.imitation import make_expert
 
-                make_expert(bc_expert, probe)
+                make_expert(bc_expert, probe, **self.bc.get("expert_kwargs", {}))
         finally:
             probe.close()
         if not 1 <= workers <= self.n_envs:
@@ -449,6 +455,7 @@ class Training:
             dagger_steps=bc.get("dagger_steps"),
             dagger_epochs=bc.get("dagger_epochs"),
             noise=bc.get("noise", DEFAULT_BC_NOISE),
+            expert_kwargs=bc.get("expert_kwargs"),
             **({"batch_size": bc["batch_size"]} if "batch_size" in bc else {}),
         )
         self.bc.update(record)
@@ -499,7 +506,7 @@ def train(
     ``eval_seed``, ``resume`` (a saved model to continue: ``timesteps`` more, its counter
     kept; ``env_id``, ``algo`` and ``config`` must fit it), ``callback`` (extra SB3
     callbacks) and ``bc_expert``, ``bc_steps``, ``bc_epochs``, ``bc_dagger``,
-    ``bc_dagger_steps``, ``bc_dagger_epochs``, ``bc_batch_size``, ``bc_noise`` (behaviour cloning and
+    ``bc_dagger_steps``, ``bc_dagger_epochs``, ``bc_batch_size``, ``bc_noise``, ``bc_expert_kwargs`` (behaviour cloning and
     DAgger rounds before training); see the module docstring.
     """
     run = Training(env_id, algo, timesteps, seed, out, config, n_envs, hyperparameters, verbose, threads, **options)
@@ -799,6 +806,8 @@ def _plan(args: argparse.Namespace) -> tuple[dict[str, Any], list[int] | None]:
         kwargs["bc_dagger_epochs"] = bc.get("dagger_epochs")
         kwargs["bc_batch_size"] = bc.get("batch_size")
         kwargs["bc_noise"] = bc.get("noise")
+        if expert == bc.get("expert"):  # the preset's expert arguments fit only its expert
+            kwargs["bc_expert_kwargs"] = bc.get("expert_kwargs")
     elif args.bc_dagger:
         raise ValueError("--bc-dagger needs --bc-expert (or a preset with behaviour cloning)")
     if args.seeds is not None:
