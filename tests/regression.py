@@ -22,9 +22,17 @@ or on ``space.sample``. ``python -m tests.regression obs-hashes --write`` rewrit
 ``tests/data/obs_hashes.json`` from the current code (only do that on purpose: the fixture
 is the reference the optimisations are checked against); without ``--write`` it lists the
 cases that differ. ``tests/test_obs_hashes.py`` recomputes every hash and never writes.
+
+Both fixtures hold for numpy's AVX2 kernels: on a CPU with AVX-512 the tests turn those
+kernels off (``tests/conftest.py``), and so does this module when run as a script (it
+imports the conftest first, before numpy loads).
 """
 
 from __future__ import annotations
+
+import tests.conftest  # noqa: F401  (first: numpy without its AVX-512 kernels, as in the tests)
+
+# isort: split
 
 import hashlib
 import json
