@@ -84,6 +84,7 @@ class BoxPushingConfig(EnvConfig):
     table_height: float = 0.90
     lamp: tuple[float, float] = (1.15, 0.45)
     light_shadows: bool = False
+    observe_stall: bool = False
     noise: float = 1.0
     light_noise: float = 0.0
     light_noise_relative: float = 0.0

@@ -20,6 +20,10 @@ field          shape  meaning
 ``encoders``   (4,)   last step's commanded left/right and actual left/right wheel
                       rotation (rad); actual ≪ commanded is the paper's "no-rotation"
 ``busy``       (1,)   1 while a multi-cycle primitive runs (its choices are ignored)
+``stall``      (1,)   only with ``observe_stall=True``: the robot's consecutive stalled
+                      cycles (wheel slip > 0.9) / ``STALL_CAP``, at most 1. A memory the
+                      robot keeps from its own encoders, as ``sbs`` does for its
+                      "no-rotation" (3 cycles); for memoryless learned policies
 =============  =====  ============================================================
 
 ``env.object_threshold`` (20 mm, section 3.1) is what the paper's policies call an "object".
@@ -60,7 +64,7 @@ from teamgym.envs.base import EpisodeOverError, TeamEnv
 from teamgym.envs.box_pushing.actions import PrimitiveAction
 from teamgym.envs.box_pushing.config import SITUATIONS, BoxPushingConfig, BoxPushingV1Config, Event
 from teamgym.envs.box_pushing.scene import GoalWall, Placer
-from teamgym.envs.spaces import ObservationLayout
+from teamgym.envs.spaces import Field, ObservationLayout
 from teamgym.sim.categories import OPAQUE, Category
 from teamgym.sim.objects import Box, Lamp
 from teamgym.sim.render import Overlay
@@ -73,6 +77,8 @@ __all__ = ["SITUATIONS", "BoxPushing", "BoxPushingConfig", "BoxPushingV1", "BoxP
 _ROBOT_WALL_GAP = 0.005
 _ROBOT_CLEARANCE = 0.01
 _STALL_SLIP = 0.9
+#: Consecutive stalled cycles at which the ``stall`` observation reads 1 (1 s at the default Δt).
+STALL_CAP = 10
 _BRAKE_FACTOR = 3.0
 
 
@@ -142,7 +148,10 @@ class BoxPushing(TeamEnv):
 
     def _make_layout(self) -> ObservationLayout:
         rays = len(KHEPERA_RING)
-        return ObservationLayout([("proximity", (rays,)), ("light", (rays,)), ("encoders", (4,)), ("busy", (1,))])
+        fields = [("proximity", (rays,)), ("light", (rays,)), ("encoders", (4,)), ("busy", (1,))]
+        if self.config.observe_stall:
+            fields.append(Field("stall", (1,), 0.0, 1.0))
+        return ObservationLayout(fields)
 
     def _build(self, rng: np.random.Generator) -> None:
         c = self.config
@@ -170,6 +179,7 @@ class BoxPushing(TeamEnv):
         self._enc = self._readings[:, self.sensors.slices["encoders"]]
         self._collisions = np.zeros(n, dtype=int)
         self._stalled = np.zeros(n, dtype=int)
+        self._stall_run = np.zeros(n, dtype=int)
         self._progress = 0.0
         self._success = False
         self._success_time = math.nan
@@ -244,6 +254,8 @@ class BoxPushing(TeamEnv):
         s = self.layout.slices
         out[:, : self.sensors.width] = self._readings[rows]
         out[:, s["busy"].start] = [float(self.executors[a].busy) for a in self.agents]
+        if "stall" in s:
+            out[:, s["stall"].start] = np.minimum(self._stall_run[rows], STALL_CAP) / STALL_CAP
 
     def _metrics(self, agent: str) -> dict[str, Any]:
         i = self._index[agent]
@@ -497,6 +509,9 @@ class BoxPushing(TeamEnv):
         for agent, i, robot in zip(agents, index, robots):
             if robot.encoders.slip > _STALL_SLIP:
                 self._stalled[i] += 1
+                self._stall_run[i] += 1
+            else:
+                self._stall_run[i] = 0
             self.executors[agent].observe(self._prox[i], self._enc[i])
 
     def _count_contacts(self) -> None:
