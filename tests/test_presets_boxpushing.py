@@ -1,4 +1,4 @@
-"""The BoxPushing RL preset ``boxpushing-s1-ppo`` and its shipped agent (no training here)."""
+"""The BoxPushing RL presets ``boxpushing-s1-ppo`` and ``boxpushing-s1-stall-ppo`` and their shipped agents (no training here)."""
 
 from __future__ import annotations
 
@@ -12,6 +12,7 @@ from baselines.rl.sb3_policy import read_sidecar, resolve_model, shipped_agents 
 from baselines.rl.train import _plan, build_parser  # noqa: E402
 
 NAME = "boxpushing-s1-ppo"
+STALL = "boxpushing-s1-stall-ppo"
 
 
 def test_preset_loads_and_its_config_builds_the_s1_env():
@@ -38,16 +39,33 @@ def test_preset_loads_and_its_config_builds_the_s1_env():
     assert other["bc_expert"] == "cooperative-push" and "bc_expert_kwargs" not in other
 
 
-@pytest.mark.skipif(NAME not in shipped_agents(), reason="agent not shipped")
-def test_shipped_agent_resolves_and_acts_in_the_env():
+def test_stall_preset_is_the_s1_preset_plus_the_stall_field():
+    base, stall = load_preset(NAME), load_preset(STALL)
+    assert stall.config == {**base.config, "observe_stall": True}
+    assert (stall.bc, stall.hyperparameters, stall.timesteps, stall.n_envs) == (
+        base.bc,
+        base.hyperparameters,
+        base.timesteps,
+        base.n_envs,
+    )
+    assert "observe_stall" in stall.changes
+    env = teamgym.make(stall.env, **stall.config)
+    assert env.layout.fields[-1].name == "stall"
+
+
+@pytest.mark.parametrize("name", [NAME, STALL])
+def test_shipped_agent_resolves_and_acts_in_the_env(name):
     from baselines.episode import run_episode
     from baselines.registry import make_policy
 
-    path = resolve_model(NAME)
+    if name not in shipped_agents():
+        pytest.skip("agent not shipped")
+    path = resolve_model(name)
     sidecar = read_sidecar(path)
-    assert sidecar["env"] == "BoxPushing-v0" and sidecar["preset"] == NAME
+    assert sidecar["env"] == "BoxPushing-v0" and sidecar["preset"] == name
     env = teamgym.make("BoxPushing-v0", **{**sidecar["config"], "max_cycles": 20})
-    policy = make_policy(f"sb3:{NAME}", env)
+    assert env.config.observe_stall == (name == STALL)
+    policy = make_policy(f"sb3:{name}", env)
     result = run_episode(env, policy, 20000, record_trajectories=False)
     assert result.length == 20 and set(result.returns) == {"robot_0"}
     obs, _ = env.reset(seed=1)
