@@ -42,6 +42,7 @@ from pettingzoo import ParallelEnv
 from teamgym.envs.actions import ActionType, UnitScaled, WithMessage
 from teamgym.envs.config import ConfigError, EnvConfig
 from teamgym.envs.spaces import ActionChecker, Field, ObservationLayout
+from teamgym.sim import snapshot
 from teamgym.sim.channel import Channel, ChannelConfig
 from teamgym.sim.render import Overlay, Renderer, robot_colour
 from teamgym.sim.robot import DiffDriveRobot
@@ -288,6 +289,7 @@ class TeamEnv(ParallelEnv):
         for agent in terminations:
             if terminations[agent] or truncations[agent]:
                 self.robots[agent].set_command(0.0, 0.0)
+        self._rebase_if_due()
         if self.render_mode == "human":
             self.render()
         return observations, rewards, terminations, truncations, infos
@@ -493,17 +495,83 @@ class TeamEnv(ParallelEnv):
         return self.layout.decode(observation)
 
     # -- copying and pickling ---------------------------------------------------------
-    # Chipmunk keeps solver state that pymunk cannot pickle (accumulated joint impulses and
-    # cached contacts used for warm starting), so a pickled space continues slightly
-    # differently. An env is therefore pickled as its config plus the log of everything
-    # that changed it since the last reset (the RNG state and seed of that reset, every
-    # checked joint action and every recorded event) and rebuilt by replaying the log: the
-    # simulation is deterministic, so the copy continues exactly as the original would.
-    # Subclasses route run-time events (adding robots, opening doors...) through
-    # :meth:`_record` so that they are replayed too.
+    # Chipmunk keeps state no pickle restores exactly (the history of its broad phase: the
+    # order in which it reports colliding pairs), so an env is pickled as its config plus a
+    # log and rebuilt by replaying the log: the simulation is deterministic, so the copy
+    # continues exactly as the original would. The log starts at a *base*: the reset (its RNG
+    # state, seed and options) or a snapshot. Every ``rebase_cycles`` control cycles (at the
+    # first step boundary after that many since the last base) the env pickles its whole
+    # episode state (world, robots, sensors, RNG, counters; :mod:`teamgym.sim.snapshot`) and
+    # replaces its own live state by the unpickled snapshot, so that from then on it is itself
+    # a restored copy; the log is cut to that snapshot. A copy unpickles the snapshot and
+    # replays the steps since (fewer than ``rebase_cycles`` cycles), so a copy costs about the
+    # same at any episode length, and both worlds come from the same bytes by the same
+    # procedure. Then the log holds every checked joint action and every recorded event
+    # since the base: subclasses route run-time events (adding robots, opening doors...)
+    # through :meth:`_record` so that they are replayed too. Trails (positions per cycle) are
+    # history, not state: they are left out of snapshots and copied as they are.
+    #: Control cycles between re-bases (see above); a task sets it so that replaying that many
+    #: cycles stays well under 0.5 s. Copies re-base where the original does.
+    rebase_cycles: ClassVar[int] = 600
+    #: What a re-base leaves alone: the config and the objects ``__init__`` derives from it that
+    #: callers hold (spaces, checkers), the renderer, the log and the trails.
+    _KEPT_ON_REBASE: ClassVar[frozenset[str]] = frozenset(
+        {
+            "render_mode",
+            "config",
+            "_checkers",
+            "_observation_spaces",
+            "_action_spaces",
+            "_renderer",
+            "_log",
+            "_trails",
+            "_object_trails",
+        }
+    )
+
     def _record(self, method: str, *args: Any) -> None:
         """Log a call of ``self.<method>(*args)`` made during the episode, for replay."""
         self._log.append(("call", method, copy.deepcopy(args)))
+
+    def _episode_state(self) -> dict[str, Any]:
+        """The attributes a snapshot holds (all but :attr:`_KEPT_ON_REBASE`); a task may swap some for what rebuilds them."""
+        return {k: v for k, v in self.__dict__.items() if k not in self._KEPT_ON_REBASE}
+
+    def _adopt_episode_state(self, state: dict[str, Any]) -> None:
+        """Take the attributes of an unpickled snapshot as this env's own (the inverse of :meth:`_episode_state`)."""
+        self.__dict__.update(state)
+        if self._renderer is not None:
+            self._renderer.world = self.world
+
+    def _cycles_since_base(self) -> int:
+        first = self._log[0] if self._log else None
+        return self.cycles - (first[2] if first is not None and first[0] == "base" else 0)
+
+    def _rebase_if_due(self) -> None:
+        """At a step boundary: re-base once ``rebase_cycles`` control cycles have passed since the last base."""
+        if self._cycles_since_base() >= self.rebase_cycles:
+            self._rebase()
+
+    def _rebase(self) -> None:
+        """Snapshot the episode state, replace the live state by the unpickled snapshot and start the log there.
+
+        The world's fixed entities (walls, furniture) are referred to, not pickled: their own
+        snapshot is taken once per world, and the live ones move into the restored world.
+        """
+        world = self.world
+        fixed = world.fixed_objects()
+        data = snapshot.dumps(self._episode_state(), external=[self, *fixed])
+        static = world.fixed_snapshot()
+        world.release_fixed()
+        self._adopt_episode_state(snapshot.loads(data, external=[self, *fixed]))
+        self.world.adopt_fixed(fixed, static)
+        self._log = [("base", data, self.cycles, static)]
+
+    def _restore_base(self, data: bytes, static: bytes) -> None:
+        """Take the state of a snapshot :meth:`_rebase` logged (a copy's start)."""
+        fixed = World.load_fixed(static)
+        self._adopt_episode_state(snapshot.loads(data, external=[self, *fixed]))
+        self.world.adopt_fixed(fixed, static)
 
     def __getstate__(self) -> dict:
         return {
@@ -512,26 +580,40 @@ class TeamEnv(ParallelEnv):
             "log": self._log,
             "np_random": self.np_random.bit_generator.state,
             "spaces": (self._observation_spaces, self._action_spaces),
+            "trails": (self._trails, self._object_trails),
+            "rebase_cycles": self.rebase_cycles,
         }
 
     def __setstate__(self, state: dict) -> None:
         self.__init__(render_mode=None, **state["config"])
+        if state["rebase_cycles"] != self.rebase_cycles:
+            self.rebase_cycles = state["rebase_cycles"]
+        trails, object_trails = state["trails"]
         for entry in state["log"]:
             if entry[0] == "reset":
                 _, rng_state, seed, options = entry
                 self.np_random.bit_generator.state = rng_state
                 self.reset(seed=seed, options=options)
+            elif entry[0] == "base":
+                self._restore_base(entry[1], entry[3])
+                self._log = [entry]
+                self._trails = {name: [] for name in trails}
             elif entry[0] == "step":
                 self.step(entry[1])
             else:
                 getattr(self, entry[1])(*entry[2])
+        self._trails = {name: list(points) for name, points in trails.items()}
+        self._object_trails = {name: list(points) for name, points in object_trails.items()}
         self.np_random.bit_generator.state = state["np_random"]
         self._observation_spaces, self._action_spaces = state["spaces"]
         self.render_mode = state["render_mode"]
 
     def __deepcopy__(self, memo: dict) -> TeamEnv:
         clone = type(self).__new__(type(self))
-        clone.__setstate__(copy.deepcopy(self.__getstate__(), memo))
+        state = self.__getstate__()
+        trails = state.pop("trails")  # tuples of floats: the lists are copied in __setstate__
+        state = copy.deepcopy(state, memo)
+        clone.__setstate__({**state, "trails": trails})
         memo[id(self)] = clone
         return clone
 

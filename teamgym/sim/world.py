@@ -16,11 +16,13 @@ from collections.abc import Sequence
 import numpy as np
 import pymunk
 
+from teamgym.sim import snapshot
 from teamgym.sim.categories import Category
 from teamgym.sim.chipmunk import BodyReader, can_collide, shape_bbs, space_step
 from teamgym.sim.contacts import Contact, ContactCounter
 from teamgym.sim.entity import Entity
 from teamgym.sim.objects import Wall
+from teamgym.sim.solver_state import SolverSpace
 
 __all__ = ["Contact", "World"]
 
@@ -84,7 +86,7 @@ class World:
         self.coarse_contacts = 0
         self._coarse_now = False
         self._contact_check: tuple | None = None
-        self.space = pymunk.Space()
+        self.space = SolverSpace()
         self.space.gravity = (0.0, 0.0)
         self.space.collision_slop = collision_slop
         self.space.iterations = iterations
@@ -101,6 +103,8 @@ class World:
         self._rows_of: dict[Category, slice] = {}
         self._tracked: list[Entity] = []
         self._reader: BodyReader | None = None
+        #: Fixed entities with their bodies and shapes, and their snapshot (see ``fixed_objects``).
+        self._fixed: tuple[list, bytes | None] | None = None
         #: ``(x, y, angle, vx, vy, ω)`` of every entity with a state row after the last step.
         self.states = np.zeros((0, 6))
         #: The rows of ``states`` that belong to robots / moving obstacles.
@@ -152,6 +156,7 @@ class World:
             self._rows_of[entity.kind] = slice(first, row + 1)
         self._reader = None
         self._contact_check = None
+        self._fixed = None
 
     def of_kind(self, kind: Category) -> list[Entity]:
         return [e for e in self.entities.values() if e.kind == kind]
@@ -309,3 +314,47 @@ class World:
         """Counts of :meth:`new_contacts` (or :meth:`total_contacts`) for ``names``, as an int64 array."""
         counts = self._contacts.total if total else self._contacts.new
         return np.array([counts.get(name, 0) for name in names], dtype=np.int64)
+
+    # -- snapshots (TeamEnv's re-bases) ---------------------------------------------
+    def fixed_objects(self) -> list:
+        """The entities marked ``fixed`` (walls, furniture), each followed by its bodies and shapes, in the order added.
+
+        A snapshot of the world refers to these instead of pickling them; :meth:`fixed_snapshot`
+        pickles them once.
+        """
+        if self._fixed is None:
+            self._fixed = ([x for e in self.entities.values() if e.fixed for x in (e, *e.bodies, *e.shapes)], None)
+        return self._fixed[0]
+
+    def fixed_snapshot(self) -> bytes:
+        """:meth:`fixed_objects` pickled (once; the space they are in is left out)."""
+        objects = self.fixed_objects()
+        data = self._fixed[1]
+        if data is None:
+            data = snapshot.dumps(objects, external=[self.space])
+            self._fixed = (objects, data)
+        return data
+
+    def release_fixed(self) -> None:
+        """Take the fixed bodies and shapes out of the space, for a world restored from a snapshot to take them."""
+        objects = self.fixed_objects()
+        shapes = [x for x in objects if isinstance(x, pymunk.Shape)]
+        bodies = [x for x in objects if isinstance(x, pymunk.Body)]
+        self.space.remove(*shapes, *bodies)
+
+    def adopt_fixed(self, objects: list, data: bytes) -> None:
+        """After unpickling a snapshot that referred to ``objects`` (pickled as ``data``): they are this world's."""
+        for entity in objects:
+            if isinstance(entity, Entity):
+                entity.space = self.space
+        self._fixed = (objects, data)
+
+    @staticmethod
+    def load_fixed(data: bytes) -> list:
+        """Fresh fixed objects from :meth:`fixed_snapshot` (not yet in a space)."""
+        return snapshot.loads(data, external=[None])
+
+    def __getstate__(self) -> dict:
+        state = self.__dict__.copy()
+        state["_fixed"] = None
+        return state
