@@ -42,6 +42,7 @@ from pettingzoo import ParallelEnv
 from teamgym.envs.actions import ActionType, UnitScaled, WithMessage
 from teamgym.envs.config import ConfigError, EnvConfig
 from teamgym.envs.spaces import ActionChecker, Field, ObservationLayout
+from teamgym.envs.trails import TrailArchive
 from teamgym.sim import snapshot
 from teamgym.sim.channel import Channel, ChannelConfig
 from teamgym.sim.render import Overlay, Renderer, robot_colour
@@ -499,34 +500,26 @@ class TeamEnv(ParallelEnv):
     # order in which it reports colliding pairs), so an env is pickled as its config plus a
     # log and rebuilt by replaying the log: the simulation is deterministic, so the copy
     # continues exactly as the original would. The log starts at a *base*: the reset (its RNG
-    # state, seed and options) or a snapshot. Every ``rebase_cycles`` control cycles (at the
-    # first step boundary after that many since the last base) the env pickles its whole
-    # episode state (world, robots, sensors, RNG, counters; :mod:`teamgym.sim.snapshot`) and
-    # replaces its own live state by the unpickled snapshot, so that from then on it is itself
-    # a restored copy; the log is cut to that snapshot. A copy unpickles the snapshot and
-    # replays the steps since (fewer than ``rebase_cycles`` cycles), so a copy costs about the
-    # same at any episode length, and both worlds come from the same bytes by the same
-    # procedure. Then the log holds every checked joint action and every recorded event
-    # since the base: subclasses route run-time events (adding robots, opening doors...)
-    # through :meth:`_record` so that they are replayed too. Trails (positions per cycle) are
-    # history, not state: they are left out of snapshots and copied as they are.
-    #: Control cycles between re-bases (see above); a task sets it so that replaying that many
+    # state, seed and options) or a snapshot. At the first step boundary after
+    # ``rebase_cycles`` control cycles since the last base, the env pickles its episode state
+    # (world, robots, sensors, RNG, counters; :mod:`teamgym.sim.snapshot`) and replaces its
+    # own live state by the unpickled snapshot, so that from then on it is itself a restored
+    # copy, and the log starts again at that snapshot. A copy unpickles the snapshot and
+    # replays the steps since (fewer than ``rebase_cycles`` cycles plus one step), so copies
+    # cost about the same at any episode length, and the worlds of original and copy are
+    # built from the same bytes by the same procedure. After its base the log holds every
+    # checked joint action and every recorded event: subclasses route run-time events (adding
+    # robots, opening doors...) through :meth:`_record` so that they are replayed too. Trails
+    # (positions per cycle) are history, not state: snapshots leave them out, copies get them
+    # as they are (packed for pickling by :class:`~teamgym.envs.trails.TrailArchive`).
+    #: Control cycles between re-bases (see above): a task sets it so that replaying that many
     #: cycles stays well under 0.5 s. Copies re-base where the original does.
-    rebase_cycles: ClassVar[int] = 600
+    rebase_cycles: int = 300
     #: What a re-base leaves alone: the config and the objects ``__init__`` derives from it that
     #: callers hold (spaces, checkers), the renderer, the log and the trails.
     _KEPT_ON_REBASE: ClassVar[frozenset[str]] = frozenset(
-        {
-            "render_mode",
-            "config",
-            "_checkers",
-            "_observation_spaces",
-            "_action_spaces",
-            "_renderer",
-            "_log",
-            "_trails",
-            "_object_trails",
-        }
+        {"render_mode", "config", "_checkers", "_observation_spaces", "_action_spaces", "_renderer"}
+        | {"_log", "_trails", "_object_trails", "_trail_archives"}
     )
 
     def _record(self, method: str, *args: Any) -> None:
@@ -566,29 +559,35 @@ class TeamEnv(ParallelEnv):
         self._adopt_episode_state(snapshot.loads(data, external=[self, *fixed]))
         self.world.adopt_fixed(fixed, static)
         self._log = [("base", data, self.cycles, static)]
+        self._pack_trails()  # the points so far, once: later pickles convert only newer ones
 
     def _restore_base(self, data: bytes, static: bytes) -> None:
-        """Take the state of a snapshot :meth:`_rebase` logged (a copy's start)."""
+        """Take the state of a snapshot :meth:`_rebase` logged (where a copy starts)."""
         fixed = World.load_fixed(static)
         self._adopt_episode_state(snapshot.loads(data, external=[self, *fixed]))
         self.world.adopt_fixed(fixed, static)
 
-    def __getstate__(self) -> dict:
+    def _pack_trails(self) -> tuple[dict, dict]:
+        archives = self.__dict__.get("_trail_archives")
+        if archives is None:
+            archives = self._trail_archives = (TrailArchive(), TrailArchive())
+        return archives[0].pack(self._trails), archives[1].pack(self._object_trails)
+
+    def _copy_state(self) -> dict:
         return {
             "render_mode": self.render_mode,
             "config": self.config.as_dict(),
             "log": self._log,
             "np_random": self.np_random.bit_generator.state,
             "spaces": (self._observation_spaces, self._action_spaces),
-            "trails": (self._trails, self._object_trails),
             "rebase_cycles": self.rebase_cycles,
         }
 
-    def __setstate__(self, state: dict) -> None:
+    def _rebuild(self, state: dict, trails: tuple[dict, dict], archives: tuple[TrailArchive, TrailArchive]) -> None:
+        """Make this (new) env the copy ``state`` describes: config, base, replayed log; then its trails."""
         self.__init__(render_mode=None, **state["config"])
         if state["rebase_cycles"] != self.rebase_cycles:
             self.rebase_cycles = state["rebase_cycles"]
-        trails, object_trails = state["trails"]
         for entry in state["log"]:
             if entry[0] == "reset":
                 _, rng_state, seed, options = entry
@@ -597,23 +596,31 @@ class TeamEnv(ParallelEnv):
             elif entry[0] == "base":
                 self._restore_base(entry[1], entry[3])
                 self._log = [entry]
-                self._trails = {name: [] for name in trails}
+                self._trails = {name: [] for name in trails[0]}  # replaced below by the original's
             elif entry[0] == "step":
                 self.step(entry[1])
             else:
                 getattr(self, entry[1])(*entry[2])
-        self._trails = {name: list(points) for name, points in trails.items()}
-        self._object_trails = {name: list(points) for name, points in object_trails.items()}
+        self._trails, self._object_trails = trails
+        self._trail_archives = archives
         self.np_random.bit_generator.state = state["np_random"]
         self._observation_spaces, self._action_spaces = state["spaces"]
         self.render_mode = state["render_mode"]
 
+    def __getstate__(self) -> dict:
+        return {**self._copy_state(), "trails": self._pack_trails()}
+
+    def __setstate__(self, state: dict) -> None:
+        (trails, robot_archive), (object_trails, object_archive) = (TrailArchive.unpack(t) for t in state["trails"])
+        self._rebuild(state, (trails, object_trails), (robot_archive, object_archive))
+
     def __deepcopy__(self, memo: dict) -> TeamEnv:
         clone = type(self).__new__(type(self))
-        state = self.__getstate__()
-        trails = state.pop("trails")  # tuples of floats: the lists are copied in __setstate__
-        state = copy.deepcopy(state, memo)
-        clone.__setstate__({**state, "trails": trails})
+        archives = self.__dict__.get("_trail_archives") or (TrailArchive(), TrailArchive())
+        (trails, robot_archive), (object_trails, object_archive) = (
+            archive.copied(t) for archive, t in zip(archives, (self._trails, self._object_trails))
+        )
+        clone._rebuild(copy.deepcopy(self._copy_state(), memo), (trails, object_trails), (robot_archive, object_archive))
         memo[id(self)] = clone
         return clone
 

@@ -64,8 +64,15 @@ class _Unpickler(pickle.Unpickler):
 
     def find_class(self, module: str, name: str) -> Any:
         if module == __name__ and name == "_external":
-            return self._external.__getitem__
+            return self._resolve
         return super().find_class(module, name)
+
+    def _resolve(self, index: int) -> Any:
+        if not 0 <= index < len(self._external):
+            raise pickle.UnpicklingError(
+                f"the snapshot refers to external object {index}, but loads() was given {len(self._external)} external object(s)"
+            )
+        return self._external[index]
 
 
 def dumps(obj: Any, external: Sequence[Any] = ()) -> bytes:

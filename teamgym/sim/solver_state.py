@@ -164,16 +164,20 @@ def _set_impulse(constraint: pymunk.Constraint, impulse: tuple[float, ...] | Non
 
 def capture(space: pymunk.Space) -> dict[str, Any]:
     """Bias velocities of the bodies that have one, and the constraints in Chipmunk's order with their impulses."""
-    biased = []
-    for body in space.bodies:
-        b = _cast("tg_body_head *", body._body)
+    head = _cast("tg_space_head *", space._space)
+    moving, biased = head.dynamicBodies, {}  # dynamic and kinematic bodies (static ones have no bias)
+    for i in range(moving.num):
+        b = _ffi.cast("tg_body_head *", moving.arr[i])
         bias = (b.v_bias.x, b.v_bias.y, b.w_bias)
         if bias != (0.0, 0.0, 0.0):
-            biased.append((body, bias))
+            biased[_address(moving.arr[i])] = bias
+    if biased:
+        by_address = {int(_pymunk_ffi.cast("uintptr_t", body._body)): body for body in space.bodies}
+        biased = {by_address[address]: bias for address, bias in biased.items()}
     by_address = {int(_pymunk_ffi.cast("uintptr_t", c._constraint)): c for c in space.constraints}
-    array = _cast("tg_space_head *", space._space).constraints
+    array = head.constraints
     order = [by_address[_address(array.arr[i])] for i in range(array.num)]
-    return {"bias": biased, "constraints": [(c, _impulse(c)) for c in order]}
+    return {"bias": list(biased.items()), "constraints": [(c, _impulse(c)) for c in order]}
 
 
 def restore(space: pymunk.Space, state: dict[str, Any]) -> None:

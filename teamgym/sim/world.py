@@ -344,9 +344,10 @@ class World:
 
     def adopt_fixed(self, objects: list, data: bytes) -> None:
         """After unpickling a snapshot that referred to ``objects`` (pickled as ``data``): they are this world's."""
+        space = self.space
         for entity in objects:
             if isinstance(entity, Entity):
-                entity.space = self.space
+                entity.space = space
         self._fixed = (objects, data)
 
     @staticmethod

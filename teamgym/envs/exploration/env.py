@@ -86,6 +86,7 @@ class Exploration(TeamEnv):
     """Multi-robot exploration of an office (paper 000). See the module docstring."""
 
     metadata = {**TeamEnv.metadata, "name": "exploration_v0"}
+    rebase_cycles = 600  # replaying 600 control cycles takes about 0.1-0.2 s (TeamEnv: copying and pickling)
     config_class = ExplorationConfig
     config: ExplorationConfig
     pixels_per_metre = 400.0
