@@ -184,3 +184,20 @@ def test_a_batch_re_bases_where_single_envs_do_and_stays_exact(monkeypatch):
         if bases == 3 and not clones:  # right after the third base: the batch pickled and deep-copied
             clones = [pickle.loads(pickle.dumps(batch)), copy.deepcopy(batch)]
     assert bases >= 8 and batch.active.all()
+
+
+def test_a_pickle_of_a_release_without_re_bases_still_loads():
+    """Earlier pickles hold config, spaces, RNG state and a log from the reset (no trails, no bases): they replay."""
+    env = teamgym.make("Navigation-v0", max_cycles=500)
+    env.reset(seed=3)
+    rng = np.random.default_rng(0)
+    for _ in range(30):
+        env.step({a: rng.uniform(-0.3, 0.3, 2).astype(np.float32) for a in env.agents})
+    state = env.__getstate__()
+    assert state["log"][0][0] == "reset"
+    old = {key: state[key] for key in ("render_mode", "config", "log", "np_random", "spaces")}
+    clone = type(env).__new__(type(env))
+    clone.__setstate__(copy.deepcopy(old))
+    assert clone.trajectories() == env.trajectories()
+    actions = {a: np.float32([0.1, 0.2]) for a in env.agents}
+    assert outcome(clone, clone.step(dict(actions))) == outcome(env, env.step(dict(actions)))

@@ -518,8 +518,8 @@ class TeamEnv(ParallelEnv):
     #: What a re-base leaves alone: the config and the objects ``__init__`` derives from it that
     #: callers hold (spaces, checkers), the renderer, the log and the trails.
     _KEPT_ON_REBASE: ClassVar[frozenset[str]] = frozenset(
-        {"render_mode", "config", "_checkers", "_observation_spaces", "_action_spaces", "_renderer"}
-        | {"_log", "_trails", "_object_trails", "_trail_archives"}
+        {"render_mode", "config", "possible_agents", "layout", "_checkers", "_observation_spaces", "_action_spaces"}
+        | {"_renderer", "_log", "_trails", "_object_trails", "_trail_archives"}
     )
 
     def _record(self, method: str, *args: Any) -> None:
@@ -583,10 +583,14 @@ class TeamEnv(ParallelEnv):
             "rebase_cycles": self.rebase_cycles,
         }
 
-    def _rebuild(self, state: dict, trails: tuple[dict, dict], archives: tuple[TrailArchive, TrailArchive]) -> None:
-        """Make this (new) env the copy ``state`` describes: config, base, replayed log; then its trails."""
+    def _rebuild(self, state: dict, trails: tuple[dict, dict] | None, archives: tuple[TrailArchive, TrailArchive] | None) -> None:
+        """Make this (new) env the copy ``state`` describes: config, base, replayed log; then its trails.
+
+        ``trails`` None (a pickle of a release without re-bases, whose log starts at the reset):
+        the replay records them.
+        """
         self.__init__(render_mode=None, **state["config"])
-        if state["rebase_cycles"] != self.rebase_cycles:
+        if state.get("rebase_cycles", self.rebase_cycles) != self.rebase_cycles:
             self.rebase_cycles = state["rebase_cycles"]
         for entry in state["log"]:
             if entry[0] == "reset":
@@ -601,8 +605,9 @@ class TeamEnv(ParallelEnv):
                 self.step(entry[1])
             else:
                 getattr(self, entry[1])(*entry[2])
-        self._trails, self._object_trails = trails
-        self._trail_archives = archives
+        if trails is not None:
+            self._trails, self._object_trails = trails
+            self._trail_archives = archives
         self.np_random.bit_generator.state = state["np_random"]
         self._observation_spaces, self._action_spaces = state["spaces"]
         self.render_mode = state["render_mode"]
@@ -611,6 +616,9 @@ class TeamEnv(ParallelEnv):
         return {**self._copy_state(), "trails": self._pack_trails()}
 
     def __setstate__(self, state: dict) -> None:
+        if "trails" not in state:  # pickled by a release without re-bases
+            self._rebuild(state, None, None)
+            return
         (trails, robot_archive), (object_trails, object_archive) = (TrailArchive.unpack(t) for t in state["trails"])
         self._rebuild(state, (trails, object_trails), (robot_archive, object_archive))
 
