@@ -15,6 +15,7 @@ own ``__reduce__``/``__getstate__``.
 
 from __future__ import annotations
 
+import contextvars
 import io
 import pickle
 from collections.abc import Sequence
@@ -32,9 +33,19 @@ def _view(root: np.ndarray, dtype: np.dtype, shape: tuple, strides: tuple, offse
     return view
 
 
+_LOADING: contextvars.ContextVar[Sequence[Any] | None] = contextvars.ContextVar("teamgym_snapshot_external", default=None)
+
+
 def _external(index: int) -> Any:
-    """Stands for ``external[index]`` in a pickle; :func:`loads` resolves it."""
-    raise pickle.UnpicklingError("a snapshot refers to objects it does not hold: load it with teamgym.sim.snapshot.loads")
+    """Stands for ``external[index]`` in a pickle: the object :func:`loads` was given in that place."""
+    external = _LOADING.get()
+    if external is None:
+        raise pickle.UnpicklingError("a snapshot refers to objects it does not hold: load it with teamgym.sim.snapshot.loads")
+    if not 0 <= index < len(external):
+        raise pickle.UnpicklingError(
+            f"the snapshot refers to external object {index}, but loads() was given {len(external)} external object(s)"
+        )
+    return external[index]
 
 
 class _Pickler(pickle.Pickler):
@@ -42,11 +53,11 @@ class _Pickler(pickle.Pickler):
         super().__init__(file, protocol=pickle.HIGHEST_PROTOCOL)
         self._index = {id(obj): i for i, obj in enumerate(external)}
 
-    def reducer_override(self, obj: Any) -> Any:
-        index = self._index.get(id(obj))
-        if index is not None:
-            return _external, (index,)
-        if type(obj) is not np.ndarray or not isinstance(obj.base, np.ndarray) or obj.dtype.hasobject:
+    def reducer_override(self, obj: Any, _ndarray: type = np.ndarray) -> Any:
+        if type(obj) is not _ndarray:
+            index = self._index.get(id(obj))
+            return NotImplemented if index is None else (_external, (index,))
+        if not isinstance(obj.base, _ndarray) or obj.dtype.hasobject:
             return NotImplemented
         root = obj.base
         while isinstance(root.base, np.ndarray):
@@ -55,24 +66,6 @@ class _Pickler(pickle.Pickler):
             return NotImplemented
         offset = obj.__array_interface__["data"][0] - root.__array_interface__["data"][0]
         return _view, (root, obj.dtype, obj.shape, obj.strides, offset, bool(obj.flags.writeable))
-
-
-class _Unpickler(pickle.Unpickler):
-    def __init__(self, file: io.BytesIO, external: Sequence[Any]) -> None:
-        super().__init__(file)
-        self._external = external
-
-    def find_class(self, module: str, name: str) -> Any:
-        if module == __name__ and name == "_external":
-            return self._resolve
-        return super().find_class(module, name)
-
-    def _resolve(self, index: int) -> Any:
-        if not 0 <= index < len(self._external):
-            raise pickle.UnpicklingError(
-                f"the snapshot refers to external object {index}, but loads() was given {len(self._external)} external object(s)"
-            )
-        return self._external[index]
 
 
 def dumps(obj: Any, external: Sequence[Any] = ()) -> bytes:
@@ -84,4 +77,8 @@ def dumps(obj: Any, external: Sequence[Any] = ()) -> bytes:
 
 def loads(data: bytes, external: Sequence[Any] = ()) -> Any:
     """Unpickle what :func:`dumps` wrote, with ``external[i]`` where it referred to the ``i``-th external object."""
-    return _Unpickler(io.BytesIO(data), external).load()
+    token = _LOADING.set(external)
+    try:
+        return pickle.loads(data)
+    finally:
+        _LOADING.reset(token)

@@ -82,17 +82,22 @@ _ffi.cdef(
     """
 )
 _CACHED = 3  # CP_ARBITER_STATE_CACHED
+_ARBITER = _pymunk_ffi.typeof("cpArbiter *")
 _layout: bool | None = None
+
+
+_UINTPTR, _OWN_UINTPTR = _pymunk_ffi.typeof("uintptr_t"), _ffi.typeof("uintptr_t")
+_TYPES = {kind: _ffi.typeof(kind) for kind in ("tg_body_head *", "tg_pivot *", "tg_gear *", "tg_space_head *")}
 
 
 def _cast(kind: str, handle: Any) -> Any:
     """``handle`` (a pymunk cffi pointer or an address) as a pointer to one of the structs above."""
-    address = handle if isinstance(handle, int) else int(_pymunk_ffi.cast("uintptr_t", handle))
-    return _ffi.cast(kind, address)
+    address = handle if isinstance(handle, int) else int(_pymunk_ffi.cast(_UINTPTR, handle))
+    return _ffi.cast(_TYPES[kind], address)
 
 
 def _address(pointer: Any) -> int:
-    return int(_ffi.cast("uintptr_t", pointer))
+    return int(_ffi.cast(_OWN_UINTPTR, pointer))
 
 
 def _check_layout() -> bool:
@@ -167,14 +172,14 @@ def capture(space: pymunk.Space) -> dict[str, Any]:
     head = _cast("tg_space_head *", space._space)
     moving, biased = head.dynamicBodies, {}  # dynamic and kinematic bodies (static ones have no bias)
     for i in range(moving.num):
-        b = _ffi.cast("tg_body_head *", moving.arr[i])
+        b = _ffi.cast(_TYPES["tg_body_head *"], moving.arr[i])
         bias = (b.v_bias.x, b.v_bias.y, b.w_bias)
         if bias != (0.0, 0.0, 0.0):
             biased[_address(moving.arr[i])] = bias
     if biased:
-        by_address = {int(_pymunk_ffi.cast("uintptr_t", body._body)): body for body in space.bodies}
+        by_address = {int(_pymunk_ffi.cast(_UINTPTR, body._body)): body for body in space.bodies}
         biased = {by_address[address]: bias for address, bias in biased.items()}
-    by_address = {int(_pymunk_ffi.cast("uintptr_t", c._constraint)): c for c in space.constraints}
+    by_address = {int(_pymunk_ffi.cast(_UINTPTR, c._constraint)): c for c in space.constraints}
     array = head.constraints
     order = [by_address[_address(array.arr[i])] for i in range(array.num)]
     return {"bias": list(biased.items()), "constraints": [(c, _impulse(c)) for c in order]}
@@ -196,7 +201,7 @@ def restore(space: pymunk.Space, state: dict[str, Any]) -> None:
     kept = 0
     for i in range(touching.num):
         arbiter = touching.arr[i]
-        if _pymunk_ffi.cast("cpArbiter *", _address(arbiter)).state != _CACHED:
+        if _pymunk_ffi.cast(_ARBITER, _address(arbiter)).state != _CACHED:
             touching.arr[kept] = arbiter
             kept += 1
     touching.num = kept
