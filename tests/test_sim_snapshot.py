@@ -140,21 +140,22 @@ def test_a_pair_that_separated_just_before_the_pickle_begins_again_when_it_touch
     assert touch_again(*pickle.loads(pickle.dumps(plain)))[-1] == 1  # what SolverSpace mends
 
 
-def test_fixed_entities_are_pickled_once_and_move_into_a_restored_world():
+def test_fixed_entities_are_referred_to_and_move_into_a_restored_world():
     world = World((1.0, 1.0))
     walls = world.add_boundary()
     robot = world.add(DiffDriveRobot("r", (0.5, 0.5), 0.0))
-    fixed = world.fixed_objects()
+    record = world.fixed_record()
+    fixed = record.objects
     assert fixed[0] is walls[0] and robot not in fixed and len(fixed) == 4 * 3  # each wall, its body and its shape
-    fresh = World.load_fixed(world.fixed_snapshot())
+    fresh = pickle.loads(pickle.dumps(record)).fresh().objects  # a record pickles as its objects' pickle
     assert [type(x) for x in fresh] == [type(x) for x in fixed] and fresh[0].space is None
     assert isinstance(fresh[0], Wall) and fresh[0].a == walls[0].a and fresh[2].entity is fresh[0]
     data = snapshot.dumps(world, external=fixed)
     world.release_fixed()
     restored = snapshot.loads(data, external=fixed)
-    restored.adopt_fixed(fixed, world.fixed_snapshot())
+    restored.adopt_fixed(record)
     assert walls[0].space is restored.space and walls[0].shapes[0].space is restored.space
-    assert len(restored.space.shapes) == 5 and restored.fixed_objects() is fixed
+    assert len(restored.space.shapes) == 5 and restored.fixed_record() is record
 
 
 def test_trails_pack_each_point_once_and_unpack_bit_for_bit():

@@ -47,7 +47,7 @@ from teamgym.sim import snapshot
 from teamgym.sim.channel import Channel, ChannelConfig
 from teamgym.sim.render import Overlay, Renderer, robot_colour
 from teamgym.sim.robot import DiffDriveRobot
-from teamgym.sim.world import World
+from teamgym.sim.world import FixedRecord, World
 
 #: Outcome of ``_check_feasible`` per (env class, config): None or the error message.
 _FEASIBILITY: dict[tuple[type, EnvConfig], str | None] = {}
@@ -548,24 +548,23 @@ class TeamEnv(ParallelEnv):
     def _rebase(self) -> None:
         """Snapshot the episode state, replace the live state by the unpickled snapshot and start the log there.
 
-        The world's fixed entities (walls, furniture) are referred to, not pickled: their own
-        snapshot is taken once per world, and the live ones move into the restored world.
+        The world's fixed entities (walls, furniture) are referred to, not pickled: the live ones
+        move into the restored world, and a copy gets fresh ones (:class:`~teamgym.sim.world.FixedRecord`).
         """
         world = self.world
-        fixed = world.fixed_objects()
-        data = snapshot.dumps(self._episode_state(), external=[self, *fixed])
-        static = world.fixed_snapshot()
+        fixed = world.fixed_record()
+        data = snapshot.dumps(self._episode_state(), external=[self, *fixed.objects])
         world.release_fixed()
-        self._adopt_episode_state(snapshot.loads(data, external=[self, *fixed]))
-        self.world.adopt_fixed(fixed, static)
-        self._log = [("base", data, self.cycles, static)]
+        self._adopt_episode_state(snapshot.loads(data, external=[self, *fixed.objects]))
+        self.world.adopt_fixed(fixed)
+        self._log = [("base", data, self.cycles, fixed)]
         self._pack_trails()  # the points so far, once: later pickles convert only newer ones
 
-    def _restore_base(self, data: bytes, static: bytes) -> None:
+    def _restore_base(self, data: bytes, fixed: FixedRecord) -> None:
         """Take the state of a snapshot :meth:`_rebase` logged (where a copy starts)."""
-        fixed = World.load_fixed(static)
-        self._adopt_episode_state(snapshot.loads(data, external=[self, *fixed]))
-        self.world.adopt_fixed(fixed, static)
+        fresh = fixed.fresh()
+        self._adopt_episode_state(snapshot.loads(data, external=[self, *fresh.objects]))
+        self.world.adopt_fixed(fresh)
 
     def _pack_trails(self) -> tuple[dict, dict]:
         archives = self.__dict__.get("_trail_archives")

@@ -316,46 +316,59 @@ class World:
         return np.array([counts.get(name, 0) for name in names], dtype=np.int64)
 
     # -- snapshots (TeamEnv's re-bases) ---------------------------------------------
-    def fixed_objects(self) -> list:
-        """The entities marked ``fixed`` (walls, furniture), each followed by its bodies and shapes, in the order added.
-
-        A snapshot of the world refers to these instead of pickling them; :meth:`fixed_snapshot`
-        pickles them once.
-        """
+    def fixed_record(self) -> FixedRecord:
+        """The entities marked ``fixed`` (walls, furniture) with their bodies and shapes (see :class:`FixedRecord`)."""
         if self._fixed is None:
-            self._fixed = ([x for e in self.entities.values() if e.fixed for x in (e, *e.bodies, *e.shapes)], None)
-        return self._fixed[0]
-
-    def fixed_snapshot(self) -> bytes:
-        """:meth:`fixed_objects` pickled (once; the space they are in is left out)."""
-        objects = self.fixed_objects()
-        data = self._fixed[1]
-        if data is None:
-            data = snapshot.dumps(objects, external=[self.space])
-            self._fixed = (objects, data)
-        return data
+            self._fixed = FixedRecord([x for e in self.entities.values() if e.fixed for x in (e, *e.bodies, *e.shapes)])
+        return self._fixed
 
     def release_fixed(self) -> None:
         """Take the fixed bodies and shapes out of the space, for a world restored from a snapshot to take them."""
-        objects = self.fixed_objects()
+        objects = self.fixed_record().objects
         shapes = [x for x in objects if isinstance(x, pymunk.Shape)]
-        bodies = [x for x in objects if isinstance(x, pymunk.Body)]
-        self.space.remove(*shapes, *bodies)
+        self.space.remove(*shapes, *(x for x in objects if isinstance(x, pymunk.Body)))
 
-    def adopt_fixed(self, objects: list, data: bytes) -> None:
-        """After unpickling a snapshot that referred to ``objects`` (pickled as ``data``): they are this world's."""
+    def adopt_fixed(self, record: FixedRecord) -> None:
+        """After unpickling a snapshot that referred to ``record``'s objects: they are this world's."""
         space = self.space
-        for entity in objects:
+        for entity in record.objects:
             if isinstance(entity, Entity):
                 entity.space = space
-        self._fixed = (objects, data)
-
-    @staticmethod
-    def load_fixed(data: bytes) -> list:
-        """Fresh fixed objects from :meth:`fixed_snapshot` (not yet in a space)."""
-        return snapshot.loads(data, external=[None])
+        self._fixed = record
 
     def __getstate__(self) -> dict:
         state = self.__dict__.copy()
         state["_fixed"] = None
         return state
+
+
+class FixedRecord:
+    """A world's fixed entities, each followed by its bodies and shapes (in the order added), pickled when first needed.
+
+    A snapshot of the world refers to these objects instead of pickling them; a copy of the
+    world gets fresh ones from :meth:`fresh`. Fixed entities never change once added, so the
+    pickle, taken when a copy first needs it, holds them as they were at any earlier re-base.
+    A record pickles as that pickle (``objects`` is then None) and deep-copies as itself.
+    """
+
+    def __init__(self, objects: list | None, data: tuple[int, bytes] | None = None) -> None:
+        self.objects = objects
+        self._data = data
+
+    def data(self) -> tuple[int, bytes]:
+        """The number of spaces the objects referred to (left out of the pickle) and the pickle."""
+        if self._data is None:
+            spaces = list({id(e.space): e.space for e in self.objects if isinstance(e, Entity) and e.space is not None}.values())
+            self._data = (len(spaces), snapshot.dumps(self.objects, external=spaces))
+        return self._data
+
+    def fresh(self) -> FixedRecord:
+        """New objects like these (in no space), with the same pickle."""
+        n_spaces, data = self.data()
+        return FixedRecord(snapshot.loads(data, external=[None] * n_spaces), (n_spaces, data))
+
+    def __reduce__(self) -> tuple:
+        return FixedRecord, (None, self.data())
+
+    def __deepcopy__(self, memo: dict) -> FixedRecord:
+        return self
