@@ -225,10 +225,14 @@ class SolverSpace(pymunk.Space):
         later = ("shapes", "shapeIDCounter", "arbiters", "teamgym_solver")
         special = dict(state["special"])
         super().__setstate__({**state, "special": [(k, v) for k, v in state["special"] if k not in later]})
+        handle, counter = self._space, _lib.cpSpaceGetShapeIDCounter(self._space)
         for shape in special["shapes"]:
-            _lib.cpSpaceSetShapeIDCounter(self._space, shape._hashid)
-            self.add(shape)
-        _lib.cpSpaceSetShapeIDCounter(self._space, special["shapeIDCounter"])
+            hashid = shape._hashid
+            if hashid != counter:
+                _lib.cpSpaceSetShapeIDCounter(handle, hashid)
+            self._add_shape(shape)  # pymunk's add, without its loop over types
+            counter = hashid + 1
+        _lib.cpSpaceSetShapeIDCounter(handle, special["shapeIDCounter"])
         for arbiter in special["arbiters"]:
             _lib.cpSpaceAddCachedArbiter(self._space, _arbiter_from_dict(arbiter, self))
         if "teamgym_solver" in special and layout_matches():

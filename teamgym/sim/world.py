@@ -324,9 +324,13 @@ class World:
 
     def release_fixed(self) -> None:
         """Take the fixed bodies and shapes out of the space, for a world restored from a snapshot to take them."""
-        objects = self.fixed_record().objects
-        shapes = [x for x in objects if isinstance(x, pymunk.Shape)]
-        self.space.remove(*shapes, *(x for x in objects if isinstance(x, pymunk.Body)))
+        space = self.space
+        for x in self.fixed_record().objects:  # shapes before their bodies (pymunk's remove, without its loop over types)
+            if isinstance(x, pymunk.Shape):
+                space._remove_shape(x)
+        for x in self._fixed.objects:
+            if isinstance(x, pymunk.Body):
+                space._remove_body(x)
 
     def adopt_fixed(self, record: FixedRecord) -> None:
         """After unpickling a snapshot that referred to ``record``'s objects: they are this world's."""
