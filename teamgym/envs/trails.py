@@ -52,7 +52,7 @@ class TrailArchive:
         archive = cls()
         trails = {}
         for name, chunks in packed.items():
-            points = [tuple(p) for chunk in chunks for p in chunk.tolist()]
+            points = list(map(tuple, np.concatenate(chunks).tolist())) if chunks else []
             trails[name] = points
             archive._entries[name] = (points, list(chunks), len(points))
         return trails, archive
