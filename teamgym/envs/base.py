@@ -574,7 +574,7 @@ class TeamEnv(ParallelEnv):
         self.world.adopt_fixed(fresh)
 
     def _pack_trails(self) -> tuple[dict, dict]:
-        archives = self.__dict__.get("_trail_archives")
+        archives = getattr(self, "_trail_archives", None)
         if archives is None:
             archives = self._trail_archives = (TrailArchive(), TrailArchive())
         return archives[0].pack(self._trails), archives[1].pack(self._object_trails)
@@ -630,7 +630,7 @@ class TeamEnv(ParallelEnv):
 
     def __deepcopy__(self, memo: dict) -> TeamEnv:
         clone = type(self).__new__(type(self))
-        archives = self.__dict__.get("_trail_archives") or (TrailArchive(), TrailArchive())
+        archives = getattr(self, "_trail_archives", None) or (TrailArchive(), TrailArchive())
         (trails, robot_archive), (object_trails, object_archive) = (
             archive.copied(t) for archive, t in zip(archives, (self._trails, self._object_trails))
         )
