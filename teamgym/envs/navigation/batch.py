@@ -18,10 +18,9 @@ ignored. A copy whose robots are all done stops stepping until :meth:`reset_copy
 no automatic reset (the caller decides when and with which seed). Trails are not recorded
 and nothing renders. Learned messages (``comm_dim``) and ``obs_format="dict"`` are not supported
 (observations are flat; ``batch.layout.decode`` names their fields). A batch, and each of its
-copies alone, survives ``pickle`` and ``copy.deepcopy`` mid-episode and continues identically:
-every copy logs the joint actions it was stepped with since its last base and is rebuilt from
-that base by replaying them, and re-bases where a single env does (``TeamEnv.rebase_cycles``),
-as a single env is.
+copies alone, survives ``pickle`` and ``copy.deepcopy`` mid-episode and continues identically,
+as a single env does: every copy logs the joint actions it was stepped with since its last base
+(``TeamEnv``, "copying and pickling") and re-bases at the cycles a single env would.
 """
 
 from __future__ import annotations
