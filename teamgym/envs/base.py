@@ -8,12 +8,13 @@ implements these hooks:
 * ``_setup()`` once, after the config is parsed and the agents are named (build what depends
   only on the config: robot specs, sensors, maps), then ``_make_action_type()`` and ``_make_layout()``;
 * ``_build(rng)``: a new episode's :class:`~teamgym.sim.world.World`, robots and initial readings
-  (``self.reset_options`` holds the ``options`` given to ``reset``; messages sent here are
-  delivered before the first observation);
+  (``self.reset_options`` holds the ``options`` given to ``reset``, as ``_check_reset_options``
+  returned them; messages sent here are delivered before the first observation);
 * ``_observe(out)``: every live agent's flat observation into a preallocated array;
 * ``episode_success()``: the episode contract;
 
-and may override the step phases, which :meth:`TeamEnv.step` runs in this order:
+and may declare ``reset_option_keys`` with ``_check_reset_options(options)`` (validate every
+option before the reset changes anything), and override the step phases, which :meth:`TeamEnv.step` runs in this order:
 
 1. **control**: ``action_type.start`` once, then per control step ``action_type.act`` for
    every acting agent and ``_before_physics()``;
@@ -41,6 +42,7 @@ from pettingzoo import ParallelEnv
 
 from teamgym.envs.actions import ActionType, UnitScaled, WithMessage
 from teamgym.envs.config import ConfigError, EnvConfig
+from teamgym.envs.reset_input import check_option_keys, check_seed
 from teamgym.envs.spaces import ActionChecker, Field, ObservationLayout
 from teamgym.sim.channel import Channel, ChannelConfig
 from teamgym.sim.render import Overlay, Renderer, robot_colour
@@ -71,6 +73,8 @@ class TeamEnv(ParallelEnv):
     #: Observation fields the base adds when ``comm_dim > 0``; a task may not use these names.
     INBOX_FIELDS: ClassVar[tuple[str, ...]] = ("inbox", "inbox_sender", "inbox_mask")
     pixels_per_metre: ClassVar[float] = 200.0
+    #: Keys ``reset(options=...)`` accepts (checked by ``_check_reset_options``); others are refused.
+    reset_option_keys: ClassVar[tuple[str, ...]] = ()
 
     def __init__(self, render_mode: str | None = None, **config: Any) -> None:
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
@@ -119,6 +123,13 @@ class TeamEnv(ParallelEnv):
     # -- hooks for subclasses --------------------------------------------------------
     def _setup(self) -> None:
         """Build once what depends only on ``self.config`` (robot specs, sensors, maps)."""
+
+    def _check_reset_options(self, options: dict) -> dict:
+        """Validate the ``reset`` options (keys already in ``reset_option_keys``) before anything changes.
+
+        Returns them as ``_build`` reads them from ``self.reset_options``; raise naming the key.
+        """
+        return options
 
     def _check_feasible(self) -> None:
         """Raise :class:`ConfigError` if episodes of this config cannot be built (e.g. sample scenes)."""
@@ -228,15 +239,15 @@ class TeamEnv(ParallelEnv):
 
     # -- episode protocol ------------------------------------------------------------
     def reset(self, seed: int | None = None, options: dict | None = None):
-        if options is not None and not isinstance(options, dict):
-            raise TypeError(f"reset options must be a dict or None, got {type(options).__name__}")
+        seed = check_seed(seed)
+        checked = self._check_reset_options(check_option_keys(type(self).__name__, options, self.reset_option_keys))
         self._log = [("reset", self.np_random.bit_generator.state, seed, copy.deepcopy(options))]
         if seed is not None:
             self.np_random = np.random.default_rng(seed)
         self.agents = list(self.possible_agents)
         self.cycles = 0
         self._joining = []
-        self.reset_options: dict = dict(options) if options else {}
+        self.reset_options: dict = checked
         self.channel.reset()
         self._build(self.np_random)
         self._deliver_messages()

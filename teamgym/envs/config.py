@@ -100,6 +100,12 @@ def _has_non_finite(value: Any) -> bool:
 #: other (at the default 2 mm per substep the deepest penetration is under 2 mm).
 MAX_SUBSTEP_TRAVEL = 0.005
 
+#: Bounds of every env's episode length (control steps) and control step Δt (s): an episode
+#: of up to a billion steps, and a Δt no shorter than a tenth of a millisecond (below it, the
+#: episode length derived from a time limit overflows long before physics means anything).
+MAX_CYCLES = 10**9
+MIN_DT = 1e-4
+
 
 @dataclasses.dataclass(frozen=True)
 class EnvConfig:
@@ -148,7 +154,9 @@ class EnvConfig:
     comm_byte_budget: int | None = None
     normalize_actions: bool = False
 
-    #: Fastest speed (m/s) a body of the env can reach; bounds the substep length (see ``check``).
+    #: Keys :attr:`cycle_limit` is derived from (named when it is out of range).
+    cycle_limit_keys: ClassVar[tuple[str, ...]] = ("max_cycles",)
+    #: Fastest speed (m/s) a body of the env can reach; bounds the substep length (see ``check_relations``).
     body_speed_keys: ClassVar[tuple[str, ...]] = ()
     default_body_speed: ClassVar[float] = 0.4
 
@@ -163,6 +171,7 @@ class EnvConfig:
             if converted is not value:
                 object.__setattr__(self, f.name, converted)
         self.check()
+        self.check_relations()
 
     @classmethod
     def field_names(cls) -> list[str]:
@@ -197,23 +206,46 @@ class EnvConfig:
         return max([self.default_body_speed, *(float(getattr(self, k)) for k in self.body_speed_keys)])
 
     def check(self) -> None:
-        """Range checks; subclasses extend with ``super().check()``."""
-        require(self, "max_cycles", self.max_cycles >= 1, "must be >= 1")
-        require(self, "dt", 0 < self.dt <= 10, "must be in (0, 10] s")
+        """Each key's own range, whatever the other keys say; subclasses extend with ``super().check()``.
+
+        Every key is range-checked here on its own, so an out-of-range value is reported under
+        its own name before any check that ties keys together (:meth:`check_relations`) runs.
+        """
+        require(self, "max_cycles", 1 <= self.max_cycles <= MAX_CYCLES, f"must be in [1, {MAX_CYCLES:.0e}]")
+        require(self, "dt", MIN_DT <= self.dt <= 10, f"must be in [{MIN_DT}, 10] s")
         require(self, "substeps", 1 <= self.substeps <= 1000, "must be in [1, 1000]")
-        require(self, "coarse_substeps", 0 <= self.coarse_substeps <= self.substeps, "must be in [0, substeps] (0: off)")
+        require(self, "coarse_substeps", 0 <= self.coarse_substeps <= 1000, "must be in [0, 1000] (0: off)")
         require(self, "comm_dim", 0 <= self.comm_dim <= 1024, "must be in [0, 1024] (0: no learned message)")
         require(self, "comm_range", self.comm_range is None or self.comm_range >= 0, "must be >= 0 m or None (unlimited)")
         require(self, "comm_throughput", 0 <= self.comm_throughput <= 1, "must be in [0, 1]")
         require(self, "comm_latency", 0 <= self.comm_latency <= 1000, "must be in [0, 1000] steps")
         require(self, "comm_byte_budget", self.comm_byte_budget is None or self.comm_byte_budget >= 0, "must be >= 0 or None")
-        travel = self.body_speed() * self.dt / self.substeps
-        require(
+
+    def check_relations(self) -> None:
+        """Checks that tie several keys together, run after every key's own range (:meth:`check`).
+
+        Subclasses extend with ``super().check_relations()``; each message names every key
+        involved (:func:`require_together`).
+        """
+        require_together(
             self,
-            "substeps",
+            ("coarse_substeps", "substeps"),
+            self.coarse_substeps <= self.substeps,
+            "coarse_substeps must not exceed substeps",
+        )
+        travel = self.body_speed() * self.dt / self.substeps
+        require_together(
+            self,
+            ("substeps", "dt", *self.body_speed_keys),
             travel <= MAX_SUBSTEP_TRAVEL + 1e-12,
-            f"is too few for dt={self.dt} s: a body at {self.body_speed()} m/s would move {travel * 1000:.1f} mm per "
-            f"substep, more than {MAX_SUBSTEP_TRAVEL * 1000:.0f} mm (raise substeps or lower dt)",
+            f"a body at {self.body_speed()} m/s would move {travel * 1000:.1f} mm per substep, more than "
+            f"{MAX_SUBSTEP_TRAVEL * 1000:.0f} mm (raise substeps or lower dt)",
+        )
+        require_together(
+            self,
+            self.cycle_limit_keys,
+            1 <= self.cycle_limit <= MAX_CYCLES,
+            f"they give an episode of {self.cycle_limit} control steps; it must be in [1, {MAX_CYCLES:.0e}]",
         )
 
     def world_options(self) -> dict[str, Any]:
@@ -234,3 +266,12 @@ def require(config: EnvConfig, key: str, condition: bool, message: str) -> None:
     """Raise :class:`ConfigError` naming ``key`` and its value unless ``condition`` holds."""
     if not condition:
         raise ConfigError(f"{type(config).__name__}: {key}={getattr(config, key)!r} is invalid; it {message}")
+
+
+def require_together(config: EnvConfig, keys: tuple[str, ...], condition: bool, message: str) -> None:
+    """Raise :class:`ConfigError` naming every one of ``keys`` with its value unless ``condition`` holds."""
+    if not condition:
+        named = list(dict.fromkeys(keys))
+        values = ", ".join(f"{key}={getattr(config, key)!r}" for key in named)
+        verdict = "is invalid" if len(named) == 1 else "do not fit together"
+        raise ConfigError(f"{type(config).__name__}: {values} {verdict}; {message}")

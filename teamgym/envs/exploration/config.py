@@ -6,7 +6,7 @@ import functools
 from dataclasses import dataclass
 from typing import Literal
 
-from teamgym.envs.config import ConfigError, EnvConfig, require
+from teamgym.envs.config import ConfigError, EnvConfig, require, require_together
 from teamgym.maps.model import MapError, OfficeMap, load_map
 from teamgym.sim.robot import RobotSpec
 
@@ -49,25 +49,6 @@ class ExplorationConfig(EnvConfig):
     def check(self) -> None:
         super().check()
         require(self, "n_robots", 1 <= self.n_robots <= 16, "must be in [1, 16]")
-        try:
-            office = cached_map(self.map)
-        except MapError as error:
-            raise ConfigError(f"ExplorationConfig: map={self.map!r} is invalid: {error}") from None
-        sectors, doors = set(office.sector_ids), set(office.door_ids)
-        for key in ("goal_sectors", "start_sectors"):
-            unknown = [s for s in getattr(self, key) if s not in sectors]
-            require(self, key, not unknown, f"names unknown sector(s) {unknown}; map {office.name!r} has {office.sector_ids}")
-        require(
-            self,
-            "start_sectors",
-            len(self.start_sectors) in (0, self.n_robots),
-            f"must be empty (random) or give one sector per robot ({self.n_robots})",
-        )
-        for key in ("open_doors", "closed_doors"):
-            unknown = [d for d in getattr(self, key) if d not in doors]
-            require(self, key, not unknown, f"names unknown door(s) {unknown}; map {office.name!r} has {office.door_ids}")
-        both = sorted(set(self.open_doors) & set(self.closed_doors))
-        require(self, "closed_doors", not both, f"names door(s) {both} that open_doors also names")
         require(self, "door_resample_period", self.door_resample_period >= 0, "must be >= 0 (0: never)")
         require(self, "wait_steps", self.wait_steps >= 1, "must be >= 1")
         require(self, "max_speed", 0 < self.max_speed <= RobotSpec.max_wheel_speed, "must be in (0, 0.4] m/s")
@@ -76,3 +57,30 @@ class ExplorationConfig(EnvConfig):
         require(self, "clutter_prior_weight", self.clutter_prior_weight > 0, "must be > 0")
         require(self, "sensor_range", self.sensor_range > 0, "must be > 0")
         require(self, "sensor_noise", self.sensor_noise >= 0, "must be >= 0")
+        both = sorted(set(self.open_doors) & set(self.closed_doors))
+        require(self, "closed_doors", not both, f"names door(s) {both} that open_doors also names")
+        try:
+            cached_map(self.map)
+        except MapError as error:
+            raise ConfigError(f"ExplorationConfig: map={self.map!r} is invalid: {error}") from None
+
+    def check_relations(self) -> None:
+        super().check_relations()
+        office = cached_map(self.map)
+        sectors, doors = set(office.sector_ids), set(office.door_ids)
+        for key in ("goal_sectors", "start_sectors"):
+            unknown = [s for s in getattr(self, key) if s not in sectors]
+            require_together(
+                self, (key, "map"), not unknown, f"{key} names unknown sector(s) {unknown}; the map has {office.sector_ids}"
+            )
+        require_together(
+            self,
+            ("start_sectors", "n_robots"),
+            len(self.start_sectors) in (0, self.n_robots),
+            f"start_sectors must be empty (random) or give one sector per robot ({self.n_robots})",
+        )
+        for key in ("open_doors", "closed_doors"):
+            unknown = [d for d in getattr(self, key) if d not in doors]
+            require_together(
+                self, (key, "map"), not unknown, f"{key} names unknown door(s) {unknown}; the map has {office.door_ids}"
+            )

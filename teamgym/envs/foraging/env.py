@@ -69,6 +69,7 @@ from teamgym.envs.foraging.perception import (
     packet_bytes,
     visibility,
 )
+from teamgym.envs.reset_input import scene_points
 from teamgym.envs.spaces import Field, ObservationLayout
 from teamgym.sim.objects import Target
 from teamgym.sim.render import Overlay
@@ -87,6 +88,7 @@ class Foraging(TeamEnv):
 
     metadata = {**TeamEnv.metadata, "name": "foraging_v0"}
     config_class = ForagingConfig
+    reset_option_keys = ("targets", "starts")
     uses_channel = True
     config: ForagingConfig
     pixels_per_metre = 160.0
@@ -179,10 +181,8 @@ class Foraging(TeamEnv):
         if scene is None:
             raise ConfigError("ForagingConfig: the scene could not be placed (see make()'s feasibility check)")
         targets, starts = scene
-        if "targets" in self.reset_options:
-            targets = self._option("targets", (c.n_targets, 2), 0.0)
-        if "starts" in self.reset_options:
-            starts = self._option("starts", (c.n_robots, 3), self.spec.radius)
+        targets = self.reset_options.get("targets", targets)
+        starts = self.reset_options.get("starts", starts)
         self.world = World(self.grid_size, **c.world_options())
         self.world.add_boundary()
         self.robots = {
@@ -219,14 +219,11 @@ class Foraging(TeamEnv):
             self.models = {a: GridWorldModel(self.grid, n, i) for i, a in enumerate(self.possible_agents)}
         self._sense()
 
-    def _option(self, key: str, shape: tuple[int, ...], margin: float) -> np.ndarray:
-        value = np.asarray(self.reset_options[key], dtype=float)
-        xy = value[..., :2] if value.shape == shape else np.array(np.nan)
-        (w, h) = self.grid_size
-        inside = (xy[..., 0] >= margin) & (xy[..., 0] <= w - margin) & (xy[..., 1] >= margin) & (xy[..., 1] <= h - margin)
-        if not np.all(inside):  # NaN fails too
-            raise ValueError(f"reset option {key!r}={self.reset_options[key]!r} must have shape {shape}, points in the field")
-        return value
+    def _check_reset_options(self, options: dict) -> dict:
+        """``targets`` ``(n_targets, 2)`` and ``starts`` ``(n_robots, 3)``: points in the field (starts a radius inside)."""
+        c, size = self.config, self.grid_size
+        shapes = {"targets": ((c.n_targets, 2), 0.0), "starts": ((c.n_robots, 3), self.spec.radius)}
+        return {key: scene_points(key, value, shapes[key][0], size, shapes[key][1]) for key, value in options.items()}
 
     # -- step phases --------------------------------------------------------------------------
     def _read_pose(self) -> np.ndarray:
