@@ -210,8 +210,8 @@ class Training:
                 raise ValueError(f"the model {str(self.resume)!r} was trained with {detected}, not {algo.lower()}")
         self.algo = algo.lower()
         cls = algorithm_class(self.algo)
+        check_hyperparameters(self.algo, hyperparameters or {})  # before any env: keys, types and ranges
         hyperparameters = dict(hyperparameters or {})
-        check_hyperparameters(self.algo, hyperparameters)  # before any env: keys, types and ranges
         if progress_bar:
             _require("tqdm", "the progress bar")
             _require("rich", "the progress bar")
