@@ -341,6 +341,9 @@ def test_a_resumed_run_checks_against_the_saved_values():
     parsed = train_module._saved_hyperparameters(saved)
     assert parsed == {"n_steps": 32, "policy_kwargs": {"net_arch": [64]}, "learning_rate": "<function f>"}
     assert train_module._saved_hyperparameters({}) == {}
+    check_hyperparameters("ppo", {"batch_size": 1}, base={"normalize_advantage": False})  # the model's own setting
+    with pytest.raises(ValueError, match="batch_size=1"):
+        check_hyperparameters("ppo", {"batch_size": 1}, base={"n_steps": 32})
 
 
 @pytest.mark.parametrize(("error", "code"), [(AssertionError("an SB3 assert"), 2), (RuntimeError("torch broke"), 1)])

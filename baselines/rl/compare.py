@@ -21,6 +21,10 @@ successful episodes); path length per
 robot (m) and collisions per robot, as means with 95 % intervals. With ``--curve``, the agent's
 learning curve (its ``<agent>_eval.csv``; ``--curve-metric``: success rate, collisions or path length) is
 drawn with the scripted rows' values as lines.
+
+A bad command line (``--episodes`` above ``baselines.evaluate.MAX_EPISODES``, an empty ``--env``,
+``--agent`` or ``--out``), env id, task config, agent, ``--out`` that cannot be written or missing
+learning curve exits 2 with one ``error: ...`` line before any policy plays.
 """
 
 from __future__ import annotations

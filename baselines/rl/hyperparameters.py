@@ -282,13 +282,14 @@ def _check(
             raise ValueError(f"hyperparameter {key}={_shown(value)} of {owner}: expected {rule.expected}")
 
 
-def check_hyperparameters(algo: str, params: Mapping[str, Any]) -> None:
+def check_hyperparameters(algo: str, params: Mapping[str, Any], base: Mapping[str, Any] | None = None) -> None:
     """Raise one-line ``ValueError`` for a keyword ``algo`` does not take, a reserved one or a bad value.
 
     ``policy_kwargs`` are checked key by key against ``algo``'s ``MlpPolicy``; ``batch_size``
     (PPO, MaskablePPO) must be >= 2 while ``normalize_advantage`` is true (SB3's default), and
-    ``optimize_memory_usage`` needs ``replay_buffer_kwargs={'handle_timeout_termination': False}``.
-    An unknown ``algo`` raises ``ValueError`` naming the offered ones.
+    ``optimize_memory_usage`` needs ``replay_buffer_kwargs={'handle_timeout_termination': False}``;
+    for these pairs ``base`` (a resumed model's values) fills in keys not in ``params`` before
+    SB3's defaults do. An unknown ``algo`` raises ``ValueError`` naming the offered ones.
     """
     if not isinstance(params, Mapping) or not all(isinstance(k, str) for k in params):
         raise ValueError(f"hyperparameters must map keyword names to values, got {_shown(params)}")
@@ -297,7 +298,7 @@ def check_hyperparameters(algo: str, params: Mapping[str, Any]) -> None:
     policy_kwargs = params.get("policy_kwargs")
     if policy_kwargs:
         _check(algo, policy_kwargs, policy_rules(algo), _POLICY_RESERVED, "'s policy_kwargs")
-    _check_pairs(algo, params)
+    _check_pairs(algo, {**(base or {}), **params})
 
 
 def _value(algo: str, params: Mapping[str, Any], key: str) -> Any:

@@ -46,8 +46,10 @@ Research tooling (all off by default; see ``docs/training.md``):
   sidecar's ``bc`` records the settings and the expert's and the clone's success on the
   collected episodes.
 
-Bad arguments exit with code 2 and one ``error: ...`` line before training starts; a
-failure during training exits 1 with one line (``TEAMGYM_TRACEBACK=1`` shows the traceback).
+Bad arguments exit with code 2 and one ``error: ...`` line before training starts (``--hp``
+values and a preset's hyperparameters before any env is built: :mod:`baselines.rl.hyperparameters`;
+an ``--out`` that cannot be written before anything runs); any other failure exits 1 with one
+line (``TEAMGYM_TRACEBACK=1`` shows the traceback).
 Ctrl-C saves the model trained so far to ``--out`` (its sidecar says ``"interrupted": true``).
 """
 
@@ -210,7 +212,8 @@ class Training:
                 raise ValueError(f"the model {str(self.resume)!r} was trained with {detected}, not {algo.lower()}")
         self.algo = algo.lower()
         cls = algorithm_class(self.algo)
-        check_hyperparameters(self.algo, hyperparameters or {})  # before any env: keys, types and ranges
+        resumed_hp = _saved_hyperparameters(previous) if self.resume else {}
+        check_hyperparameters(self.algo, hyperparameters or {}, resumed_hp)  # before any env: keys, types and ranges
         hyperparameters = dict(hyperparameters or {})
         if progress_bar:
             _require("tqdm", "the progress bar")
@@ -253,7 +256,7 @@ class Training:
             action_space = probe.action_space(probe.possible_agents[0])
             check_action_space(self.algo, action_space)
             slots = self.n_envs * len(probe.possible_agents)  # TeamVecEnv's num_envs
-            base = _saved_hyperparameters(previous) if self.resume else default_hyperparameters(self.algo, slots)
+            base = resumed_hp if self.resume else default_hyperparameters(self.algo, slots)
             check_rollout(self.algo, {**base, **hyperparameters}, action_space, slots)
             if bc_expert is not None:
                 from baselines.rl.imitation import make_expert
