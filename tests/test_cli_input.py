@@ -11,6 +11,7 @@
 
 from __future__ import annotations
 
+import importlib
 import importlib.util
 import json
 import math
@@ -81,6 +82,7 @@ def run_cli(name: str, args: list[str]) -> int:
         "evaluate": evaluate_main,
         "train": train_module.main,
         "compare": compare_module.main,
+        "rllib": lambda a: importlib.import_module("baselines.rl.rllib").main(a),
         "paper002": lambda a: _script("paper002_foraging").main(a),
         "paper004": lambda a: _script("paper004_box_pushing").main(a),
     }
@@ -491,6 +493,9 @@ def test_compare_checks_the_learning_curve_before_playing(tmp_path, capsys, noth
         ("compare", ["--agent", ""], "argument --agent"),
         ("compare", ["--agent", " "], "argument --agent"),
         ("compare", ["--out", ""], "argument --out"),
+        ("rllib", ["--env", ""], "argument --env"),
+        ("rllib", ["--out", " "], "argument --out"),
+        ("rllib", ["--evaluate", ""], "argument --evaluate"),
         ("paper002", ["consume", "--policy", ""], "argument --policy"),
         ("paper002", ["consume", "--policy", " "], "argument --policy"),
         ("paper002", ["consume", "--policy", "nope"], "argument --policy: unknown policy 'nope'"),
