@@ -450,6 +450,7 @@ class TeamEnv(ParallelEnv):
         out = np.zeros((len(self.agents), self.layout.size), dtype=np.float32)
         self._observe(out)
         self._observe_inbox(out)
+        self.layout.clip(out)
         if self.config.obs_format == "dict":
             to_dict = self.layout.to_dict
             return {a: to_dict(out[i]) for i, a in enumerate(self.agents)}

@@ -16,9 +16,11 @@ field          shape  meaning
 =============  =====  ============================================================
 ``proximity``  (8,)   Khepera ring distances (m), ``sensor_range`` if free; rays as
                       in the paper's Fig. 3 (0 left, 1–4 front, 5 right, 6–7 back)
-``light``      (8,)   lamp intensity per sensor direction, I₀ max(0, cos)/d², I₀ = 1
+``light``      (8,)   lamp intensity per sensor direction, I₀ max(0, cos)/d², I₀ = 1;
+                      the sensor saturates at ``LIGHT_SATURATION`` (1000)
 ``encoders``   (4,)   last step's commanded left/right and actual left/right wheel
-                      rotation (rad); actual ≪ commanded is the paper's "no-rotation"
+                      rotation (rad); actual ≪ commanded is the paper's "no-rotation";
+                      saturates at ``teamgym.envs.bounds.wheel_rotation_limit``
 ``busy``       (1,)   1 while a multi-cycle primitive runs (its choices are ignored)
 ``stall``      (1,)   only with ``observe_stall=True``: the robot's consecutive stalled
                       cycles (wheel slip > 0.9) / ``STALL_CAP``, at most 1. A memory the
@@ -61,6 +63,7 @@ from gymnasium import spaces
 from teamgym.control.primitives import PrimitiveExecutor, PrimitiveParams
 from teamgym.envs.actions import ActionType, WheelSpeedAction
 from teamgym.envs.base import EpisodeOverError, TeamEnv
+from teamgym.envs.bounds import wheel_rotation_limit
 from teamgym.envs.box_pushing.actions import PrimitiveAction
 from teamgym.envs.box_pushing.config import SITUATIONS, BoxPushingConfig, BoxPushingV1Config, Event
 from teamgym.envs.box_pushing.scene import GoalWall, Placer
@@ -80,6 +83,10 @@ _STALL_SLIP = 0.9
 #: Consecutive stalled cycles at which the ``stall`` observation reads 1 (1 s at the default Δt).
 STALL_CAP = 10
 _BRAKE_FACTOR = 3.0
+#: Where the light sensor saturates (light units, I₀ = 1 at 1 m): 2.5 times the brightest
+#: noise-free reading, 400 at the sensor's 5 cm minimum distance; reached only with the lamp
+#: beside the table and strong gains or noise (the default lamp gives at most about 80).
+LIGHT_SATURATION = 1000.0
 
 
 class BoxPushing(TeamEnv):
@@ -105,8 +112,10 @@ class BoxPushing(TeamEnv):
             blockers=blockers,
             relative_noise=level("light_noise_relative"),
             gain_spread=level("light_gain_spread"),
+            saturation=LIGHT_SATURATION,
         )
-        encoders = WheelEncoders(level("encoder_noise"), c.effective_encoder_resolution)
+        self.encoder_limit = wheel_rotation_limit(c, self.spec_robot)
+        encoders = WheelEncoders(level("encoder_noise"), c.effective_encoder_resolution, self.encoder_limit)
         self.sensors = SensorSuite({"proximity": self.ring, "light": self.light, "encoders": encoders})
         self.goal = GoalWall(c.goal_side(), c.table_width, c.table_height)
         self.object_threshold = c.object_threshold
@@ -147,8 +156,13 @@ class BoxPushing(TeamEnv):
         return PrimitiveAction()
 
     def _make_layout(self) -> ObservationLayout:
-        rays = len(KHEPERA_RING)
-        fields = [("proximity", (rays,)), ("light", (rays,)), ("encoders", (4,)), ("busy", (1,))]
+        rays, c = len(KHEPERA_RING), self.config
+        fields = [
+            Field("proximity", (rays,), 0.0, c.sensor_range),
+            Field("light", (rays,), 0.0, LIGHT_SATURATION),
+            Field("encoders", (4,), -self.encoder_limit, self.encoder_limit),
+            Field("busy", (1,), 0.0, 1.0),
+        ]
         if self.config.observe_stall:
             fields.append(Field("stall", (1,), 0.0, 1.0))
         return ObservationLayout(fields)

@@ -63,10 +63,11 @@ from gymnasium import spaces
 from teamgym.control.watcher import TASK_REASONS, TaskWatcher, WatcherState
 from teamgym.envs.actions import ActionType, VelocityAction
 from teamgym.envs.base import EpisodeOverError, TeamEnv
+from teamgym.envs.bounds import region, speed_limits
 from teamgym.envs.config import ConfigError
 from teamgym.envs.exploration.config import ExplorationConfig, cached_map
 from teamgym.envs.exploration.operators import OperatorAction, OperatorSet, TaskFactory
-from teamgym.envs.spaces import ObservationLayout
+from teamgym.envs.spaces import Field, ObservationLayout
 from teamgym.maps.build import build_world
 from teamgym.maps.model import OfficeMap
 from teamgym.maps.topology import ClutterEstimate, TopologicalModel
@@ -128,22 +129,25 @@ class Exploration(TeamEnv):
         return OperatorAction(self.operator_set)
 
     def _make_layout(self) -> ObservationLayout:
-        n, s, d = self.config.n_robots, len(self.map.sectors), len(self.map.doors)
+        """The fields of the module docstring; the map's walls keep robots in its workspace."""
+        c, n, s, d = self.config, self.config.n_robots, len(self.map.sectors), len(self.map.doors)
+        low, high = region(c, self.map.size, walled=True)
+        v, omega = speed_limits(c, self.spec_robot)
         return ObservationLayout(
             [
-                ("pose", (3,)),
-                ("velocity", (2,)),
-                ("sector", (s,)),
-                ("place", (s + d,)),
-                ("proximity", (len(KHEPERA_RING),)),
-                ("mates_sector", (n - 1, s)),
-                ("mates_place", (n - 1, s + d)),
-                ("visited", (s,)),
-                ("goal", (s,)),
-                ("door_belief", (d,)),
-                ("clutter", (s,)),
-                ("task_status", (len(WatcherState),)),
-                ("task", (1,)),
+                Field("pose", (3,), [*low, -math.pi], [*high, math.pi]),
+                Field("velocity", (2,), [-v, -omega], [v, omega]),
+                Field("sector", (s,), 0.0, 1.0),
+                Field("place", (s + d,), 0.0, 1.0),
+                Field("proximity", (len(KHEPERA_RING),), 0.0, c.sensor_range),
+                Field("mates_sector", (n - 1, s), 0.0, 1.0),
+                Field("mates_place", (n - 1, s + d), 0.0, 1.0),
+                Field("visited", (s,), 0.0, 1.0),
+                Field("goal", (s,), 0.0, 1.0),
+                Field("door_belief", (d,), 0.0, 1.0),
+                Field("clutter", (s,), 0.0, 1.0),
+                Field("task_status", (len(WatcherState),), 0.0, 1.0),
+                Field("task", (1,), -1.0, len(self.operators) - 1),
             ]
         )
 

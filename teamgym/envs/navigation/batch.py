@@ -57,7 +57,7 @@ class NavigationBatch:
         self.possible_agents: list[str] = list(first.possible_agents)
         self.layout = first.layout
         self.action_space: spaces.Space = first.action_space(self.possible_agents[0])
-        self.observation_space = spaces.Box(-np.inf, np.inf, shape=(self.layout.size,), dtype=np.float32)
+        self.observation_space = self.layout.flat_space()
         self._action_type = first.action_type
         self._checker = ActionRowsChecker(self.action_space)
         self.team = TeamState(self.config, 0, first.ring.width)

@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import ClassVar, Literal
 
+from teamgym.envs.bounds import PROXIMITY_LIMITS, Limit, require_limits, require_ring_noise
 from teamgym.envs.config import EnvConfig, require, require_together
 
 
@@ -19,6 +20,9 @@ class NavigationConfig(EnvConfig):
     the robot (in its own frame with ``local_features``, else world axes), the information
     that paper 001's central arbiter has and a robot's own observation lacks.
     """
+
+    #: Own ranges of the keys that scale a sensor reading (``sensor_noise`` must not exceed ``sensor_range`` either).
+    READING_LIMITS: ClassVar[dict[str, Limit]] = PROXIMITY_LIMITS
 
     body_speed_keys: ClassVar[tuple[str, ...]] = ("max_wheel_speed", "obstacle_speed")
     default_body_speed: ClassVar[float] = 0.0
@@ -75,9 +79,11 @@ class NavigationConfig(EnvConfig):
         require(self, "spawn_margin", self.spawn_margin >= 0, "must be >= 0 m")
         require(self, "sensor_range", self.sensor_range > 0, "must be > 0")
         require(self, "sensor_noise", self.sensor_noise >= 0, "must be >= 0")
+        require_limits(self, self.READING_LIMITS)
 
     def check_relations(self) -> None:
         super().check_relations()
+        require_ring_noise(self, self.sensor_noise)
         s = self.arena_size
         require_together(
             self, ("obstacle_radius", "arena_size"), self.obstacle_radius <= s / 4, "obstacle_radius must be at most arena_size/4"
