@@ -8,6 +8,9 @@ offers two observation formats built from it (``obs_format`` in the config):
 * ``"dict"``: a gymnasium ``Dict`` of the named fields, each a ``Box`` of its own dtype and
   bounds (vectors, uint8 images, grids, a message inbox and its validity mask).
 
+:meth:`ObservationLayout.clip` saturates flat observations at the fields' bounds (every env
+gives finite ones, :mod:`teamgym.envs.bounds`), so observations always lie in their space.
+
 :class:`ActionChecker` validates an action against its space before the env changes anything
 (``Discrete``, ``Box``, ``MultiDiscrete``, ``MultiBinary`` and nested ``Dict``/``Tuple``),
 with errors that name the agent, the field and the value.

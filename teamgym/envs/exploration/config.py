@@ -20,9 +20,13 @@ def cached_map(name: str) -> OfficeMap:
 
 @dataclass(frozen=True)
 class ExplorationConfig(EnvConfig):
-    """Configuration of ``Exploration-v0`` (SI units; ids are the map's sector and door ids)."""
+    """Configuration of ``Exploration-v0`` (SI units; ids are the map's sector and door ids).
 
-    #: Own ranges of the keys that scale a sensor reading (``sensor_noise`` must not exceed ``sensor_range`` either).
+    ``READING_LIMITS`` (the proximity ring): ``sensor_range`` and ``sensor_noise`` in [0, 10] m,
+    and ``sensor_noise`` at most ``sensor_range`` (a larger std saturates every ray).
+    """
+
+    #: Own ranges of the keys that scale a sensor reading (see the class docstring).
     READING_LIMITS: ClassVar[dict[str, Limit]] = PROXIMITY_LIMITS
 
     max_cycles: int = 3000

@@ -19,9 +19,12 @@ class NavigationConfig(EnvConfig):
     ``mate_goals`` appends field ``mate_goals`` (N−1, 2): each team mate's goal relative to
     the robot (in its own frame with ``local_features``, else world axes), the information
     that paper 001's central arbiter has and a robot's own observation lacks.
+
+    ``READING_LIMITS`` (the proximity ring): ``sensor_range`` and ``sensor_noise`` in [0, 10] m,
+    and ``sensor_noise`` at most ``sensor_range`` (a larger std saturates every ray).
     """
 
-    #: Own ranges of the keys that scale a sensor reading (``sensor_noise`` must not exceed ``sensor_range`` either).
+    #: Own ranges of the keys that scale a sensor reading (see the class docstring).
     READING_LIMITS: ClassVar[dict[str, Limit]] = PROXIMITY_LIMITS
 
     body_speed_keys: ClassVar[tuple[str, ...]] = ("max_wheel_speed", "obstacle_speed")

@@ -218,7 +218,7 @@ class TeamState:
 
     # -- observations ----------------------------------------------------------------
     def observe(self, ks: slice, layout: ObservationLayout, out: np.ndarray) -> None:
-        """Every robot's flat observation (the env's module docstring) into ``out`` (k, N, D), saturated at the bounds."""
+        """Every robot's flat observation (see the env's module docstring) into ``out`` (k, N, D)."""
         c, s = self.config, layout.slices
         pos, theta, vel = self.pos[ks], self.theta[ks], self.vel[ks]
         out[..., 0:2] = pos
@@ -248,7 +248,6 @@ class TeamState:
             if c.local_features:
                 offset = np.stack(self._rotation(ks)(offset[..., 0], offset[..., 1]), axis=-1)
             out[..., s["mate_goals"]] = offset.reshape(k, n, -1)
-        layout.clip(out)
 
     def _rotation(self, ks: slice):
         """``rotate(dx, dy)``: world-axis vectors (axis 2 over objects) in each robot's frame (x ahead, y left)."""

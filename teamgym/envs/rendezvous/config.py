@@ -23,9 +23,11 @@ class RendezvousConfig(EnvConfig):
     """Configuration of ``Rendezvous-v0`` (SI units; place ids are the map's).
 
     Map coordinates and way lengths are multiplied by ``scale`` (m per map unit) in the world.
+    ``READING_LIMITS`` (the proximity ring): ``sensor_range`` and ``sensor_noise`` in [0, 10] m,
+    and ``sensor_noise`` at most ``sensor_range`` (a larger std saturates every ray).
     """
 
-    #: Own ranges of the keys that scale a sensor reading (``sensor_noise`` must not exceed ``sensor_range`` either).
+    #: Own ranges of the keys that scale a sensor reading (see the class docstring).
     READING_LIMITS: ClassVar[dict[str, Limit]] = PROXIMITY_LIMITS
 
     body_speed_keys: ClassVar[tuple[str, ...]] = ("max_speed",)
