@@ -260,7 +260,7 @@ def map_from_dict(data: Any, source: str = "<map>") -> OfficeMap:
 
     data = _keys(source, "top level", data, {"size", "sectors", "doors"}, _TOP_KEYS - {"size", "sectors", "doors"})
     units = data.get("units", "mm")
-    if units not in UNITS:
+    if not isinstance(units, str) or units not in UNITS:
         raise _fail(source, "units", f"must be one of {sorted(UNITS)}, got {units!r}")
     scale = UNITS[units]
     size = _point(source, "size", data["size"], scale)
