@@ -213,21 +213,33 @@ class Exploration(TeamEnv):
         margin = r + office.wall_thickness / 2 + 0.01
         starts: list[tuple[float, float]] = []
         for name in names:
-            s = office.sector(name)
-            if c.start_positions == "centre" and self._free(s.centre, starts, r):
-                starts.append(s.centre)
-                continue
-            for _ in range(2000):
-                p = (
-                    float(rng.uniform(s.x_min + margin, s.x_max - margin)),
-                    float(rng.uniform(s.y_min + margin, s.y_max - margin)),
+            p = self._place_in(office.sector(name), starts, r, margin, rng)
+            if p is None and not c.start_sectors:  # a sector full of robots (more robots than sectors): try the others
+                p = next(
+                    (
+                        q
+                        for k in rng.permutation(len(ids))
+                        if (q := self._place_in(office.sector(ids[k]), starts, r, margin, rng))
+                    ),
+                    None,
                 )
-                if self._free(p, starts, r):
-                    starts.append(p)
-                    break
-            else:
-                raise RuntimeError(f"could not place a robot in sector {name!r} clear of furniture, doors and other robots")
+            if p is None:
+                raise ConfigError(
+                    f"ExplorationConfig: n_robots={n} robots do not fit clear of furniture, doors and each other "
+                    f"(sector {name!r} is full{'' if c.start_sectors else ', and so is every other'}); use fewer robots"
+                )
+            starts.append(p)
         return starts, rng.uniform(-np.pi, np.pi, size=n)
+
+    def _place_in(self, s, starts: list, r: float, margin: float, rng: np.random.Generator) -> tuple[float, float] | None:
+        """A free start in sector ``s`` (its centre if ``start_positions="centre"`` and free), or None after 2,000 tries."""
+        if self.config.start_positions == "centre" and self._free(s.centre, starts, r):
+            return s.centre
+        for _ in range(2000):
+            p = (float(rng.uniform(s.x_min + margin, s.x_max - margin)), float(rng.uniform(s.y_min + margin, s.y_max - margin)))
+            if self._free(p, starts, r):
+                return p
+        return None
 
     def _free(self, p: tuple[float, float], others: list[tuple[float, float]], r: float) -> bool:
         office = self.map
