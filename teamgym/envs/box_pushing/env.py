@@ -448,7 +448,7 @@ class BoxPushing(TeamEnv):
     def _robot_spot(self, position, heading) -> tuple[float, float, float]:
         r = self.spec_robot.radius
         theta = float(self.np_random.uniform(-np.pi, np.pi)) if heading is None else _finite(heading, "heading")
-        placer = Placer(self.config.table_width, self.config.table_height, self.np_random)
+        placer = Placer(self.config.table_width, self.config.table_height, self.np_random, type(self.config).__name__)
         if position is None:
             x, y = placer.sample(r, _ROBOT_WALL_GAP, self._occupied(), _ROBOT_CLEARANCE, "robot")
             return x, y, theta
@@ -464,7 +464,7 @@ class BoxPushing(TeamEnv):
             theta = _finite(angle, "angle")
         else:
             theta = float(self.np_random.uniform(0, np.pi / 2)) if self.config.box_orientation == "random" else 0.0
-        placer = Placer(c.table_width, c.table_height, self.np_random)
+        placer = Placer(c.table_width, c.table_height, self.np_random, type(c).__name__)
         radius = half * math.sqrt(2)
         if position is None:
             x, y = placer.sample(radius, c.box_margin, self._occupied(), 2 * self.spec_robot.radius, "box")
@@ -487,7 +487,7 @@ class BoxPushing(TeamEnv):
     def _sample_initial(self, rng: np.random.Generator) -> tuple[list, list]:
         """Initial boxes (not touching walls, section 4) and robots, as ``(heavy, (x, y, angle))`` and ``(x, y, θ)``."""
         c = self.config
-        placer = Placer(c.table_width, c.table_height, rng)
+        placer = Placer(c.table_width, c.table_height, rng, type(c).__name__)
         occupied: list[tuple[float, float, float]] = []
         boxes = []
         for heavy in [False] * c.n_light_boxes + [True] * c.n_heavy_boxes:
