@@ -123,8 +123,6 @@ class BodyReader:
         self._setup()
 
 
-
-
 _POINT_INFO = _ffi.new("cpPointQueryInfo *")
 
 

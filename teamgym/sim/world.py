@@ -134,13 +134,23 @@ class World:
 
     def remove(self, name: str) -> Entity:
         """Remove the entity called ``name`` from the world and return it."""
-        try:
-            entity = self.entities.pop(name)
-        except KeyError:
-            raise KeyError(f"no entity named {name!r} in the world") from None
-        entity.detach(self.space)
+        return self.remove_many([name])[0]
+
+    def remove_many(self, names: Sequence[str]) -> list[Entity]:
+        """Remove the entities ``names`` from the world and return them, in that order.
+
+        All or nothing: an unknown (or repeated) name raises ``KeyError`` before any is removed.
+        """
+        missing = [name for name in names if name not in self.entities]
+        if missing:
+            raise KeyError(f"no entity named {missing[0]!r} in the world")
+        if len(set(names)) != len(names):
+            raise KeyError(f"entity names to remove repeat: {sorted(n for n in set(names) if names.count(n) > 1)}")
+        removed = [self.entities.pop(name) for name in names]
+        for entity in removed:
+            entity.detach(self.space)
         self._regroup()
-        return entity
+        return removed
 
     def _regroup(self) -> None:
         """Rebuild the lists derived from the entities' declarations (in place, so references stay valid)."""
