@@ -79,7 +79,7 @@ def row(label: str, result: dict, resets: int) -> str:
     growth = result["growth_mb"]
     marks = " ".join(f"{g:6.2f}" for g in growth)
     per_reset = growth[-1] * 1e3 / resets
-    return f"  {label:<26} {growth[-1]:8.2f} MB   {per_reset:6.2f} kB/reset   {result['reset_s'] * 1e3:8.2f} ms   ({marks})"
+    return f"  {label:<36} {growth[-1]:8.2f} MB   {per_reset:6.2f} kB/reset   {result['reset_s'] * 1e3:8.2f} ms   ({marks})"
 
 
 def main() -> None:
@@ -105,7 +105,7 @@ def main() -> None:
         if checkout is not None and not (checkout / "teamgym" / "__init__.py").is_file():
             parser.error(f"{option} {checkout} holds no teamgym package")
     print(f"{args.resets} resets after {args.warmup} warm-up resets, each env in a fresh process ({args.clock} clock)")
-    print(f"  {'':<26} {'RSS growth':>11}   {'per reset':>14}   {'median reset':>11}   (growth MB at 25/50/75/100 %)")
+    print(f"  {'':<36} {'RSS growth':>11}   {'per reset':>14}   {'median reset':>11}   (growth MB at 25/50/75/100 %)")
     failed = []
     for env_id in args.env:
         result = run_worker(env_id, args, args.package.resolve())
