@@ -1,7 +1,8 @@
 """Memory growth and time of ``reset`` over many episodes, each env in its own fresh process.
 
 For every env id: ``--warmup`` resets, then ``--resets`` more with new seeds; prints the
-growth of the process's resident set (``/proc/self/statm``) after the warm-up, in MB, at a
+growth of the process's resident set (``/proc/self/statm``, read after a garbage collection
+and glibc's ``malloc_trim``; ``--no-trim`` skips the trim) after the warm-up, in MB, at a
 quarter, half, three quarters and all of the resets (a leak grows linearly), the growth per
 reset, and the median time of one ``reset`` call. Exits with status 1 if any env grows by
 ``--limit-mb`` (5 MB) or more. ``--baseline DIR`` measures the teamgym package in ``DIR``
@@ -15,6 +16,9 @@ measures ``DIR``'s teamgym instead of this checkout's.
 from __future__ import annotations
 
 import argparse
+import contextlib
+import ctypes
+import ctypes.util
 import gc
 import json
 import os
@@ -40,15 +44,27 @@ def rss_mb() -> float:
         return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e3  # kB on Linux; a peak, not the current size
 
 
-def measure(env_id: str, resets: int, warmup: int, clock: str) -> dict:
+def release_free_memory() -> None:
+    """Collect garbage and, with glibc, hand the allocator's free pages back to the system (``malloc_trim``).
+
+    Without it the resident set also counts free memory the allocator keeps (its heap top moves
+    by a few MB from one reading to the next), which is not held by anything.
+    """
+    gc.collect()
+    with contextlib.suppress(OSError, AttributeError):
+        ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6").malloc_trim(0)
+
+
+def measure(env_id: str, resets: int, warmup: int, clock: str, trim: bool) -> dict:
     """Run in a worker process: RSS growth (MB) at each quarter of ``resets`` and the median reset time (s)."""
     import teamgym
 
+    settle = release_free_memory if trim else gc.collect
     tick = CLOCKS[clock]
     env = teamgym.make(env_id)
     for seed in range(warmup):
         env.reset(seed=seed)
-    gc.collect()
+    settle()
     start = rss_mb()
     marks = {resets * q // 4 for q in (1, 2, 3, 4)}
     times, growth = [], []
@@ -57,7 +73,7 @@ def measure(env_id: str, resets: int, warmup: int, clock: str) -> dict:
         env.reset(seed=warmup + k)
         times.append(tick() - began)
         if k in marks:
-            gc.collect()
+            settle()
             growth.append(rss_mb() - start)
     return {"growth_mb": growth, "reset_s": statistics.median(times), "teamgym": teamgym.__file__}
 
@@ -65,7 +81,7 @@ def measure(env_id: str, resets: int, warmup: int, clock: str) -> dict:
 def run_worker(env_id: str, args: argparse.Namespace, package: Path) -> dict:
     """``measure`` in a fresh interpreter that imports teamgym from ``package``."""
     command = [sys.executable, __file__, "--worker", env_id, "--resets", str(args.resets)]
-    command += ["--warmup", str(args.warmup), "--clock", args.clock]
+    command += ["--warmup", str(args.warmup), "--clock", args.clock, *(["--no-trim"] if args.no_trim else [])]
     environment = {
         **os.environ,
         "PYTHONPATH": os.pathsep.join([str(package), os.environ.get("PYTHONPATH", "")]).rstrip(os.pathsep),
@@ -91,12 +107,13 @@ def main() -> None:
     parser.add_argument("--clock", choices=sorted(CLOCKS), default="wall", help="time resets by wall or CPU time")
     parser.add_argument("--package", type=Path, default=ROOT, help="checkout whose teamgym is measured (default: this one)")
     parser.add_argument("--baseline", type=Path, help="also measure the teamgym package in this checkout")
+    parser.add_argument("--no-trim", action="store_true", help="read RSS without malloc_trim first (allocator slack included)")
     parser.add_argument("--worker", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.resets < 4 or args.warmup < 0:
         parser.error(f"need --resets >= 4 and --warmup >= 0, got {args.resets} and {args.warmup}")
     if args.worker:
-        print(json.dumps(measure(args.worker, args.resets, args.warmup, args.clock)))
+        print(json.dumps(measure(args.worker, args.resets, args.warmup, args.clock, not args.no_trim)))
         return
     unknown = sorted(set(args.env) - set(ENV_IDS))
     if unknown:
@@ -104,7 +121,8 @@ def main() -> None:
     for option, checkout in (("--package", args.package), ("--baseline", args.baseline)):
         if checkout is not None and not (checkout / "teamgym" / "__init__.py").is_file():
             parser.error(f"{option} {checkout} holds no teamgym package")
-    print(f"{args.resets} resets after {args.warmup} warm-up resets, each env in a fresh process ({args.clock} clock)")
+    trim = "no trim" if args.no_trim else "RSS after malloc_trim"
+    print(f"{args.resets} resets after {args.warmup} warm-up resets, each env in a fresh process ({args.clock} clock, {trim})")
     print(f"  {'':<36} {'RSS growth':>11}   {'per reset':>14}   {'median reset':>11}   (growth MB at 25/50/75/100 %)")
     failed = []
     for env_id in args.env:
