@@ -68,12 +68,14 @@ from teamgym.envs.config import ConfigError
 from teamgym.envs.exploration.config import ExplorationConfig, cached_map
 from teamgym.envs.exploration.operators import OperatorAction, OperatorSet, TaskFactory
 from teamgym.envs.spaces import Field, ObservationLayout
-from teamgym.maps.build import build_world
+from teamgym.maps.build import map_entities
 from teamgym.maps.model import OfficeMap
 from teamgym.maps.topology import ClutterEstimate, TopologicalModel
 from teamgym.sim.geometry import distance_to_polygon
+from teamgym.sim.objects import Door
 from teamgym.sim.render import Overlay
 from teamgym.sim.robot import DiffDriveRobot, RobotSpec
+from teamgym.sim.scene import StaticScene
 from teamgym.sim.sensors import KHEPERA_RING, ProximityRing
 from teamgym.sim.world import World
 
@@ -101,6 +103,11 @@ class Exploration(TeamEnv):
         self._rects = np.array([[s.x_min, s.y_min, s.x_max, s.y_max] for s in office.sectors])
         self._door_centres = np.array([d.centre for d in office.doors]).reshape(-1, 2)
         self._door_radii = np.array([d.radius for d in office.doors])
+        # Walls, doors and furniture, built once and placed in every episode's world first (teamgym.sim.scene).
+        entities = map_entities(office, furniture=c.furniture)
+        self._scene = StaticScene(entities)
+        #: The doors by id (the scene's; their state is drawn at every reset).
+        self.doors: dict[str, Door] = {e.name: e for e in entities if isinstance(e, Door)}
         goals = c.goal_sectors or tuple(office.sector_ids)
         self.goal = np.array([s in goals for s in office.sector_ids])
         n, v = c.n_robots, self.n_sectors + self.n_doors
@@ -154,7 +161,10 @@ class Exploration(TeamEnv):
     def _build(self, rng: np.random.Generator) -> None:
         c, office = self.config, self.map
         self.world = World(office.size, **c.world_options())
-        self.doors = build_world(office, self.world, self._sample_doors(rng), furniture=c.furniture)
+        self._scene.release()  # out of the last episode's world, so that doors close without a check
+        for door_id, is_open in self._sample_doors(rng).items():
+            self._apply_door(door_id, is_open)
+        self._scene.place(self.world)
         starts, headings = self._sample_starts(rng)
         self.robots = {}
         for agent, start, heading in zip(self.possible_agents, starts, headings):

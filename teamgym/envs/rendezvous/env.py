@@ -78,6 +78,7 @@ from teamgym.envs.spaces import Field, ObservationLayout
 from teamgym.sim.objects import StaticPolygon, Wall
 from teamgym.sim.render import Overlay, robot_colour
 from teamgym.sim.robot import DiffDriveRobot, RobotSpec
+from teamgym.sim.scene import StaticScene
 from teamgym.sim.sensors import KHEPERA_RING, ProximityRing
 from teamgym.sim.world import World
 
@@ -125,7 +126,9 @@ class Rendezvous(TeamEnv):
         self.followers = [WayFollower(speed=v, stop_distance=0.9 * c.meet_distance) for v in speeds]
         n, w = c.n_robots, len(self.way_ends)
         self.state_space = spaces.Box(-np.inf, np.inf, shape=(5 * n + w,), dtype=np.float32)
-        self._walls = corridor_walls(self.map, c.scale, c.corridor_width, _MARGIN) if c.corridor_walls else []
+        walls = corridor_walls(self.map, c.scale, c.corridor_width, _MARGIN) if c.corridor_walls else []
+        #: The corridor walls, built once and placed in every episode's world first (see :mod:`teamgym.sim.scene`).
+        self._scene = StaticScene(Wall(f"wall_{k}", a, b, 0.01) for k, (a, b) in enumerate(walls))
 
     def _make_action_type(self) -> ActionType:
         c = self.config
@@ -164,8 +167,7 @@ class Rendezvous(TeamEnv):
     def _build(self, rng: np.random.Generator) -> None:
         c = self.config
         self.world = World(self._world_size(), **c.world_options())
-        for k, (a, b) in enumerate(self._walls):
-            self.world.add(Wall(f"wall_{k}", a, b, 0.01))
+        self._scene.place(self.world)
         n = c.n_robots
         if c.start_places:
             starts = np.array([self.place_index[p] for p in c.start_places])
