@@ -89,5 +89,8 @@ def test_links_resolve_from_where_they_were_written(tmp_path, monkeypatch):
     (tmp_path / "src.py").write_text("")
     text = "[p](docs/page.md#x) ![i](docs/figures) [code](src.py) [gone](nothing.md) [web](https://example.org)\n```\n[f](src.py)\n```"
     out = hooks.rewrite_links(text, tmp_path, docs / "sub", docs)
-    assert out.splitlines()[0] == "[p](../page.md#x) i (`docs/figures`) code (`src.py`) [gone](nothing.md) [web](https://example.org)"
+    assert (
+        out.splitlines()[0]
+        == "[p](../page.md#x) i (`docs/figures`) code (`src.py`) [gone](nothing.md) [web](https://example.org)"
+    )
     assert "[f](src.py)" in out
