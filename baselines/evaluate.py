@@ -34,10 +34,12 @@ Success is the episode contract's: ``infos[agent]["success"]`` of an episode's l
 (one episode: :func:`baselines.episode.run_episode`, re-exported here); it is the
 ``success`` column, never a metric column.
 
-Errors: a bad command line, env id, config, ``--out`` (an existing file, or under one) or a
-policy that does not fit the env (``Policy.check_env``) exits with code 2 and one
-``error: ...`` line before any episode runs; a failure while running exits with code 1 and
-one line (``TEAMGYM_TRACEBACK=1`` shows the traceback instead).
+Errors: a bad command line (an empty ``--env``, ``--policy`` or ``--out`` included, ``--episodes``
+above :data:`MAX_EPISODES` = 10**6), env id, config, ``--out`` (an existing file, under one, or
+not writable) or a policy that does not fit the env (``Policy.check_env``) exits with code 2
+and one ``error: ...`` line before any episode runs; a failure while running exits with code 1
+and one line (``TEAMGYM_TRACEBACK=1`` shows the traceback instead). Seeds are made episode by
+episode, never listed up front.
 
 Metric means pool all (robot, episode) values: a metric a robot does not report (such as
 ``time_to_goal`` before arrival) is left out rather than counted as zero; booleans count
@@ -64,7 +66,7 @@ import json
 import math
 import re
 import sys
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any, NoReturn
 
@@ -87,6 +89,9 @@ __all__ = [
 
 #: The env evaluated when neither ``--env`` nor an SB3 model's sidecar names one.
 DEFAULT_ENV = "Navigation-v0"
+#: The most episodes one evaluation runs: their results are kept for the summary and the CSV
+#: (about 2 kB each for ``goto`` on Navigation-v0, 0.1 CPU-s to play), so more would not fit in memory.
+MAX_EPISODES = 10**6
 
 
 class _Runner:
@@ -218,10 +223,29 @@ def _pool_context():
     return multiprocessing.get_context("fork" if "fork" in methods and "torch" not in sys.modules else "spawn")
 
 
-def _chunks(items: Sequence[Any], workers: int) -> list[list[Any]]:
-    """``items`` in consecutive chunks, about four per worker, so that the load still balances."""
+class _Episodes(Sequence[tuple[int, bool]]):
+    """The ``(seed, keep trajectories)`` pairs of a run's episodes ``indices``, made on demand (a slice is another)."""
+
+    def __init__(self, seed: int, keep_all: bool, indices: range) -> None:
+        self.seed, self.keep_all, self.indices = seed, keep_all, indices
+
+    def __len__(self) -> int:
+        return len(self.indices)
+
+    def __iter__(self) -> Iterator[tuple[int, bool]]:
+        return ((self.seed + i, self.keep_all or i == 0) for i in self.indices)
+
+    def __getitem__(self, item: Any) -> Any:
+        if isinstance(item, slice):
+            return _Episodes(self.seed, self.keep_all, self.indices[item])
+        index = self.indices[item]
+        return self.seed + index, self.keep_all or index == 0
+
+
+def _chunks(items: Sequence[Any], workers: int) -> list[Sequence[Any]]:
+    """``items`` in consecutive slices, about four per worker, so that the load still balances."""
     size = max(1, math.ceil(len(items) / (4 * workers)))
-    return [list(items[i : i + size]) for i in range(0, len(items), size)]
+    return [items[i : i + size] for i in range(0, len(items), size)]
 
 
 def evaluate(
@@ -238,6 +262,8 @@ def evaluate(
 ) -> list[EpisodeResult]:
     """Run ``episodes`` episodes (seeds ``seed .. seed+episodes-1``) and return their results in seed order.
 
+    ``episodes`` is at most :data:`MAX_EPISODES`; the seeds are made one by one, never listed.
+
     ``config`` is passed to ``teamgym.make`` (strings are parsed as on the command line).
     With ``workers > 1`` episodes run in that many worker processes (forked where possible),
     each with its own env and policy, handed out in chunks of consecutive seeds; results are
@@ -250,8 +276,8 @@ def evaluate(
     (including a policy that does not fit the env) raise (``ConfigError``/``ValueError``/
     ``KeyError``/``FileNotFoundError``) before any episode runs.
     """
-    if episodes < 1:
-        raise ValueError(f"episodes must be >= 1, got {episodes}")
+    if not 1 <= episodes <= MAX_EPISODES:
+        raise ValueError(f"episodes must be in [1, {MAX_EPISODES}], got {episodes}")
     if seed < 0:
         raise ValueError(f"seed must be >= 0, got {seed}")
     if workers == "ray":
@@ -262,23 +288,22 @@ def evaluate(
 
     config = dict(config or {})
     runner = _Runner(env_id, policy_name, config, policy_kwargs=policy_kwargs)  # validates env id, config and policy here
-    seeds = [seed + i for i in range(episodes)]
-    keep = [keep_trajectories or i == 0 for i in range(episodes)]
+    items = _Episodes(seed, keep_trajectories, range(episodes))  # episode i: seed + i, trajectories of the first
     bar = tqdm(total=episodes, desc=f"{env_id} {policy_name}", unit="ep", disable=not progress, leave=False)
     try:
         if workers == 1 or (episodes == 1 and workers != "ray"):
             results = []
-            for s, k in zip(seeds, keep):
+            for s, k in items:
                 results.append(runner.run(s, record_trajectories=k))
                 bar.update(1)
             return results
         runner.close()
         if workers == "ray":
-            return _ray_results(env_id, policy_name, config, policy_kwargs, list(zip(seeds, keep)), bar.update)
+            return _ray_results(env_id, policy_name, config, policy_kwargs, items, bar.update)
         assert isinstance(workers, int)
         from concurrent.futures import ProcessPoolExecutor, as_completed
 
-        chunks = _chunks(list(zip(seeds, keep)), workers)
+        chunks = _chunks(items, workers)
         slots: list[list[EpisodeResult] | None] = [None] * len(chunks)
         with ProcessPoolExecutor(
             max_workers=min(workers, episodes),
@@ -422,19 +447,27 @@ def write_episodes_csv(path: str | Path, results: Sequence[EpisodeResult]) -> Pa
 # -- command line -----------------------------------------------------------------------
 
 
-class _UsageError(Exception):
+class _UsageError(ValueError):
     """A command-line or configuration mistake: reported in one line, exit code 2."""
 
 
 class _Parser(argparse.ArgumentParser):
-    """An argument parser that reports a bad command line in one line (``error: ...``), exit code 2."""
+    """An argument parser that reports a bad command line in one line (``error: ...``), exit code 2.
+
+    With ``named`` the line starts with the program's name (``prog: error: ...``, as argparse's does).
+    """
+
+    def __init__(self, *args: Any, named: bool = False, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self.named = named
 
     def error(self, message: str) -> NoReturn:
-        self.exit(2, f"error: {_one_line(message)} (see --help)\n")
+        lead = f"{self.prog}: error" if self.named else "error"
+        self.exit(2, f"{lead}: {_one_line(message)} (see --help)\n")
 
 
-def _at_least(minimum: int) -> Callable[[str], int]:
-    """An argparse ``type``: an integer ``>= minimum``."""
+def _at_least(minimum: int, maximum: int | None = None) -> Callable[[str], int]:
+    """An argparse ``type``: an integer ``>= minimum`` (and ``<= maximum``)."""
 
     def parse(text: str) -> int:
         try:
@@ -443,7 +476,22 @@ def _at_least(minimum: int) -> Callable[[str], int]:
             raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
         if value < minimum:
             raise argparse.ArgumentTypeError(f"must be >= {minimum}, got {value}")
+        if maximum is not None and value > maximum:
+            raise argparse.ArgumentTypeError(f"must be <= {maximum}, got {value}")
         return value
+
+    return parse
+
+
+def _nonblank(what: str) -> Callable[[str], str]:
+    """An argparse ``type``: a ``what`` that is not empty or blank (an empty value would fall back to a default)."""
+
+    def parse(text: str) -> str:
+        if not text.strip():
+            raise argparse.ArgumentTypeError(f"expected {what}, got {text!r}")
+        if text.startswith("sb3:") and not text[4:].strip():
+            raise argparse.ArgumentTypeError(f"expected a model path or shipped agent after sb3:, got {text!r}")
+        return text
 
     return parse
 
@@ -468,15 +516,31 @@ def _parse_sets(items: Sequence[str] | None) -> dict[str, str]:
     return config
 
 
-def _check_out(out: Path) -> None:
-    """Raise :class:`_UsageError` if ``out`` cannot be an output directory (a file, or under one)."""
-    if out.exists() and not out.is_dir():
-        raise _UsageError(f"--out {str(out)!r} is an existing file, not a directory")
-    for parent in out.parents:
-        if parent.exists():
-            if not parent.is_dir():
-                raise _UsageError(f"--out {str(out)!r} is under {str(parent)!r}, which is a file")
+def _check_out(out: Path, flag: str = "--out", *, file: bool = False) -> None:
+    """Raise :class:`_UsageError` (a ``ValueError``) if ``out`` cannot be made an output directory.
+
+    It cannot when it is an existing file, lies under a file, or when it (if it exists) or its
+    nearest existing ancestor is a directory this process may not write into. With ``file``,
+    ``out`` names a file to write: it must not be a directory, and its directory is checked.
+    """
+    shown = repr(str(out))
+    try:
+        if file and out.is_dir():
+            raise _UsageError(f"{flag} {shown} is a directory, not a file")
+        for path in out.parents if file else (out, *out.parents):
+            if not path.exists():
+                continue
+            if not path.is_dir():
+                where = "is an existing file" if path == out else f"is under {str(path)!r}, which is a file"
+                raise _UsageError(f"{flag} {shown} {where}, not a directory")
+            if not os.access(path, os.W_OK | os.X_OK):
+                where = "" if path == out else f" under {str(path)!r}"
+                raise _UsageError(f"{flag} {shown}: cannot write{where} (permission denied)")
             return
+    except _UsageError:
+        raise
+    except (OSError, ValueError) as error:  # e.g. a NUL byte or a name too long
+        raise _UsageError(f"{flag} {shown} is not a usable path: {error}") from None
 
 
 def _model_defaults(
@@ -488,8 +552,9 @@ def _model_defaults(
     The sidecar's overrides apply (explicit settings win) only when the env is the sidecar's.
     """
     config = dict(config)
+    default = DEFAULT_ENV if env_id is None else env_id  # an empty --env is refused, never the default
     if not policy.startswith("sb3:"):
-        return env_id or DEFAULT_ENV, config, None, None
+        return default, config, None, None
     from baselines.rl.sb3_policy import read_sidecar, resolve_model
 
     try:
@@ -498,7 +563,7 @@ def _model_defaults(
         raise _UsageError(str(error)) from error
     trained_on = sidecar.get("env") if sidecar else None
     if not isinstance(trained_on, str):
-        return env_id or DEFAULT_ENV, config, None, None
+        return default, config, None, None
     path = resolve_model(policy[4:]).with_suffix(".json")
     if env_id is not None and env_id != trained_on:
         return env_id, config, path, trained_on
@@ -528,16 +593,28 @@ def build_parser() -> argparse.ArgumentParser:
         prog="python -m baselines.evaluate",
         description="Evaluate a policy on a teamgym env over seeded episodes.",
     )
-    count, seed = _at_least(1), _at_least(0)  # episodes and workers; seeds (numpy rejects negative ones)
+    seed = _at_least(0)  # numpy rejects negative seeds
     parser.add_argument(
-        "--env", default=None, help=f"env id (default: an sb3:PATH model's, from its sidecar <model>.json; else {DEFAULT_ENV})"
+        "--env",
+        type=_nonblank("an env id"),
+        default=None,
+        help=f"env id (default: an sb3:PATH model's, from its sidecar <model>.json; else {DEFAULT_ENV})",
     )
-    parser.add_argument("--policy", default="goto", help="policy name or sb3:PATH (default: goto)")
-    parser.add_argument("--episodes", type=count, default=10, help="number of episodes, >= 1 (default: 10)")
+    parser.add_argument(
+        "--policy", type=_nonblank("a policy name or sb3:PATH"), default="goto", help="policy name or sb3:PATH (default: goto)"
+    )
+    parser.add_argument(
+        "--episodes",
+        type=_at_least(1, MAX_EPISODES),
+        default=10,
+        help=f"number of episodes, 1 to {MAX_EPISODES} (default: 10)",
+    )
     parser.add_argument("--seed", type=seed, default=0, help="first seed, >= 0; episode i uses seed+i (default: 0)")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="env config override (repeatable)")
     parser.add_argument("--max-cycles", type=int, default=None, help="shorthand for --set max_cycles=M")
-    parser.add_argument("--out", default=None, help="output directory (default: results/<env>_<policy>/)")
+    parser.add_argument(
+        "--out", type=_nonblank("a directory"), default=None, help="output directory (default: results/<env>_<policy>/)"
+    )
     parser.add_argument("--gif", action="store_true", help="also write an animated GIF of the first episode")
     parser.add_argument("--no-plot", action="store_true", help="do not draw trajectories.png (matplotlib is then not loaded)")
     parser.add_argument(
@@ -612,7 +689,7 @@ def _run(args: argparse.Namespace) -> int:
     env_id, config, sidecar, trained_on = _model_defaults(args.policy, args.env, config)
     policy_kwargs = {"deterministic": False} if args.stochastic else {}
     name = _slug(args.policy) + ("-stochastic" if args.stochastic else "")
-    out = Path(args.out) if args.out else Path("results") / f"{_slug(env_id)}_{name}"
+    out = Path(args.out) if args.out is not None else Path("results") / f"{_slug(env_id)}_{name}"
     _check_out(out)
     try:
         probe = _Runner(env_id, args.policy, config, policy_kwargs=policy_kwargs)

@@ -21,6 +21,10 @@ successful episodes); path length per
 robot (m) and collisions per robot, as means with 95 % intervals. With ``--curve``, the agent's
 learning curve (its ``<agent>_eval.csv``; ``--curve-metric``: success rate, collisions or path length) is
 drawn with the scripted rows' values as lines.
+
+A bad command line (``--episodes`` above ``baselines.evaluate.MAX_EPISODES``, an empty ``--env``,
+``--agent`` or ``--out``), env id, task config, agent, ``--out`` that cannot be written or missing
+learning curve exits 2 with one ``error: ...`` line before any policy plays.
 """
 
 from __future__ import annotations
@@ -163,14 +167,29 @@ def compare(
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="python -m baselines.rl.compare", description=__doc__.splitlines()[0])
-    parser.add_argument("--env", default="Navigation-v0")
-    parser.add_argument("--agent", default=None, help="a shipped agent name or a model path (sb3); none: scripted only")
-    parser.add_argument("--episodes", type=int, default=100)
-    parser.add_argument("--seed", type=int, default=20_000, help="first held-out seed")
-    parser.add_argument("--workers", type=int, default=1)
+    """The ``python -m baselines.rl.compare`` argument parser (a bad command line exits 2 with a one-line error)."""
+    from baselines.evaluate import MAX_EPISODES, _at_least, _nonblank, _Parser
+
+    parser = _Parser(prog="python -m baselines.rl.compare", description=__doc__.splitlines()[0])
+    parser.add_argument("--env", type=_nonblank("an env id"), default="Navigation-v0", help="env id (default: Navigation-v0)")
+    parser.add_argument(
+        "--agent",
+        type=_nonblank("a shipped agent name or a model path"),
+        default=None,
+        help="a shipped agent name or a model path (sb3); none: scripted only",
+    )
+    parser.add_argument(
+        "--episodes",
+        type=_at_least(1, MAX_EPISODES),
+        default=100,
+        help=f"held-out episodes per policy, 1 to {MAX_EPISODES} (default: 100)",
+    )
+    parser.add_argument("--seed", type=_at_least(0), default=20_000, help="first held-out seed, >= 0 (default: 20000)")
+    parser.add_argument("--workers", type=_at_least(1), default=1, help="worker processes, >= 1 (default: 1)")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="task config for every policy")
-    parser.add_argument("--out", default=None, help="directory for comparison.md/.json (and curve.png)")
+    parser.add_argument(
+        "--out", type=_nonblank("a directory"), default=None, help="directory for comparison.md/.json (and curve.png)"
+    )
     parser.add_argument("--curve", action="store_true", help="draw the agent's learning curve (needs its _eval.csv)")
     parser.add_argument(
         "--curve-metric",
@@ -189,37 +208,49 @@ CURVE_METRICS: dict[str, Callable[[Mapping[str, Any]], float]] = {
 }
 
 
-def _curve(agent: str, rows: Sequence[Mapping[str, Any]], out: Path, metric: str = "success_rate") -> Path:
-    from baselines.rl.plot_curves import load_curves, plot_curves
+def _curve_csv(agent: str) -> Path:
+    """The agent's learning curve (``<model-stem>_eval.csv``); ``FileNotFoundError`` if there is none."""
     from baselines.rl.sb3_policy import resolve_model
 
     path = resolve_model(agent)
     csv = path.with_name(f"{path.stem}_eval.csv")
     if not csv.is_file():
         raise FileNotFoundError(f"no learning curve beside the agent: {str(csv)!r}")
-    curves = load_curves({f"trained: {agent}": [csv]}, metric)
+    return csv
+
+
+def _curve(agent: str, rows: Sequence[Mapping[str, Any]], out: Path, metric: str = "success_rate") -> Path:
+    from baselines.rl.plot_curves import load_curves, plot_curves
+
+    curves = load_curves({f"trained: {agent}": [_curve_csv(agent)]}, metric)
     value = CURVE_METRICS[metric]
     lines = [(row["label"], value(row), "") for row in rows if not row["policy"].startswith("sb3:")]
     return plot_curves(curves, out / "curve.png", metric, lines, title=f"{agent}: {metric} on held-out seeds while training")
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the comparison CLI: exit 2 with one line for bad arguments, 1 for a failure while playing."""
+    """Run the comparison CLI: exit 2 with one line for bad arguments (``--out`` included) before any
+    episode, 1 for a failure while playing."""
     import teamgym
-    from baselines.evaluate import _message, guarded
+    from baselines.evaluate import _check_out, _message, guarded
     from baselines.rl.sb3_policy import resolve_model
     from baselines.rl.train import _pairs
 
-    args = build_parser().parse_args(argv)
     try:
-        if args.episodes < 1 or args.seed < 0 or args.workers < 1:
-            raise ValueError("--episodes and --workers must be >= 1 and --seed >= 0")
+        args = build_parser().parse_args(argv)
+    except SystemExit as done:  # --help, or a usage error already reported in one line
+        return 0 if done.code is None else done.code if isinstance(done.code, int) else 2
+    try:
         if args.curve and (args.agent is None or args.out is None):
             raise ValueError("--curve needs --agent and --out")
+        if args.out is not None:
+            _check_out(Path(args.out))
         task = _pairs(args.set, "--set")
         teamgym.make(args.env, **task).close()  # a bad env id or task config fails here, before any episode
         if args.agent is not None:
             resolve_model(args.agent)
+        if args.curve:
+            _curve_csv(args.agent)
     except (ValueError, KeyError, FileNotFoundError) as error:
         print(f"error: {_message(error)}", file=sys.stderr)
         return 2
@@ -230,7 +261,7 @@ def _report(args: argparse.Namespace, rows: Sequence[Mapping[str, Any]]) -> int:
     table = markdown(rows)
     print(f"{args.env}, {args.episodes} held-out seeds from {args.seed}" + (f", task {args.set}" if args.set else ""))
     print(table)
-    if args.out:
+    if args.out is not None:
         out = Path(args.out)
         out.mkdir(parents=True, exist_ok=True)
         (out / "comparison.md").write_text(table + "\n")

@@ -539,14 +539,19 @@ def read_sidecar(checkpoint: str | Path) -> dict[str, Any]:
 
 def build_parser() -> argparse.ArgumentParser:
     """The ``python -m baselines.rl.rllib`` argument parser (a bad command line exits 2 with a one-line error)."""
-    from baselines.evaluate import _at_least, _Parser
+    from baselines.evaluate import _at_least, _nonblank, _Parser
 
     parser = _Parser(
         prog="python -m baselines.rl.rllib",
         description="Train one shared PPO policy on a teamgym env with Ray RLlib (new API stack).",
     )
     count, natural = _at_least(1), _at_least(0)
-    parser.add_argument("--env", default=None, help=f"env id (default: {DEFAULT_ENV}; with --evaluate: the checkpoint's)")
+    parser.add_argument(
+        "--env",
+        type=_nonblank("an env id"),
+        default=None,
+        help=f"env id (default: {DEFAULT_ENV}; with --evaluate: the checkpoint's)",
+    )
     parser.add_argument(
         "--iterations", type=natural, default=DEFAULT_ITERATIONS, help=f"PPO iterations (default: {DEFAULT_ITERATIONS})"
     )
@@ -556,7 +561,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--defaults", action="store_true", help="start from RLlib's PPO defaults, not the tested settings")
     parser.add_argument("--seed", type=natural, default=0, help="random seed (default: 0)")
-    parser.add_argument("--out", default=None, help="checkpoint directory (default: results/rllib/<env>_ppo)")
+    parser.add_argument(
+        "--out", type=_nonblank("a directory"), default=None, help="checkpoint directory (default: results/rllib/<env>_ppo)"
+    )
     parser.add_argument("--env-runners", type=natural, default=0, help="remote env runners; 0 samples in this process (default)")
     parser.add_argument("--num-cpus", type=count, default=None, help="CPUs of the local Ray cluster (default: all)")
     parser.add_argument("--threads", type=count, default=1, help="torch CPU threads of this process (default: 1)")
@@ -566,7 +573,13 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--eval-seed", type=natural, default=DEFAULT_EVAL_SEED, help=f"first held-out seed (default: {DEFAULT_EVAL_SEED})"
     )
-    parser.add_argument("--evaluate", default=None, metavar="CHECKPOINT", help="evaluate a saved checkpoint instead of training")
+    parser.add_argument(
+        "--evaluate",
+        type=_nonblank("a checkpoint"),
+        default=None,
+        metavar="CHECKPOINT",
+        help="evaluate a saved checkpoint instead of training",
+    )
     return parser
 
 
@@ -609,14 +622,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.evaluate is not None:
             module_path(args.evaluate)  # FileNotFoundError: one line
             saved = read_sidecar(args.evaluate)
-            env_id = args.env or saved.get("env") or DEFAULT_ENV
+            env_id = args.env if args.env is not None else saved.get("env") or DEFAULT_ENV
             if env_id == saved.get("env"):
                 config = {**(saved.get("config") or {}), **config}
             import teamgym
 
             teamgym.make(env_id, **config).close()  # a bad id or config fails here, in one line
         else:
-            env_id = args.env or DEFAULT_ENV
+            env_id = DEFAULT_ENV if args.env is None else args.env
     except (ValueError, TypeError, KeyError, FileNotFoundError, ImportError) as error:
         print(f"error: {_message(error)}", file=sys.stderr)
         return 2

@@ -115,7 +115,7 @@ def resolve_model(path: str | Path) -> Path:
     path = Path(path)
     if path.is_file():
         return path
-    if path.suffix != ".zip" and path.with_name(path.name + ".zip").is_file():
+    if path.name and path.suffix != ".zip" and path.with_name(path.name + ".zip").is_file():
         return path.with_name(path.name + ".zip")
     if text and "/" not in text and "\\" not in text and (AGENT_DIR / f"{path.stem}.zip").is_file():
         return AGENT_DIR / f"{path.stem}.zip"
