@@ -10,7 +10,8 @@ implements these hooks:
 * ``_build(rng)``: a new episode's :class:`~teamgym.sim.world.World`, robots and initial readings
   (``self.reset_options`` holds the ``options`` given to ``reset``, as ``_check_reset_options``
   returned them; messages sent here are delivered before the first observation);
-* ``_observe(out)``: every live agent's flat observation into a preallocated array;
+* ``_observe(out)``: every live agent's flat observation into a preallocated array (the base
+  then saturates it at the layout's finite bounds, :meth:`ObservationLayout.clip`);
 * ``episode_success()``: the episode contract;
 
 and may declare ``reset_option_keys`` with ``_check_reset_options(options)`` (validate every
@@ -489,6 +490,7 @@ class TeamEnv(ParallelEnv):
         out = np.zeros((len(self.agents), self.layout.size), dtype=np.float32)
         self._observe(out)
         self._observe_inbox(out)
+        self.layout.clip(out)
         fmt = self.config.obs_format
         if fmt == "flat":
             return {a: out[i] for i, a in enumerate(self.agents)}
