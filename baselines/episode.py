@@ -29,6 +29,8 @@ from typing import Any
 
 import numpy as np
 
+from teamgym.envs.infos import known_values
+
 __all__ = ["EpisodeResult", "Step", "StepHook", "metric_names", "run_episode", "static_geometry", "success_of"]
 
 
@@ -105,6 +107,8 @@ class EpisodeResult:
     walls: list[tuple[tuple[float, float], tuple[float, float]]] | None = field(default=None, compare=False, repr=False)
     furniture: list[list[tuple[float, float]]] | None = field(default=None, compare=False, repr=False)
     frames: list[np.ndarray] | None = field(default=None, compare=False, repr=False)
+    #: Keys of ``metrics`` that are categorical (indices of a sector, place, task: ``env.info_schema()``), never averaged.
+    categorical: frozenset[str] = field(default=frozenset(), compare=False, repr=False)
 
     @property
     def mean_return(self) -> float:
@@ -116,16 +120,16 @@ class EpisodeResult:
         return [float(m[name]) for m in self.metrics.values() if name in m]
 
     def metric_means(self) -> dict[str, float]:
-        """Per-episode mean of every metric over the agents that report it."""
+        """Per-episode mean of every (non-categorical) metric over the agents that report it."""
         return {name: float(np.mean(self.metric_values(name))) for name in metric_names([self])}
 
 
 def metric_names(results: Iterable[EpisodeResult]) -> list[str]:
-    """Every metric name in ``results``, in first-seen order."""
+    """Every metric name in ``results`` that is a quantity (categorical keys left out), in first-seen order."""
     names: dict[str, None] = {}
     for result in results:
         for metrics in result.metrics.values():
-            names.update(dict.fromkeys(metrics))
+            names.update(dict.fromkeys(k for k in metrics if k not in result.categorical))
     return list(names)
 
 
@@ -174,15 +178,23 @@ def run_episode(
             on_step(Step(env, policy, length, agents, actions, observations, rewards, terminations, truncations, infos))
         if limit is not None and length > limit:
             raise RuntimeError(f"episode with seed {seed} ran past its cycle limit ({limit} steps); the env does not truncate")
-    metrics = {agent: _numeric_metrics(info) for agent, info in final.items()}
-    result = EpisodeResult(seed=int(seed), length=length, success=success, returns=returns, metrics=metrics, frames=frames)
+    schema = env.info_schema() if hasattr(env, "info_schema") else {}
+    metrics = {agent: _numeric_metrics(known_values(info, schema)) for agent, info in final.items()}
+    categorical = frozenset(k for k, spec in schema.items() if spec.kind == "categorical")
+    result = EpisodeResult(
+        seed=int(seed), length=length, success=success, returns=returns, metrics=metrics, frames=frames, categorical=categorical
+    )
     if record_trajectories:
         _record_scene(env, result)
     return result
 
 
 def _numeric_metrics(info: Mapping[str, Any]) -> dict[str, float | int | bool]:
-    """The numeric scalars of one agent's infos, ``success`` left out (it is the episode's)."""
+    """The numeric scalars of one agent's infos, ``success`` left out (it is the episode's).
+
+    ``run_episode`` passes the known values only (``teamgym.envs.infos.known_values``: a time to goal
+    of a robot that never arrived is left out), so means run over the robots and episodes that report it.
+    """
     values = {k: _numeric(v) for k, v in info.items() if k != "success"}
     return {k: v for k, v in values.items() if v is not None}
 

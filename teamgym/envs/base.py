@@ -43,6 +43,7 @@ from pettingzoo import ParallelEnv
 
 from teamgym.envs.actions import ActionType, UnitScaled, WithMessage
 from teamgym.envs.config import ConfigError, EnvConfig
+from teamgym.envs.infos import COUNT, InfoKey, metrics
 from teamgym.envs.reset_input import check_option_keys, check_seed
 from teamgym.envs.spaces import ActionChecker, Field, ObservationLayout
 from teamgym.sim.channel import Channel, ChannelConfig
@@ -106,8 +107,11 @@ class TeamEnv(ParallelEnv):
         if c.comm_dim:
             self.layout = self.layout.extended(self._inbox_fields())
         self.channel = Channel(self.possible_agents, self._channel_config())
-        self._observation_spaces = {a: self.layout.space(c.obs_format) for a in self.possible_agents}
         self._action_spaces = {a: self.action_type.space() for a in self.possible_agents}
+        self._mask_size = self._action_mask_size()
+        self._observation_spaces = {a: self._observation_space() for a in self.possible_agents}
+        self._info_schema = self._full_info_schema()
+        self._info_template = {key: spec.missing for key, spec in self._info_schema.items()}
         self._checkers = {a: ActionChecker(space) for a, space in self._action_spaces.items()}
         self._masks: dict[str, np.ndarray] = {}
         self._reward_total = np.zeros(len(self.possible_agents))
@@ -180,7 +184,11 @@ class TeamEnv(ParallelEnv):
         raise NotImplementedError(f"{type(self).__name__} must define episode_success()")
 
     def _metrics(self, agent: str) -> dict[str, Any]:
-        """Numbers and arrays only (no strings) for ``infos[agent]``."""
+        """Numbers and arrays only (no strings) for ``infos[agent]``; keys from :meth:`_info_keys` only."""
+        return {}
+
+    def _info_keys(self) -> dict[str, InfoKey]:
+        """The task's keys of ``infos[agent]`` (from the config alone), each with its kind and its value until known."""
         return {}
 
     def _metrics_of(self, agents: list[str]) -> dict[str, dict[str, Any]]:
@@ -226,6 +234,37 @@ class TeamEnv(ParallelEnv):
         self._joining.append(agent)
 
     # -- spaces ----------------------------------------------------------------------
+    def _action_mask_size(self) -> int | None:
+        """Length of an action mask (the masked part of the action space), or None without masks."""
+        if not self.action_type.has_masks:
+            return None
+        return int(self.action_type.masked_space(self._action_spaces[self.possible_agents[0]]).n)
+
+    def _observation_space(self) -> spaces.Space:
+        """The space of one agent's observation in ``obs_format`` (masks added where the action type has them)."""
+        fmt, layout, n = self.config.obs_format, self.layout, self._mask_size
+        if fmt == "flat":
+            return layout.flat_space()
+        mask = None if n is None else spaces.Box(0, 1, shape=(n,), dtype=np.int8)
+        if fmt == "dict":
+            space = layout.dict_space()
+            return space if mask is None else spaces.Dict({**space.spaces, self._mask_field: mask})
+        action_space = self._action_spaces[self.possible_agents[0]]
+        if not isinstance(action_space, spaces.Discrete):
+            raise ConfigError(
+                f"{type(self.config).__name__}: obs_format='masked' needs a discrete action space; action_type="
+                f"{self.action_type.name!r} (comm_dim={self.config.comm_dim}) gives {action_space} (use 'flat' or 'dict')"
+            )
+        if mask is None:  # a discrete action type without masks: every action is always admissible
+            mask = spaces.Box(0, 1, shape=(int(action_space.n),), dtype=np.int8)
+        return spaces.Dict({"observation": layout.flat_space(), "action_mask": mask})
+
+    @property
+    def _mask_field(self) -> str:
+        """Name of the mask in a dict observation: ``action_mask`` (PettingZoo's, for a discrete action space)
+        or ``motion_mask`` (the mask of ``action["motion"]`` when a learned message makes the action a Dict)."""
+        return "action_mask" if isinstance(self._action_spaces[self.possible_agents[0]], spaces.Discrete) else "motion_mask"
+
     def observation_space(self, agent: str) -> spaces.Space:
         try:
             return self._observation_spaces[agent]
@@ -452,21 +491,65 @@ class TeamEnv(ParallelEnv):
         self._observe(out)
         self._observe_inbox(out)
         self.layout.clip(out)
-        if self.config.obs_format == "dict":
-            to_dict = self.layout.to_dict
-            return {a: to_dict(out[i]) for i, a in enumerate(self.agents)}
-        return {a: out[i] for i, a in enumerate(self.agents)}
+        fmt = self.config.obs_format
+        if fmt == "flat":
+            return {a: out[i] for i, a in enumerate(self.agents)}
+        if fmt == "masked":
+            return {a: {"observation": out[i], "action_mask": self._observed_mask(a)} for i, a in enumerate(self.agents)}
+        to_dict = self.layout.to_dict
+        observations = {a: to_dict(out[i]) for i, a in enumerate(self.agents)}
+        if self._mask_size is not None:
+            field = self._mask_field
+            for agent, observation in observations.items():
+                observation[field] = self._observed_mask(agent)
+        return observations
+
+    def _observed_mask(self, agent: str) -> np.ndarray:
+        """``agent``'s action mask as an observation field (int8; all admissible if it has none)."""
+        mask = self._masks.get(agent)
+        if mask is None:
+            return np.ones(self._observation_spaces[agent]["action_mask"].shape, dtype=np.int8)  # 'masked' format only
+        return np.asarray(mask, dtype=np.int8).copy()
+
+    # -- infos -----------------------------------------------------------------------
+    def _full_info_schema(self) -> dict[str, InfoKey]:
+        schema = {"success": COUNT, **self._info_keys()}
+        if self._mask_size is not None:
+            schema["action_mask"] = InfoKey("mask", None, sentinel=False)
+        if self.config.comm_dim or self.uses_channel:
+            schema.update(metrics(*Channel.stat_keys()))
+        return schema
+
+    def info_schema(self) -> dict[str, InfoKey]:
+        """Every key of ``infos[agent]`` (present from reset on, in every agent's dict), its kind and its value until known.
+
+        Times not known yet and categorical indices hold -1 (:mod:`teamgym.envs.infos`);
+        summaries average metrics only, over the values that are known.
+        """
+        return dict(self._info_schema)
+
+    def _schema_info(self, task_metrics: dict[str, Any]) -> dict[str, Any]:
+        """One agent's infos: every schema key at its value until known, updated with the task's ``task_metrics``."""
+        info = self._info_template.copy()
+        info.update(task_metrics)
+        return info
 
     def _collect_infos(self) -> dict[str, dict[str, Any]]:
         success = bool(self.episode_success())
-        infos = self._metrics_of(self.agents)
+        template = self._info_template
         comm = bool(self.config.comm_dim) or self.uses_channel
-        for agent, info in infos.items():
+        infos = {}
+        for agent, task_metrics in self._metrics_of(self.agents).items():
+            info = self._schema_info(task_metrics)
             info["success"] = success
             if agent in self._masks:
                 info["action_mask"] = self.action_type.info_mask(self._masks[agent].copy())
             if comm:
                 info.update(self.channel.stats(agent))
+            if len(info) != len(template):
+                extra = sorted(set(info) - set(template))
+                raise RuntimeError(f"{type(self).__name__}: infos key(s) {extra} are not in the env's info schema (_info_keys)")
+            infos[agent] = info
         return infos
 
     # -- rendering -------------------------------------------------------------------

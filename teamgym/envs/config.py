@@ -129,7 +129,11 @@ class EnvConfig:
         ``substeps``. The joint-driven motion differs slightly with the substep length, so
         trajectories are not those of ``coarse_substeps=0`` (``benchmarks/bench_adaptive_substeps.py``).
     obs_format:
-        ``"flat"`` (one float32 vector per agent) or ``"dict"`` (named, typed fields).
+        ``"flat"`` (one float32 vector per agent), ``"dict"`` (named, typed fields, and
+        ``action_mask`` where the action type has masks; ``motion_mask`` when ``comm_dim`` makes
+        the action a Dict) or ``"masked"`` (PettingZoo's form for masked envs:
+        ``{"observation": <flat vector>, "action_mask": <int8 mask>}``; discrete action spaces
+        only, all ones where the action type has no masks).
     comm_dim:
         Length of a learned message vector in [-1, 1] added to every action (0: none); the
         observation then gains the inbox fields ``inbox``, ``inbox_sender``, ``inbox_mask``.
@@ -146,7 +150,7 @@ class EnvConfig:
     dt: float = 0.1
     substeps: int = 20
     coarse_substeps: int = 0
-    obs_format: Literal["flat", "dict"] = "flat"
+    obs_format: Literal["flat", "dict", "masked"] = "flat"
     comm_dim: int = 0
     comm_range: float | None = None
     comm_throughput: float = 1.0

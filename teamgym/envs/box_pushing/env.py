@@ -67,6 +67,7 @@ from teamgym.envs.bounds import wheel_rotation_limit
 from teamgym.envs.box_pushing.actions import PrimitiveAction
 from teamgym.envs.box_pushing.config import SITUATIONS, BoxPushingConfig, BoxPushingV1Config, Event
 from teamgym.envs.box_pushing.scene import GoalWall, Placer
+from teamgym.envs.infos import InfoKey, metrics, unknown
 from teamgym.envs.spaces import Field, ObservationLayout
 from teamgym.sim.categories import OPAQUE, Category
 from teamgym.sim.objects import Box, Lamp
@@ -270,6 +271,11 @@ class BoxPushing(TeamEnv):
         out[:, s["busy"].start] = [float(self.executors[a].busy) for a in self.agents]
         if "stall" in s:
             out[:, s["stall"].start] = np.minimum(self._stall_run[rows], STALL_CAP) / STALL_CAP
+
+    def _info_keys(self) -> dict[str, InfoKey]:
+        """Counts from reset on; ``time_to_goal`` (s) NaN until the team succeeds."""
+        keys = ("boxes_delivered", "box_progress", "path_length", "collisions", "stalled_steps", "broken_down", "removed")
+        return {**metrics(*keys), **unknown("time_to_goal")}
 
     def _metrics(self, agent: str) -> dict[str, Any]:
         i = self._index[agent]

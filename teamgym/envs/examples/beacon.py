@@ -47,6 +47,7 @@ from pettingzoo import AECEnv
 from teamgym.envs.actions import ActionType, VelocityAction
 from teamgym.envs.base import TeamEnv
 from teamgym.envs.config import ConfigError, EnvConfig, require, require_together
+from teamgym.envs.infos import InfoKey, metrics
 from teamgym.envs.reset_input import scene_points
 from teamgym.envs.spaces import Field, ObservationLayout
 from teamgym.sim.render import Overlay
@@ -238,6 +239,10 @@ class Beacon(TeamEnv):
             packed = self.channel.inbox_array(agent, width=2, capacity=self.capacity, kind="beacon")
             view(obs, "reports")[:] = packed.payload
             view(obs, "report_mask")[:] = packed.mask
+
+    def _info_keys(self) -> dict[str, InfoKey]:
+        """Every key of ``_metrics``, known from reset on (a key a task adds later holds NaN until known: ``unknown``)."""
+        return metrics("distance_to_beacon", "beacon_seen", "collisions")
 
     def _metrics(self, agent: str) -> dict[str, Any]:
         i = self._row[agent]

@@ -67,6 +67,7 @@ from teamgym.envs.bounds import region, speed_limits
 from teamgym.envs.config import ConfigError
 from teamgym.envs.exploration.config import ExplorationConfig, cached_map
 from teamgym.envs.exploration.operators import OperatorAction, OperatorSet, TaskFactory
+from teamgym.envs.infos import InfoKey, categorical, metrics, unknown
 from teamgym.envs.spaces import Field, ObservationLayout
 from teamgym.maps.build import map_entities
 from teamgym.maps.model import OfficeMap
@@ -440,6 +441,19 @@ class Exploration(TeamEnv):
             watcher = self._watchers[i]
             layout.view(buffer, "task_status")[int(watcher.state)] = 1.0
             layout.view(buffer, "task")[0] = watcher.task.key if watcher.task is not None else -1
+
+    def _info_keys(self) -> dict[str, InfoKey]:
+        """Counts from reset on, ``explore_time`` (s) NaN until every goal sector is explored; ``sector``, ``place``
+        and (operators) ``task``, ``task_status``, ``task_reason`` are categorical (``decode_info`` names them)."""
+        keys = {
+            **metrics("explored", "explored_fraction", "explored_all", "path_length", "team_path_length", "collisions"),
+            **categorical("sector", "place"),
+            **unknown("explore_time"),
+        }
+        if self.action_type.is_macro:
+            keys.update(metrics("stages", "tasks_completed", "tasks_failed"))
+            keys.update(categorical("task", "task_status", "task_reason"))
+        return keys
 
     def _metrics(self, agent: str) -> dict[str, Any]:
         return self._metrics_of([agent])[agent]

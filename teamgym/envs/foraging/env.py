@@ -69,6 +69,7 @@ from teamgym.envs.foraging.perception import (
     packet_bytes,
     visibility,
 )
+from teamgym.envs.infos import InfoKey, metrics, unknown
 from teamgym.envs.reset_input import scene_points
 from teamgym.envs.spaces import Field, ObservationLayout
 from teamgym.sim.objects import Target
@@ -423,6 +424,12 @@ class Foraging(TeamEnv):
         if robots.any():
             seen &= ~self._view.shadow(x, y, theta, self._polar[i, robots], self.spec.radius)
         return seen
+
+    def _info_keys(self) -> dict[str, InfoKey]:
+        """``TL`` (first target seen), ``TT1``..``TTn`` (k-th target done) and ``TG`` (success), in s, NaN until then;
+        ``DG``, ``targets_done``, ``localisation_certainty``, ``position_error`` from reset on."""
+        times = ("TL", *(f"TT{k}" for k in range(1, self.config.n_targets + 1)), "TG")
+        return {**unknown(*times), **metrics("DG", "targets_done", "localisation_certainty", "position_error")}
 
     def _metrics(self, agent: str) -> dict[str, Any]:
         i = self._row[agent]

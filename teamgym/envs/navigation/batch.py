@@ -252,4 +252,4 @@ class NavigationBatch:
         """Copy ``k``'s metrics of every robot (``possible_agents``), with ``success`` (the episode contract)."""
         env = self.copies[k]
         success = bool(env.episode_success())
-        return {agent: {**env._metrics(agent), "success": success} for agent in self.possible_agents}
+        return {agent: {**env._schema_info(env._metrics(agent)), "success": success} for agent in self.possible_agents}

@@ -71,6 +71,7 @@ from teamgym.envs.actions import ActionType, VelocityAction, WheelSpeedAction
 from teamgym.envs.base import TeamEnv
 from teamgym.envs.bounds import ROUNDING, SATURATION, region, speed_limits
 from teamgym.envs.config import ConfigError
+from teamgym.envs.infos import InfoKey, metrics, unknown
 from teamgym.envs.navigation.actions import HeadingAction
 from teamgym.envs.navigation.config import NavigationConfig
 from teamgym.envs.navigation.scene import NavigationScene, PlacementError, scatter
@@ -366,6 +367,11 @@ class Navigation(TeamEnv):
         every = np.empty((1, self.config.n_robots, out.shape[1]), dtype=out.dtype)
         self._team.observe(self._ks, self.layout, every)
         out[:] = every[0, rows]
+
+    def _info_keys(self) -> dict[str, InfoKey]:
+        """Counts and distances from reset on; ``time_to_goal`` (s) NaN until the robot arrives."""
+        keys = ("arrived", "distance_to_goal", "path_length", "collisions", "min_clearance", "min_center_distance", "smoothness")
+        return {**metrics(*keys), **unknown("time_to_goal")}
 
     def _metrics(self, agent: str) -> dict[str, Any]:
         return self._metrics_of([agent])[agent]

@@ -70,6 +70,7 @@ from teamgym.envs.actions import ActionType, VelocityAction
 from teamgym.envs.base import EpisodeOverError, TeamEnv
 from teamgym.envs.bounds import region
 from teamgym.envs.config import ConfigError
+from teamgym.envs.infos import InfoKey, categorical, metrics, unknown
 from teamgym.envs.rendezvous.actions import NextPlaceAction, WithRecords
 from teamgym.envs.rendezvous.config import RendezvousConfig
 from teamgym.envs.rendezvous.messages import MESSAGE_VALUE_MAX, Kind, decode
@@ -475,6 +476,13 @@ class Rendezvous(TeamEnv):
         squared = float(np.dot(b - a, b - a))
         done = float(np.dot(self.world.robot_states[i, :2] - a, b - a)) / max(squared, 1e-12)
         return float(np.clip(done, 0.0, 1.0))
+
+    def _info_keys(self) -> dict[str, InfoKey]:
+        """Counts from reset on; ``optimality`` (worst plan cost ratio) NaN until a plan exists, ``meeting_time`` (s)
+        NaN until the robots meet; ``place`` is categorical (``place_id`` names it)."""
+        counts = ("path_length", "collisions", "robot_collisions", "blocked_known", "plans", "replans", "expansions")
+        keys = {**metrics(*counts, "stale_plans", "failed_moves"), **categorical("place")}
+        return {**keys, **unknown("optimality", "meeting_time")}
 
     def _metrics(self, agent: str) -> dict[str, Any]:
         i = self._row[agent]
