@@ -20,6 +20,10 @@ ray_pin="$(grep -E '^ray==' scripts/constraints-floors.txt)"
 "$venv/bin/python" -m pip install --quiet torch==2.13.0
 "$venv/bin/python" -m pip install --quiet -e ".[rllib,dev]" "$ray_pin"
 export SDL_VIDEODRIVER=dummy MPLBACKEND=Agg RAY_USAGE_STATS_ENABLED=0
+# Local clusters on 127.0.0.1: with this on (Ray's default on Linux) Ray binds and connects to the
+# host's outward address even for ray.init() on one machine. tests/test_ray_cluster.py turns it back
+# on for its own nodes, which run in a loopback-only namespace (joining a node needs it).
+export RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER=0
 if [ "$#" -eq 0 ]; then
   set -- tests/test_rllib.py tests/test_ray_cluster.py
 fi

@@ -78,6 +78,7 @@ def cluster():
         (pytest.fail if os.environ.get("CI") else pytest.skip)(f"cannot make a loopback-only namespace: {reason}")
     env = {key: value for key, value in os.environ.items() if key != "RAY_ADDRESS"}
     env.update(RAY_AUTH_MODE="token", RAY_AUTH_TOKEN=secrets.token_hex(32), RAY_USAGE_STATS_ENABLED="0")
+    env["RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER"] = "1"  # multi-node on (run_tests_rllib.sh turns it off outside)
     temp_dirs = [tempfile.mkdtemp(prefix=f"ray{i}-", dir="/tmp") for i in range(2)]  # short: Unix socket paths
     ns = LoopbackNamespace()
     try:
