@@ -9,9 +9,9 @@ Command line::
 Episode ``i`` resets the env with seed ``S + i`` and the policy with ``policy.reset(S + i)``,
 so results do not depend on ``--workers``. ``--workers ray`` runs the episodes on a Ray
 cluster (one actor per CPU; ``--ray-address HOST:PORT`` or ``RAY_ADDRESS`` names an existing
-cluster, else a local one starts; needs ``pip install ray``) with the same results. ``--policy sb3:PATH`` evaluates a saved
-Stable-Baselines3 model (see :mod:`baselines.rl.sb3_policy`), deterministically unless
-``--stochastic``.
+cluster, else a local one starts; needs ``pip install ray``) with the same results.
+``--policy sb3:PATH`` evaluates a saved Stable-Baselines3 model (see
+:mod:`baselines.rl.sb3_policy`), deterministically unless ``--stochastic``.
 
 A model saved by ``python -m baselines.train`` has a sidecar ``<model>.json`` with the env
 id and config overrides it was trained with. When it exists they are the defaults: the
