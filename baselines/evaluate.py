@@ -3,14 +3,15 @@
 Command line::
 
     python -m baselines.evaluate [--env Navigation-v0] [--policy goto] [--episodes 10] [--seed 0]
-        [--set key=value ...] [--max-cycles M] [--out DIR] [--gif] [--workers W|ray] [--quiet] [--stochastic]
+        [--set key=value ...] [--max-cycles M] [--out DIR] [--gif] [--workers W|ray] [--ray-address ADDR]
+        [--quiet] [--stochastic]
 
 Episode ``i`` resets the env with seed ``S + i`` and the policy with ``policy.reset(S + i)``,
 so results do not depend on ``--workers``. ``--workers ray`` runs the episodes on a Ray
-cluster (one actor per CPU; ``RAY_ADDRESS`` names an existing cluster, else a local one starts;
-needs ``pip install ray``) with the same results. ``--policy sb3:PATH`` evaluates a saved
-Stable-Baselines3 model (see :mod:`baselines.rl.sb3_policy`), deterministically unless
-``--stochastic``.
+cluster (one actor per CPU; ``--ray-address HOST:PORT`` or ``RAY_ADDRESS`` names an existing
+cluster, else a local one starts; needs ``pip install ray``) with the same results.
+``--policy sb3:PATH`` evaluates a saved Stable-Baselines3 model (see
+:mod:`baselines.rl.sb3_policy`), deterministically unless ``--stochastic``.
 
 A model saved by ``python -m baselines.train`` has a sidecar ``<model>.json`` with the env
 id and config overrides it was trained with. When it exists they are the defaults: the
@@ -23,8 +24,9 @@ naming both envs. Files written to ``DIR`` (default ``results/<env>_<policy>/``)
 * ``summary.json``: env, policy, resolved config, episodes, seed, ``success_rate``,
   ``mean_episode_length``, ``mean_return`` and ``mean_<metric>`` for every numeric
   metric, plus ``metrics`` (mean/std/min/max/count of each), ``deterministic`` (false
-  with ``--stochastic``), ``overrides`` (the ``--set`` and sidecar settings, as strings) and, for
-  a model with a sidecar, ``sidecar`` (its path);
+  with ``--stochastic``), ``overrides`` (the ``--set`` and sidecar settings, as strings), for
+  a model with a sidecar ``sidecar`` (its path) and, with ``--workers ray``, ``ray_nodes``
+  (the episodes each Ray node ran, by node id);
 * ``episodes.csv``: one row per episode (seed, length, success, mean return over robots
   and the per-episode mean of every metric over the robots that report it);
 * ``trajectories.png``: the robots' (and moving obstacles' or boxes') paths in the first episode;
@@ -156,17 +158,20 @@ def _ray_results(
     policy_kwargs: Mapping[str, Any] | None,
     items: Sequence[tuple[int, bool]],
     on_done: Callable[[int], None],
+    address: str | None = None,
+    nodes: dict[str, int] | None = None,
 ) -> list[EpisodeResult]:
     """Episodes ``items`` (seed, keep trajectories) on Ray actors, one per cluster CPU, each with its own env and policy.
 
-    Uses the running Ray session, else ``ray.init()`` (``RAY_ADDRESS`` or a new local cluster), shut down after.
+    Uses the running Ray session, else ``ray.init(address)`` (``None``: ``RAY_ADDRESS`` or a new local
+    cluster), shut down after. ``nodes`` gets the number of episodes each node ran (node id -> count).
     """
     ray = require_ray()
     started = not ray.is_initialized()
     if started:
         import logging
 
-        ray.init(logging_level=logging.WARNING)
+        ray.init(address=address, logging_level=logging.WARNING)
     try:
         cpus = max(1, int(ray.cluster_resources().get("CPU", 1)))
         chunks = _chunks(items, cpus)
@@ -180,8 +185,10 @@ def _ray_results(
             pool.submit(lambda actor, job: actor.run_chunk.remote(*job), (i, chunk))
         slots: list[list[EpisodeResult] | None] = [None] * len(chunks)
         while pool.has_next():
-            i, results = pool.get_next_unordered()
+            i, node, results = pool.get_next_unordered()
             slots[i] = results
+            if nodes is not None:
+                nodes[node] = nodes.get(node, 0) + len(results)
             on_done(len(results))
         for actor in actors:
             ray.kill(actor)
@@ -195,10 +202,14 @@ class _RayRunner:
     """A Ray actor's state: one env and policy (as a process-pool worker has), reused for its chunks."""
 
     def __init__(self, env_id: str, policy_name: str, config: Mapping[str, Any], policy_kwargs: Mapping[str, Any] | None) -> None:
-        _init_worker(env_id, policy_name, config, policy_kwargs)
+        import ray
 
-    def run_chunk(self, index: int, chunk: Sequence[tuple[int, bool]]) -> tuple[int, list[EpisodeResult]]:
-        return index, _worker_run_chunk(chunk)
+        _init_worker(env_id, policy_name, config, policy_kwargs)
+        self.node = ray.get_runtime_context().get_node_id()
+
+    def run_chunk(self, index: int, chunk: Sequence[tuple[int, bool]]) -> tuple[int, str, list[EpisodeResult]]:
+        """The chunk's results, with its index and the id of the Ray node that ran it."""
+        return index, self.node, _worker_run_chunk(chunk)
 
 
 def require_ray() -> Any:
@@ -212,6 +223,18 @@ def require_ray() -> Any:
     import ray.util  # ActorPool
 
     return ray
+
+
+#: What ``ray.init(address=...)`` takes for an existing cluster: ``auto``, ``HOST:PORT`` or ``ray://HOST:PORT``.
+_RAY_ADDRESS = re.compile(r"(ray://)?(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9_.-]+):(\d{1,5})")
+
+
+def check_ray_address(address: str) -> str:
+    """``address`` if it names an existing Ray cluster (``HOST:PORT``, ``ray://HOST:PORT`` or ``auto``), else ``ValueError``."""
+    match = _RAY_ADDRESS.fullmatch(address)
+    if address != "auto" and not (match and 1 <= int(match.group(3)) <= 65535):
+        raise ValueError(f"a Ray address is HOST:PORT, ray://HOST:PORT or auto, got {address!r}")
+    return address
 
 
 def _pool_context():
@@ -259,6 +282,8 @@ def evaluate(
     progress: bool = False,
     keep_trajectories: bool = False,
     policy_kwargs: Mapping[str, Any] | None = None,
+    ray_address: str | None = None,
+    ray_nodes: dict[str, int] | None = None,
 ) -> list[EpisodeResult]:
     """Run ``episodes`` episodes (seeds ``seed .. seed+episodes-1``) and return their results in seed order.
 
@@ -268,8 +293,9 @@ def evaluate(
     With ``workers > 1`` episodes run in that many worker processes (forked where possible),
     each with its own env and policy, handed out in chunks of consecutive seeds; results are
     identical to a sequential run. ``workers="ray"`` runs the chunks on Ray actors, one per CPU of
-    the running Ray session or of ``ray.init()`` (``RAY_ADDRESS``, else a new local cluster, shut
-    down after); results are again identical. Trajectories are kept for
+    the running Ray session or of ``ray.init(address=ray_address)`` (by default ``RAY_ADDRESS``,
+    else a new local cluster; shut down after); results are again identical, and ``ray_nodes``
+    (a dict, if given) gets the number of episodes each Ray node ran. Trajectories are kept for
     the first episode only unless ``keep_trajectories``. ``policy_kwargs`` go to
     :func:`baselines.registry.make_policy` (e.g. ``{"deterministic": False}`` for an
     ``sb3:PATH`` policy). Config, env-id and policy errors
@@ -281,9 +307,15 @@ def evaluate(
     if seed < 0:
         raise ValueError(f"seed must be >= 0, got {seed}")
     if workers == "ray":
-        require_ray()
+        ray = require_ray()
+        if ray_address is not None:
+            check_ray_address(ray_address)
+            if ray.is_initialized():
+                raise ValueError("ray_address was given, but this process already runs a Ray session (it would be used)")
     elif isinstance(workers, str) or workers < 1:
         raise ValueError(f"workers must be an integer >= 1 or 'ray', got {workers!r}")
+    elif ray_address is not None:
+        raise ValueError(f"ray_address applies to workers='ray' only, not workers={workers!r}")
     from tqdm import tqdm
 
     config = dict(config or {})
@@ -299,7 +331,7 @@ def evaluate(
             return results
         runner.close()
         if workers == "ray":
-            return _ray_results(env_id, policy_name, config, policy_kwargs, items, bar.update)
+            return _ray_results(env_id, policy_name, config, policy_kwargs, items, bar.update, ray_address, ray_nodes)
         assert isinstance(workers, int)
         from concurrent.futures import ProcessPoolExecutor, as_completed
 
@@ -496,6 +528,14 @@ def _nonblank(what: str) -> Callable[[str], str]:
     return parse
 
 
+def _ray_address(text: str) -> str:
+    """An argparse ``type``: a Ray cluster address (:func:`check_ray_address`)."""
+    try:
+        return check_ray_address(text)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
+
+
 def _workers(text: str) -> int | str:
     """An argparse ``type``: a number of worker processes ``>= 1``, or ``ray``."""
     if text.strip().lower() == "ray":
@@ -623,6 +663,13 @@ def build_parser() -> argparse.ArgumentParser:
         default=1,
         help="parallel worker processes, >= 1, or 'ray': Ray actors, one per cluster CPU (RAY_ADDRESS; default: 1)",
     )
+    parser.add_argument(
+        "--ray-address",
+        type=_ray_address,
+        default=None,
+        metavar="ADDR",
+        help="with --workers ray: the Ray cluster to run on, HOST:PORT of its head (default: RAY_ADDRESS, else a new local one)",
+    )
     parser.add_argument("--quiet", action="store_true", help="no progress bar or table")
     parser.add_argument(
         "--stochastic", action="store_true", help="sample an sb3:PATH model's actions instead of taking the most likely"
@@ -681,6 +728,8 @@ def _run(args: argparse.Namespace) -> int:
         config["max_cycles"] = str(args.max_cycles)
     if args.stochastic and not args.policy.startswith("sb3:"):
         raise _UsageError(f"--stochastic applies to sb3:PATH policies only, not {args.policy!r}")
+    if args.ray_address is not None and args.workers != "ray":
+        raise _UsageError(f"--ray-address applies to --workers ray only, not --workers {args.workers}")
     if args.workers == "ray":
         try:
             require_ray()
@@ -714,11 +763,23 @@ def _run(args: argparse.Namespace) -> int:
     except OSError as error:
         raise _UsageError(f"cannot create --out {str(out)!r}: {error.strerror or error}") from error
 
+    nodes: dict[str, int] = {}
     results = evaluate(
-        env_id, args.policy, args.episodes, args.seed, config, args.workers, progress=not args.quiet, policy_kwargs=policy_kwargs
+        env_id,
+        args.policy,
+        args.episodes,
+        args.seed,
+        config,
+        args.workers,
+        progress=not args.quiet,
+        policy_kwargs=policy_kwargs,
+        ray_address=args.ray_address,
+        ray_nodes=nodes,
     )
     summary = {"env": env_id, "policy": args.policy, "config": resolved, "seed": args.seed, "workers": args.workers}
     summary.update(summarise(results))
+    if args.workers == "ray":
+        summary["ray_nodes"] = dict(sorted(nodes.items()))
     summary["deterministic"] = not args.stochastic
     summary["overrides"] = {k: str(v) for k, v in config.items()}
     if sidecar is not None:
