@@ -150,13 +150,9 @@ def test_world_records_contacts_between_entities():
     assert world.contacts_of("r") == []
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="pymunk pickles positions, velocities and cached contacts but not Chipmunk's per-body bias "
-    "velocity (v_bias/w_bias, the pending overlap correction): a World pickled just after an impact "
-    "continues ~1e-5 m off. TeamEnv copies by replaying its log instead (see test_env_api.py).",
-)
 def test_world_pickle_just_after_impact_continues_identically():
+    """pymunk's pickle leaves out each body's bias velocity (the pending overlap correction);
+    ``SolverSpace`` adds it, so a world pickled just after an impact continues bit for bit."""
     import pickle
 
     world = World((1.0, 1.0))

@@ -46,10 +46,12 @@ from teamgym.envs.config import ConfigError, EnvConfig
 from teamgym.envs.infos import COUNT, InfoKey, metrics
 from teamgym.envs.reset_input import check_option_keys, check_seed
 from teamgym.envs.spaces import ActionChecker, Field, ObservationLayout
+from teamgym.envs.trails import TrailArchive
+from teamgym.sim import snapshot
 from teamgym.sim.channel import Channel, ChannelConfig
 from teamgym.sim.render import Overlay, Renderer, robot_colour
 from teamgym.sim.robot import DiffDriveRobot
-from teamgym.sim.world import World
+from teamgym.sim.world import FixedRecord, World
 
 #: Outcome of ``_check_feasible`` per (env class, config): None or the error message.
 _FEASIBILITY: dict[tuple[type, EnvConfig], str | None] = {}
@@ -339,6 +341,7 @@ class TeamEnv(ParallelEnv):
         for agent in terminations:
             if terminations[agent] or truncations[agent]:
                 self.robots[agent].set_command(0.0, 0.0)
+        self._rebase_if_due()
         if self.render_mode == "human":
             self.render()
         return observations, rewards, terminations, truncations, infos
@@ -589,45 +592,138 @@ class TeamEnv(ParallelEnv):
         return self.layout.decode(observation)
 
     # -- copying and pickling ---------------------------------------------------------
-    # Chipmunk keeps solver state that pymunk cannot pickle (accumulated joint impulses and
-    # cached contacts used for warm starting), so a pickled space continues slightly
-    # differently. An env is therefore pickled as its config plus the log of everything
-    # that changed it since the last reset (the RNG state and seed of that reset, every
-    # checked joint action and every recorded event) and rebuilt by replaying the log: the
-    # simulation is deterministic, so the copy continues exactly as the original would.
-    # Subclasses route run-time events (adding robots, opening doors...) through
-    # :meth:`_record` so that they are replayed too.
+    # Chipmunk keeps state no pickle restores exactly (the history of its broad phase: the
+    # order in which it reports colliding pairs), so an env is pickled as its config plus a
+    # log and rebuilt by replaying the log: the simulation is deterministic, so the copy
+    # continues exactly as the original would. The log starts at a *base*: the reset (its RNG
+    # state, seed and options) or a snapshot. At the first step boundary after
+    # ``rebase_cycles`` control cycles since the last base, the env pickles its episode state
+    # (world, robots, sensors, RNG, counters; :mod:`teamgym.sim.snapshot`) and replaces its
+    # own live state by the unpickled snapshot, so that from then on it is itself a restored
+    # copy, and the log starts again at that snapshot. A copy unpickles the snapshot and
+    # replays the steps since (fewer than ``rebase_cycles`` cycles plus one step), so copies
+    # cost about the same at any episode length, and the worlds of original and copy are
+    # built from the same bytes by the same procedure. After its base the log holds every
+    # checked joint action and every recorded event: subclasses route run-time events (adding
+    # robots, opening doors...) through :meth:`_record` so that they are replayed too. Trails
+    # (positions per cycle) are history, not state: snapshots leave them out, copies get them
+    # as they are (packed for pickling by :class:`~teamgym.envs.trails.TrailArchive`).
+    #: Control cycles between re-bases (see above): a task sets it so that replaying that many
+    #: cycles stays well under 0.5 s. Copies re-base where the original does.
+    rebase_cycles: int = 300
+    #: What a re-base leaves alone: the config and the objects ``__init__`` derives from it that
+    #: callers hold (spaces, checkers), the renderer, the log and the trails.
+    _KEPT_ON_REBASE: ClassVar[frozenset[str]] = frozenset(
+        {"render_mode", "config", "possible_agents", "layout", "_checkers", "_observation_spaces", "_action_spaces"}
+        | {"_renderer", "_log", "_trails", "_object_trails", "_trail_archives"}
+    )
+
     def _record(self, method: str, *args: Any) -> None:
         """Log a call of ``self.<method>(*args)`` made during the episode, for replay."""
         self._log.append(("call", method, copy.deepcopy(args)))
 
-    def __getstate__(self) -> dict:
+    def _episode_state(self) -> dict[str, Any]:
+        """The attributes a snapshot holds (all but :attr:`_KEPT_ON_REBASE`); a task may swap some for what rebuilds them."""
+        return {k: v for k, v in self.__dict__.items() if k not in self._KEPT_ON_REBASE}
+
+    def _adopt_episode_state(self, state: dict[str, Any]) -> None:
+        """Take the attributes of an unpickled snapshot as this env's own (the inverse of :meth:`_episode_state`)."""
+        self.__dict__.update(state)
+        if self._renderer is not None:
+            self._renderer.world = self.world
+
+    def _cycles_since_base(self) -> int:
+        first = self._log[0] if self._log else None
+        return self.cycles - (first[2] if first is not None and first[0] == "base" else 0)
+
+    def _rebase_if_due(self) -> None:
+        """At a step boundary: re-base once ``rebase_cycles`` control cycles have passed since the last base."""
+        if self._cycles_since_base() >= self.rebase_cycles:
+            self._rebase()
+
+    def _rebase(self) -> None:
+        """Snapshot the episode state, replace the live state by the unpickled snapshot and start the log there.
+
+        The world's fixed entities (walls, furniture) are referred to, not pickled: the live ones
+        move into the restored world, and a copy gets fresh ones (:class:`~teamgym.sim.world.FixedRecord`).
+        """
+        world = self.world
+        fixed = world.fixed_record()
+        data = snapshot.dumps(self._episode_state(), external=[self, *fixed.objects])
+        world.release_fixed()
+        self._adopt_episode_state(snapshot.loads(data, external=[self, *fixed.objects]))
+        self.world.adopt_fixed(fixed)
+        self._log = [("base", data, self.cycles, fixed)]
+        self._pack_trails()  # the points so far, once: later pickles convert only newer ones
+
+    def _restore_base(self, data: bytes, fixed: FixedRecord) -> None:
+        """Take the state of a snapshot :meth:`_rebase` logged (where a copy starts)."""
+        fresh = fixed.fresh()
+        self._adopt_episode_state(snapshot.loads(data, external=[self, *fresh.objects]))
+        self.world.adopt_fixed(fresh)
+
+    def _pack_trails(self) -> tuple[dict, dict]:
+        archives = self.__dict__.get("_trail_archives")
+        if archives is None:
+            archives = self._trail_archives = (TrailArchive(), TrailArchive())
+        return archives[0].pack(self._trails), archives[1].pack(self._object_trails)
+
+    def _copy_state(self) -> dict:
         return {
             "render_mode": self.render_mode,
             "config": self.config.as_dict(),
             "log": self._log,
             "np_random": self.np_random.bit_generator.state,
             "spaces": (self._observation_spaces, self._action_spaces),
+            "rebase_cycles": self.rebase_cycles,
         }
 
-    def __setstate__(self, state: dict) -> None:
+    def _rebuild(self, state: dict, trails: tuple[dict, dict] | None, archives: tuple[TrailArchive, TrailArchive] | None) -> None:
+        """Make this (new) env the copy ``state`` describes: config, base, replayed log; then its trails.
+
+        ``trails`` None (a pickle of a release without re-bases, whose log starts at the reset):
+        the replay records them.
+        """
         self.__init__(render_mode=None, **state["config"])
+        if state.get("rebase_cycles", self.rebase_cycles) != self.rebase_cycles:
+            self.rebase_cycles = state["rebase_cycles"]
         for entry in state["log"]:
             if entry[0] == "reset":
                 _, rng_state, seed, options = entry
                 self.np_random.bit_generator.state = rng_state
                 self.reset(seed=seed, options=options)
+            elif entry[0] == "base":
+                self._restore_base(entry[1], entry[3])
+                self._log = [entry]
+                self._trails = {name: [] for name in trails[0]}  # replaced below by the original's
             elif entry[0] == "step":
                 self.step(entry[1])
             else:
                 getattr(self, entry[1])(*entry[2])
+        if trails is not None:
+            self._trails, self._object_trails = trails
+            self._trail_archives = archives
         self.np_random.bit_generator.state = state["np_random"]
         self._observation_spaces, self._action_spaces = state["spaces"]
         self.render_mode = state["render_mode"]
 
+    def __getstate__(self) -> dict:
+        return {**self._copy_state(), "trails": self._pack_trails()}
+
+    def __setstate__(self, state: dict) -> None:
+        if "trails" not in state:  # pickled by a release without re-bases
+            self._rebuild(state, None, None)
+            return
+        (trails, robot_archive), (object_trails, object_archive) = (TrailArchive.unpack(t) for t in state["trails"])
+        self._rebuild(state, (trails, object_trails), (robot_archive, object_archive))
+
     def __deepcopy__(self, memo: dict) -> TeamEnv:
         clone = type(self).__new__(type(self))
-        clone.__setstate__(copy.deepcopy(self.__getstate__(), memo))
+        archives = self.__dict__.get("_trail_archives") or (TrailArchive(), TrailArchive())
+        (trails, robot_archive), (object_trails, object_archive) = (
+            archive.copied(t) for archive, t in zip(archives, (self._trails, self._object_trails))
+        )
+        clone._rebuild(copy.deepcopy(self._copy_state(), memo), (trails, object_trails), (robot_archive, object_archive))
         memo[id(self)] = clone
         return clone
 

@@ -9,6 +9,8 @@ entity types:
   batched state read and calls the step hooks :meth:`before_step`, :meth:`mid_step` and
   :meth:`after_step` with it.
 * ``tracked``: whether the entity's path is worth recording (``world.tracked()``).
+* ``fixed``: the entity never changes once added (walls, furniture): snapshots of the world
+  refer to it rather than pickle it again (:meth:`~teamgym.sim.world.World.fixed_objects`).
 * ``draw_layer`` and :meth:`draw`: how the renderer shows it.
 
 The world reads ``kind``, ``has_state_row`` and ``tracked`` when the entity is added.
@@ -40,6 +42,7 @@ class Entity:
     draw_layer: int = Layer.STATIC
     tracked: bool = False
     has_state_row: bool = False
+    fixed: bool = False
 
     def __init__(self, name: str) -> None:
         if not isinstance(name, str) or not name:

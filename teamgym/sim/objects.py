@@ -32,6 +32,7 @@ class Wall(Entity):
     """A straight wall segment of a given thickness (static)."""
 
     kind = Category.WALL
+    fixed = True
 
     def __init__(self, name: str, a: Point, b: Point, thickness: float = 0.01) -> None:
         super().__init__(name)
@@ -56,6 +57,7 @@ class Door(Wall):
     """A wall segment that can be opened (removed from collisions) and closed at run time."""
 
     kind = Category.DOOR
+    fixed = False
 
     def __init__(self, name: str, a: Point, b: Point, thickness: float = 0.01, is_open: bool = True) -> None:
         super().__init__(name, a, b, thickness)
@@ -98,6 +100,7 @@ class StaticPolygon(Entity):
     """Furniture or a fixed obstacle: a static convex polygon (vertices in world metres)."""
 
     kind = Category.FURNITURE
+    fixed = True
 
     def __init__(self, name: str, vertices: Sequence[Point]) -> None:
         super().__init__(name)

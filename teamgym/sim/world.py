@@ -17,11 +17,13 @@ from collections.abc import Sequence
 import numpy as np
 import pymunk
 
+from teamgym.sim import snapshot
 from teamgym.sim.categories import Category
 from teamgym.sim.chipmunk import BodyReader, can_collide, shape_bbs, space_step
 from teamgym.sim.contacts import Contact, ContactCounter
 from teamgym.sim.entity import Entity
 from teamgym.sim.objects import Wall
+from teamgym.sim.solver_state import SolverSpace
 
 __all__ = ["Contact", "World"]
 
@@ -89,7 +91,7 @@ class World:
         self.coarse_contacts = 0
         self._coarse_now = False
         self._contact_check: tuple | None = None
-        self.space = pymunk.Space()
+        self.space = SolverSpace()
         self.space.gravity = (0.0, 0.0)
         self.space.collision_slop = collision_slop
         self.space.iterations = iterations
@@ -106,6 +108,8 @@ class World:
         self._rows_of: dict[Category, slice] = {}
         self._tracked: list[Entity] = []
         self._reader: BodyReader | None = None
+        #: Fixed entities with their bodies and shapes, and their snapshot (see ``fixed_objects``).
+        self._fixed: tuple[list, bytes | None] | None = None
         #: ``(x, y, angle, vx, vy, ω)`` of every entity with a state row after the last step.
         self.states = np.zeros((0, 6))
         #: The rows of ``states`` that belong to robots / moving obstacles.
@@ -187,6 +191,7 @@ class World:
                 self._rows_of[stepped.kind] = slice(first, row + 1)
         self._reader = None
         self._contact_check = None
+        self._fixed = None
 
     def of_kind(self, kind: Category) -> list[Entity]:
         return [e for e in self.entities.values() if e.kind == kind]
@@ -344,3 +349,65 @@ class World:
         """Counts of :meth:`new_contacts` (or :meth:`total_contacts`) for ``names``, as an int64 array."""
         counts = self._contacts.total if total else self._contacts.new
         return np.array([counts.get(name, 0) for name in names], dtype=np.int64)
+
+    # -- snapshots (TeamEnv's re-bases) ---------------------------------------------
+    def fixed_record(self) -> FixedRecord:
+        """The entities marked ``fixed`` (walls, furniture) with their bodies and shapes (see :class:`FixedRecord`)."""
+        if self._fixed is None:
+            self._fixed = FixedRecord([x for e in self.entities.values() if e.fixed for x in (e, *e.bodies, *e.shapes)])
+        return self._fixed
+
+    def release_fixed(self) -> None:
+        """Take the fixed bodies and shapes out of the space, for a world restored from a snapshot to take them."""
+        space = self.space
+        for x in self.fixed_record().objects:  # shapes before their bodies (pymunk's remove, without its loop over types)
+            if isinstance(x, pymunk.Shape):
+                space._remove_shape(x)
+        for x in self._fixed.objects:
+            if isinstance(x, pymunk.Body):
+                space._remove_body(x)
+
+    def adopt_fixed(self, record: FixedRecord) -> None:
+        """After unpickling a snapshot that referred to ``record``'s objects: they are this world's."""
+        space = self.space
+        for entity in record.objects:
+            if isinstance(entity, Entity):
+                entity.space = space
+        self._fixed = record
+
+    def __getstate__(self) -> dict:
+        state = self.__dict__.copy()
+        state["_fixed"] = None
+        return state
+
+
+class FixedRecord:
+    """A world's fixed entities, each followed by its bodies and shapes (in the order added), pickled when first needed.
+
+    A snapshot of the world refers to these objects instead of pickling them; a copy of the
+    world gets fresh ones from :meth:`fresh`. Fixed entities never change once added, so the
+    pickle, taken when a copy first needs it, holds them as they were at any earlier re-base.
+    A record pickles as that pickle (``objects`` is then None) and deep-copies as itself.
+    """
+
+    def __init__(self, objects: list | None, data: tuple[int, bytes] | None = None) -> None:
+        self.objects = objects
+        self._data = data
+
+    def data(self) -> tuple[int, bytes]:
+        """The number of spaces the objects referred to (left out of the pickle) and the pickle."""
+        if self._data is None:
+            spaces = list({id(e.space): e.space for e in self.objects if isinstance(e, Entity) and e.space is not None}.values())
+            self._data = (len(spaces), snapshot.dumps(self.objects, external=spaces))
+        return self._data
+
+    def fresh(self) -> FixedRecord:
+        """New objects like these (in no space), with the same pickle."""
+        n_spaces, data = self.data()
+        return FixedRecord(snapshot.loads(data, external=[None] * n_spaces), (n_spaces, data))
+
+    def __reduce__(self) -> tuple:
+        return FixedRecord, (None, self.data())
+
+    def __deepcopy__(self, memo: dict) -> FixedRecord:
+        return self

@@ -55,6 +55,7 @@ Metrics in ``infos``: ``explored``, ``explored_fraction``, ``explored_all``, ``e
 from __future__ import annotations
 
 import math
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -89,6 +90,7 @@ class Exploration(TeamEnv):
     """Multi-robot exploration of an office (paper 000). See the module docstring."""
 
     metadata = {**TeamEnv.metadata, "name": "exploration_v0"}
+    rebase_cycles = 600  # replaying 600 control cycles takes about 0.1-0.2 s (TeamEnv: copying and pickling)
     config_class = ExplorationConfig
     config: ExplorationConfig
     pixels_per_metre = 400.0
@@ -189,8 +191,8 @@ class Exploration(TeamEnv):
         door_index = {d: j for j, d in enumerate(office.door_ids)}
         self._tasks = TaskFactory(
             office,
-            lambda d: self.doors[d].is_open,
-            lambda d: self.model.door_open[door_index[d]] <= 0.0,
+            partial(_door_is_open, self),
+            partial(_door_known_closed, self, door_index),
             self.spec_robot.radius,
             c.max_speed,
         )
@@ -529,6 +531,16 @@ class Exploration(TeamEnv):
         return Overlay(
             points=[(s.centre, (190, 60, 60)) for s, seen, g in zip(self.map.sectors, self.visited, self.goal) if g and not seen]
         )
+
+
+def _door_is_open(env: Exploration, door: str) -> bool:
+    """A door's true state (the tasks' ``door_open``; a module function so that tasks pickle)."""
+    return env.doors[door].is_open
+
+
+def _door_known_closed(env: Exploration, door_index: dict[str, int], door: str) -> bool:
+    """Whether the team's model knows the door is closed (the tasks' ``door_known_closed``)."""
+    return env.model.door_open[door_index[door]] <= 0.0
 
 
 def parallel_env(render_mode: str | None = None, **config: Any) -> Exploration:

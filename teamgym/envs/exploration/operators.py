@@ -20,6 +20,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, replace
+from functools import partial
 
 import numpy as np
 
@@ -217,11 +218,11 @@ class TaskFactory:
             door = office.door(op.door)
             side = sector if sector in door.sectors else door.sectors[0]
             inside = self._inside(door.centre, door.radius)
-            closed = self._closed_check(op.door, lambda x, y: inside(x, y) or self.door_known_closed(op.door))
+            closed = self._closed_check(op.door, partial(_inside_or_known_closed, inside, self.door_known_closed, op.door))
             return Task(
                 op.name,
                 (self._point(op.door, side, self.approach),),
-                lambda x, y: inside(x, y) and self.door_open(op.door),
+                partial(_inside_and_open, inside, self.door_open, op.door),
                 params,
                 closed,
                 key=op.index,
@@ -235,28 +236,48 @@ class TaskFactory:
                 waypoints = (self._point(op.door, sector, 0.6 * self.approach), exit_point)
             inside = self._inside(door.centre, door.radius)
             margin = 0.002
-            crossing = self._closed_check(op.door, lambda x, y: not target.contains(x, y, margin))
-            return Task(
-                op.name,
-                waypoints,
-                lambda x, y: target.contains(x, y, margin) and not inside(x, y),
-                params,
-                crossing,
-                key=op.index,
-            )
+            crossing = self._closed_check(op.door, partial(_outside, target, margin))
+            return Task(op.name, waypoints, partial(_entered, target, margin, inside), params, crossing, key=op.index)
         origin, target = office.sector(op.origin), office.sector(op.sector)
         axis, c, lo, hi = shared_edge(origin, target)
         middle = (c, 0.5 * (lo + hi)) if axis == "x" else (0.5 * (lo + hi), c)
-        r = self.robot_radius
-        return Task(op.name, (middle, target.centre), lambda x, y: target.contains(x, y, r), params, key=op.index)
+        return Task(op.name, (middle, target.centre), partial(_contains, target, self.robot_radius), params, key=op.index)
 
     @staticmethod
     def _inside(centre: Point, radius: float) -> Callable[[float, float], bool]:
-        return lambda x, y: math.hypot(x - centre[0], y - centre[1]) < radius
+        return partial(_within, centre, radius)
 
     def _closed_check(self, door_id: str, near: Callable[[float, float], bool]) -> Callable[[float, float], str | None]:
-        def check(x: float, y: float) -> str | None:
-            closed = self.door_known_closed(door_id) or not self.door_open(door_id)
-            return "door closed" if near(x, y) and closed else None
+        return partial(_door_closed_near, self.door_open, self.door_known_closed, door_id, near)
 
-        return check
+
+# The tests above are partials of module functions (not lambdas), so that a task pickles with the env.
+def _within(centre: Point, radius: float, x: float, y: float) -> bool:
+    return math.hypot(x - centre[0], y - centre[1]) < radius
+
+
+def _inside_and_open(inside: Callable, door_open: Callable, door: str, x: float, y: float) -> bool:
+    return inside(x, y) and door_open(door)
+
+
+def _inside_or_known_closed(inside: Callable, door_known_closed: Callable, door: str, x: float, y: float) -> bool:
+    return inside(x, y) or door_known_closed(door)
+
+
+def _outside(target, margin: float, x: float, y: float) -> bool:
+    return not target.contains(x, y, margin)
+
+
+def _entered(target, margin: float, inside: Callable, x: float, y: float) -> bool:
+    return target.contains(x, y, margin) and not inside(x, y)
+
+
+def _contains(target, margin: float, x: float, y: float) -> bool:
+    return target.contains(x, y, margin)
+
+
+def _door_closed_near(
+    door_open: Callable, door_known_closed: Callable, door: str, near: Callable, x: float, y: float
+) -> str | None:
+    closed = door_known_closed(door) or not door_open(door)
+    return "door closed" if near(x, y) and closed else None

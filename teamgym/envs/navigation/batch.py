@@ -19,8 +19,9 @@ no automatic reset (the caller decides when and with which seed). Trails are not
 and nothing renders. Learned messages (``comm_dim``) and ``obs_format="dict"`` are not supported
 (observations are flat; ``batch.layout.decode`` names their fields). A batch, and each of its
 copies alone, survives ``pickle`` and ``copy.deepcopy`` mid-episode and continues identically:
-every copy logs the joint actions it was stepped with and is rebuilt by replaying them, as a
-single env is.
+every copy logs the joint actions it was stepped with since its last base and is rebuilt from
+that base by replaying them, and re-bases where a single env does (``TeamEnv.rebase_cycles``),
+as a single env is.
 """
 
 from __future__ import annotations
@@ -171,6 +172,8 @@ class NavigationBatch:
         done = terminated | truncated
         if done.any():
             self._finish(done)
+        for k in stepping.tolist():
+            self.copies[k]._rebase_if_due()  # at the cycles a single env re-bases (TeamEnv.rebase_cycles)
         return self._observations.copy(), rewards, terminated, truncated
 
     def _observe(self, ks: slice, out: np.ndarray) -> None:

@@ -94,6 +94,7 @@ class Navigation(TeamEnv):
     """Collision-free navigation among moving obstacles (paper 001). See the module docstring."""
 
     metadata = {**TeamEnv.metadata, "name": "navigation_v0"}
+    rebase_cycles = 400  # replaying 400 control cycles takes about 0.1-0.2 s (TeamEnv: copying and pickling)
     config_class = NavigationConfig
     config: NavigationConfig
 
@@ -273,6 +274,23 @@ class Navigation(TeamEnv):
     def _bind(self, team: TeamState, k: int) -> None:
         """Keep this env's per-step arrays in row ``k`` of ``team`` (a batch's; see :class:`TeamState`)."""
         self._team, self._k, self._ks = team, k, slice(k, k + 1)
+
+    def _episode_state(self) -> dict[str, Any]:
+        """The base's, with this copy's rows of ``_team`` in place of the team (a batch's team holds every copy)."""
+        state = super()._episode_state()
+        team, k = state.pop("_team"), state.pop("_k")
+        del state["_ks"]
+        state.pop("_arriving", None)  # a view into the team, set again before it is read
+        rows = {name: getattr(team, name)[k].copy() for name in team._allocate(0)}
+        state["_team_rows"] = (rows, list(team.obstacle_shapes[k]))
+        return state
+
+    def _adopt_episode_state(self, state: dict[str, Any]) -> None:
+        rows, shapes = state.pop("_team_rows")
+        super()._adopt_episode_state(state)
+        for name, row in rows.items():
+            getattr(self._team, name)[self._k] = row
+        self._team.obstacle_shapes[self._k] = shapes
 
     def _live_mask(self) -> np.ndarray:
         """``(1, N)``: which robots are in ``agents`` (shared and read-only, rebuilt when ``agents`` changes)."""

@@ -93,6 +93,7 @@ class Rendezvous(TeamEnv):
     """Rendezvous on a graph of places and ways (paper 003). See the module docstring."""
 
     metadata = {**TeamEnv.metadata, "name": "rendezvous_v0"}
+    rebase_cycles = 600  # replaying 600 control cycles takes about 0.1-0.2 s (TeamEnv: copying and pickling)
     config_class = RendezvousConfig
     config: RendezvousConfig
     pixels_per_metre = 150.0
