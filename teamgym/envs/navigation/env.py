@@ -330,7 +330,7 @@ class Navigation(TeamEnv):
 
     def _terminations(self) -> dict[str, bool]:
         """A robot that arrives terminates, stops and stays in the world."""
-        return dict(zip(self.agents, self._team.arrived[self._k, self._live_rows()].tolist()))
+        return dict(zip(self.live_agents, self._team.arrived[self._k, self._live_rows()].tolist()))
 
     def _read_proximity(self, indices: np.ndarray, free: np.ndarray | None = None) -> None:
         """Ring readings of robots ``indices``; ``free`` flags robots known to have nothing within range (no rays cast)."""
