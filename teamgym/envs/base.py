@@ -291,7 +291,7 @@ class TeamEnv(ParallelEnv):
     # -- episode protocol ------------------------------------------------------------
     @property
     def agents(self) -> list[str]:
-        """PettingZoo's agent list: ``live_agents``; with ``fixed_agents=True`` every possible agent until the team's episode ends."""
+        """PettingZoo's agents: ``live_agents``, or with ``fixed_agents=True`` every possible agent until the team ends."""
         return self.live_agents if self._roster is None else self._roster.agents
 
     def reset(self, seed: int | None = None, options: dict | None = None):
@@ -474,7 +474,7 @@ class TeamEnv(ParallelEnv):
         return self._masks[agent].copy()
 
     def action_masks(self) -> dict[str, np.ndarray]:
-        """Masks of the live agents (empty when the action type has none); with ``fixed_agents=True`` of every agent in ``agents``."""
+        """Masks of the live agents (none without masks); with ``fixed_agents=True`` of every agent in ``agents``."""
         masks = {a: m.copy() for a, m in self._masks.items() if a in self.live_agents}
         if self._roster is None or self._mask_size is None:
             return masks
