@@ -18,6 +18,8 @@ from packaging.version import Version
 ROOT = Path(__file__).resolve().parent.parent
 PYPROJECT = tomllib.loads((ROOT / "pyproject.toml").read_text())
 CONSTRAINTS = ROOT / "scripts" / "constraints-floors.txt"
+#: Extras tested in venvs of their own, not in the floor run.
+OWN_VENV_EXTRAS = ("rllib", "torchrl", "benchmarl", "tianshou", "supersuit")
 
 
 def _requirements() -> list[Requirement]:
@@ -66,11 +68,12 @@ def test_gymnasium_1_2_stays_allowed():
 
 @pytest.mark.skipif(os.environ.get("TEAMGYM_FLOORS") != "1", reason="only in the floor run (scripts/run_tests_floors.sh)")
 def test_the_floor_run_has_the_floors_installed():
-    # The floor run installs the core and every extra but rllib (ray pins gymnasium 1.2.2; it has its own venv).
+    # The floor run installs the core and every extra but those with venvs of their own (rllib: ray pins
+    # gymnasium 1.2.2; the integration extras: scripts/run_tests_integrations.sh).
     project = PYPROJECT["project"]
     wanted = [Requirement(r) for r in project["dependencies"]]
     for extra, requirements in project["optional-dependencies"].items():
-        if extra != "rllib":
+        if extra not in OWN_VENV_EXTRAS:
             wanted += [Requirement(r) for r in requirements]
     names = {canonicalize_name(r.name) for r in wanted}
     installed = {name: Version(metadata.version(name)) for name in _pins() if name in names}
