@@ -70,6 +70,9 @@ def test_a_robot_that_joins_and_one_that_leaves_keep_their_slots():
     assert batch["next", "done"][-1].all() and not batch["next", "done"][:-1].any()
 
 
-def test_torchrl_needs_fixed_agents():
+def test_torchrl_needs_fixed_agents_and_flat_observations_with_masks():
     with pytest.raises(ValueError, match="fixed_agents=True"):
         torchrl_env("Navigation-v0", {"fixed_agents": False})
+    with pytest.raises(ValueError, match="use 'flat'"):
+        torchrl_env("Rendezvous-v0", {"obs_format": "masked"})
+    assert "observation" in torchrl_env("Navigation-v0", {"obs_format": "dict"}).observation_spec["robot"]

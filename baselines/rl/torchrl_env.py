@@ -7,7 +7,8 @@ the group with the observation field ``present`` = 0 and their actions are ignor
 robots of an env form one group, ``"robot"``. Discrete masks (Rendezvous-v0 ``next_place``,
 Exploration-v0 ``operator``, Foraging-v0 ``goto_cell``) arrive through ``infos[agent]["action_mask"]``
 and become ``("robot", "action_mask")``, which TorchRL's random actions and masked
-distributions respect.
+distributions respect; such envs need ``obs_format="flat"`` (PettingZooWrapper fails on a mask
+in both the observation and the infos).
 """
 
 from __future__ import annotations
@@ -40,8 +41,14 @@ def torchrl_env(
 
     import teamgym
 
+    env = teamgym.make(env_id, **config)
+    if "action_mask" in env.info_schema() and env.config.obs_format != "flat":
+        raise ValueError(
+            f"torchrl_env: obs_format={env.config.obs_format!r} with a masked action type; use 'flat' (PettingZooWrapper "
+            "fails when the mask is in both the observation and the infos; the infos carry it to TorchRL)"
+        )
     return PettingZooWrapper(
-        teamgym.make(env_id, **config),
+        env,
         categorical_actions=categorical_actions,
         return_state=return_state,
         seed=seed,
