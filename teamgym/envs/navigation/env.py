@@ -426,11 +426,11 @@ class Navigation(TeamEnv):
     def make_batch(self, n_copies: int) -> NavigationBatch | None:
         """``n_copies`` copies with this env's config, stepped together (:class:`NavigationBatch`).
 
-        ``None`` for configs the batch does not take (learned messages, dict observations).
+        ``None`` for configs the batch does not take (learned messages, dict observations, ``fixed_agents``).
         """
         from teamgym.envs.navigation.batch import NavigationBatch
 
-        if self.config.comm_dim or self.config.obs_format != "flat":
+        if self.config.comm_dim or self.config.obs_format != "flat" or self.config.fixed_agents:
             return None
         return NavigationBatch(n_copies, **self.config.as_dict())
 
