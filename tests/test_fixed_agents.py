@@ -16,7 +16,7 @@ from pettingzoo.test import parallel_api_test
 
 import teamgym
 from baselines.episode import run_episode
-from baselines.registry import make_policy
+from baselines.registry import make_policy, policies, policy_class, required_config
 from teamgym.envs.config import ConfigError
 from teamgym.envs.exploration import Exploration
 
@@ -165,6 +165,25 @@ def test_an_arrived_robot_stays_absent_and_the_episode_is_unchanged():
             assert np.array_equal(step.observations[first], absent) and step.rewards[first] == 0.0
             assert step.infos[first]["present"] == 0 and step.infos[first]["arrived"] == 1
     assert steps[-1].terminations[first] and env.agents == []
+
+
+POLICY_CASES = [(p, e) for p in policies() for e in (policy_class(p).env_ids or ENV_IDS)]
+SPARE_EVENTS = {"n_spare_robots": 1, "events": ((15, "add_robot"), (30, "remove_robot", "robot_0"))}
+
+
+def _episode(policy, env_id, fixed):
+    extra = SPARE_EVENTS if env_id.startswith("BoxPushing") else {}
+    env = teamgym.make(env_id, fixed_agents=fixed, max_cycles=50, **required_config(policy), **extra)
+    return run_episode(env, make_policy(policy, env), seed=0, record_trajectories=False)
+
+
+@pytest.mark.parametrize(("policy", "env_id"), POLICY_CASES, ids=[f"{p}-{e}" for p, e in POLICY_CASES])
+def test_scripted_episodes_are_the_same_with_fixed_agents(policy, env_id):
+    fixed, live = _episode(policy, env_id, True), _episode(policy, env_id, False)
+    assert (fixed.length, fixed.success, fixed.returns) == (live.length, live.success, live.returns)
+    without_present = {a: {k: v for k, v in m.items() if k != "present"} for a, m in fixed.metrics.items()}
+    assert without_present == live.metrics
+    assert all(m["present"] == 1 for m in fixed.metrics.values())
 
 
 class _EarlyExit(Exploration):
