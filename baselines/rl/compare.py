@@ -16,9 +16,11 @@ is judged on the same task.
 The table (printed, and written to ``DIR/comparison.md`` and ``DIR/comparison.json``) gives per
 policy: success with its Wilson 95 % interval; *clean* success (success and no contact of any
 robot, for envs that count collisions); the time to success (s: the latest simulated time the
-env reports, ``time_to_goal``, ``explore_time`` or ``meeting_time``, else ``length × dt`` of
+env reports, ``time_to_goal``, ``explore_time``, ``meeting_time`` or Foraging's ``TG``, else ``length × dt`` of
 successful episodes); path length per
-robot (m) and collisions per robot, as means with 95 % intervals. With ``--curve``, the agent's
+robot (m) and collisions per robot, as means with 95 % intervals; and the env's own metrics
+(``OWN_METRICS``: Foraging's TL, TT1-TT3, TG, DG; Rendezvous' meeting time, re-plans, plan
+optimality and bytes sent; ...), per episode the mean over its robots of the values known. With ``--curve``, the agent's
 learning curve (its ``<agent>_eval.csv``; ``--curve-metric``: success rate, collisions or path length) is
 drawn with the scripted rows' values as lines.
 
@@ -50,6 +52,29 @@ SCRIPTED: dict[str, list[tuple[str, str]]] = {
     "Exploration-v0": [("nash-explore (paper 000)", "nash-explore"), ("greedy", "greedy"), ("random", "random-admissible")],
     "BoxPushing-v0": [("sbs (paper 004)", "sbs"), ("cooperative-push", "cooperative-push"), ("random", "random")],
     "BoxPushing-v1": [("sbs (paper 004)", "sbs"), ("cooperative-push", "cooperative-push"), ("random", "random")],
+    "Rendezvous-v0": [
+        ("bidir-astar (paper 003)", "bidir-astar"),
+        ("bidir-astar-opt", "bidir-astar-opt"),
+        ("centralized", "centralized"),
+        ("random", "random"),
+    ],
+    "Foraging-v0": [
+        ("dmaps (paper 002)", "dmaps"),
+        ("dmaps-nocomm", "dmaps-nocomm"),
+        ("random-walk", "random-walk"),
+        ("random", "random"),
+    ],
+}
+
+#: Per env: its own metrics (``infos`` keys), shown beside the common columns as means over episodes
+#: (each episode's value is the mean over its robots; times only where known).
+OWN_METRICS: dict[str, tuple[str, ...]] = {
+    "Navigation-v0": ("time_to_goal", "min_clearance", "smoothness"),
+    "Exploration-v0": ("explore_time", "explored_fraction", "tasks_failed"),
+    "BoxPushing-v0": ("boxes_delivered", "box_progress", "stalled_steps"),
+    "BoxPushing-v1": ("boxes_delivered", "box_progress", "stalled_steps"),
+    "Rendezvous-v0": ("meeting_time", "replans", "optimality", "bytes_sent"),
+    "Foraging-v0": ("TL", "TT1", "TT2", "TT3", "TG", "DG", "bytes_sent"),
 }
 
 
@@ -58,7 +83,7 @@ def _metric(result: EpisodeResult, name: str) -> list[float]:
 
 
 #: Metrics in which envs report the simulated time (s) at which their goal was reached.
-TIME_METRICS = ("time_to_goal", "explore_time", "meeting_time")
+TIME_METRICS = ("time_to_goal", "explore_time", "meeting_time", "TG")
 
 
 def _time_to_success(result: EpisodeResult, dt: float | None) -> float | None:
@@ -76,8 +101,10 @@ def _time_to_success(result: EpisodeResult, dt: float | None) -> float | None:
     return result.length * dt if dt else None
 
 
-def row_of(label: str, policy: str, results: Sequence[EpisodeResult], dt: float | None) -> dict[str, Any]:
-    """One table row: rates with Wilson intervals, means with 95 % half-widths."""
+def row_of(
+    label: str, policy: str, results: Sequence[EpisodeResult], dt: float | None, own: Sequence[str] = ()
+) -> dict[str, Any]:
+    """One table row: rates with Wilson intervals, means with 95 % half-widths (``own``: the env's metrics, under ``metrics``)."""
     n = len(results)
     successes = sum(r.success for r in results)
     has_collisions = any(_metric(r, "collisions") for r in results)
@@ -96,6 +123,7 @@ def row_of(label: str, policy: str, results: Sequence[EpisodeResult], dt: float 
         "time_to_success": mean_ci(times),
         "path_length": mean_ci(paths),
         "collisions": mean_ci(collisions),
+        "metrics": {name: mean_ci([float(np.mean(_metric(r, name))) for r in results if _metric(r, name)]) for name in own},
     }
 
 
@@ -114,16 +142,19 @@ def _mean(stats: Mapping[str, float], digits: int) -> str:
 
 
 def markdown(rows: Sequence[Mapping[str, Any]]) -> str:
-    """The comparison as a markdown table."""
+    """The comparison as a markdown table (the env's own metrics that any row reports as extra columns)."""
+    own = [name for name in rows[0].get("metrics", {}) if any(row["metrics"][name]["n"] for row in rows)] if rows else []
     lines = [
-        "| policy | success | clean success (no contact) | time to success (s) | path length / robot (m) | collisions / robot |",
-        "|---|---|---|---|---|---|",
+        "| policy | success | clean success (no contact) | time to success (s) | path length / robot (m) | collisions / robot |"
+        + "".join(f" {name} |" for name in own),
+        "|---|---|---|---|---|---|" + "---|" * len(own),
     ]
     for row in rows:
         lines.append(
             f"| {row['label']} | {_rate(row['success'], row['success_ci'])} | "
             f"{_rate(row['clean_success'], row['clean_success_ci'])} | {_mean(row['time_to_success'], 1)} | "
             f"{_mean(row['path_length'], 2)} | {_mean(row['collisions'], 2)} |"
+            + "".join(f" {_mean(row['metrics'][name], 2)} |" for name in own)
         )
     return "\n".join(lines)
 
@@ -144,6 +175,8 @@ def compare(
     from baselines.rl.sb3_policy import read_sidecar, resolve_model
 
     task = dict(task or {})
+    if policies is None and env_id not in SCRIPTED:
+        print(f"note: no scripted baselines are listed for {env_id}; comparing with random only", file=sys.stderr)
     entries = list(policies if policies is not None else SCRIPTED.get(env_id, [("random", "random")]))
     agent_config: dict[str, Any] = {}
     if agent is not None:
@@ -162,7 +195,7 @@ def compare(
     for label, policy in entries:
         config = {**agent_config, **task} if policy.startswith("sb3:") else {**required_config(policy), **task}
         results = evaluate(env_id, policy, episodes=episodes, seed=seed, config=config, workers=workers)
-        rows.append(row_of(label, policy, results, dt))
+        rows.append(row_of(label, policy, results, dt, OWN_METRICS.get(env_id, ())))
     return rows
 
 

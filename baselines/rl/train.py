@@ -78,7 +78,9 @@ DEFAULT_ENV, DEFAULT_ALGO, DEFAULT_N_ENVS, DEFAULT_EVAL_EPISODES = "Navigation-v
 
 def default_hyperparameters(algo: str, num_envs: int) -> dict[str, Any]:
     """Modest defaults: on-policy rollouts of ~2048 transitions in 8 equal mini-batches."""
-    algo = algo.lower()
+    from baselines.rl.sb3_policy import algorithm_name
+
+    algo = algorithm_name(algo)
     if algo in ("ppo", "maskable_ppo"):
         n_steps = max(8, math.ceil(2048 / num_envs / 8) * 8)
         return {"n_steps": n_steps, "batch_size": n_steps * num_envs // 8}
@@ -186,7 +188,15 @@ class Training:
         from baselines.rl.callbacks import EvalLog, PaddingShareLog
         from baselines.rl.hyperparameters import check_hyperparameters, check_rollout
         from baselines.rl.sb3_env import TeamVecEnv
-        from baselines.rl.sb3_policy import algorithm_class, check_action_space, detect_algorithm, read_sidecar, resolve_model
+        from baselines.rl.sb3_policy import (
+            algorithm_class,
+            algorithm_name,
+            check_action_space,
+            check_masks,
+            detect_algorithm,
+            read_sidecar,
+            resolve_model,
+        )
 
         for name, value, minimum in [("timesteps", timesteps, 1), ("n_envs", n_envs, 1), ("seed", seed, 0)]:
             if value < minimum:
@@ -208,9 +218,9 @@ class Training:
         previous = (read_sidecar(self.resume) or {}) if self.resume else {}
         if self.resume:
             detected = detect_algorithm(self.resume)
-            if detected and detected != algo.lower():
-                raise ValueError(f"the model {str(self.resume)!r} was trained with {detected}, not {algo.lower()}")
-        self.algo = algo.lower()
+            if detected and detected != algorithm_name(algo):
+                raise ValueError(f"the model {str(self.resume)!r} was trained with {detected}, not {algorithm_name(algo)}")
+        self.algo = algorithm_name(algo)
         cls = algorithm_class(self.algo)
         resumed_hp = _saved_hyperparameters(previous) if self.resume else {}
         check_hyperparameters(self.algo, hyperparameters or {}, resumed_hp)  # before any env: keys, types and ranges
@@ -255,6 +265,7 @@ class Training:
         try:
             action_space = probe.action_space(probe.possible_agents[0])
             check_action_space(self.algo, action_space)
+            check_masks(self.algo, probe)
             slots = self.n_envs * len(probe.possible_agents)  # TeamVecEnv's num_envs
             base = resumed_hp if self.resume else default_hyperparameters(self.algo, slots)
             check_rollout(self.algo, {**base, **hyperparameters}, action_space, slots)
@@ -529,7 +540,9 @@ def _train_in_process(kwargs: dict[str, Any], log: str) -> str:
 
 def seed_run_path(out_dir: str | Path, seed: int, env_id: str, algo: str) -> Path:
     """``<out_dir>/seed<seed>/<env>_<algo>.zip``: the model of one seed of :func:`train_seeds`."""
-    return Path(out_dir) / f"seed{seed}" / f"{env_id}_{algo.lower()}.zip"
+    from baselines.rl.sb3_policy import algorithm_name
+
+    return Path(out_dir) / f"seed{seed}" / f"{env_id}_{algorithm_name(algo)}.zip"
 
 
 def train_seeds(
@@ -603,6 +616,16 @@ def _seed_list(text: str) -> list[int]:
     return seeds
 
 
+def _algorithm_arg(text: str) -> str:
+    """``--algo``: an algorithm name in any common spelling, as its registered name."""
+    from baselines.rl.sb3_policy import algorithm_name
+
+    try:
+        return algorithm_name(text)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The ``python -m baselines.train`` argument parser (a bad command line exits 2 with a one-line error)."""
     from baselines.evaluate import _at_least, _nonblank, _Parser
@@ -613,7 +636,12 @@ def build_parser() -> argparse.ArgumentParser:
     resumed = "; with --resume: the saved run's"
     parser.add_argument("--env", type=_nonblank("an env id"), default=None, help=f"env id (default: {DEFAULT_ENV}{resumed})")
     parser.add_argument(
-        "--algo", default=None, choices=sorted(ALGORITHMS), help=f"SB3 algorithm (default: {DEFAULT_ALGO}{resumed})"
+        "--algo",
+        default=None,
+        type=_algorithm_arg,
+        metavar="ALGO",
+        help=f"SB3 algorithm: {', '.join(sorted(ALGORITHMS))}; hyphens work too, e.g. maskable-ppo "
+        f"(default: {DEFAULT_ALGO}{resumed})",
     )
     parser.add_argument(
         "--timesteps",

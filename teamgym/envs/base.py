@@ -10,7 +10,8 @@ implements these hooks:
 * ``_build(rng)``: a new episode's :class:`~teamgym.sim.world.World`, robots and initial readings
   (``self.reset_options`` holds the ``options`` given to ``reset``, as ``_check_reset_options``
   returned them; messages sent here are delivered before the first observation);
-* ``_observe(out)``: every live agent's flat observation into a preallocated array;
+* ``_observe(out)``: every live agent's flat observation into a preallocated array (the base
+  then saturates it at the layout's finite bounds, :meth:`ObservationLayout.clip`);
 * ``episode_success()``: the episode contract;
 
 and may declare ``reset_option_keys`` with ``_check_reset_options(options)`` (validate every
@@ -524,6 +525,7 @@ class TeamEnv(ParallelEnv):
         out = np.zeros((len(self.live_agents), self.layout.size), dtype=np.float32)
         self._observe(out)
         self._observe_inbox(out)
+        self.layout.clip(out)
         rows = dict(zip(self.live_agents, out))
         if self._roster is not None:
             out[:, self.layout.slices[PRESENT.name]] = 1.0

@@ -13,6 +13,7 @@ import math
 from dataclasses import dataclass
 from typing import Any, ClassVar, Literal
 
+from teamgym.envs.bounds import Limit, require_limits, require_ring_noise
 from teamgym.envs.config import ConfigError, EnvConfig, require, require_together
 from teamgym.sim.objects import GRAVITY, SURFACE_FRICTION, footprint_support, weakest_push
 from teamgym.sim.robot import RobotSpec
@@ -58,7 +59,16 @@ def weakest_push_ratio(table_friction: str, support_points: int) -> float:
 
 @dataclass(frozen=True)
 class BoxPushingConfig(EnvConfig):
-    """Configuration of ``BoxPushing-v0`` (SI units; the few angles in config are radians)."""
+    """Configuration of ``BoxPushing-v0`` (SI units; the few angles in config are radians).
+
+    Keys that scale a sensor reading have ranges (``READING_LIMITS``; ``docs/box_pushing.md``,
+    *Sensor ranges and saturation*): ``noise`` [0, 10]; ``light_noise`` [0, 10] light units
+    (the sensor saturates at 1000, the brightest noise-free reading is 400); the relative
+    noises, ``light_gain_spread``, ``encoder_noise`` and ``motor_noise`` [0, 1];
+    ``sensor_range`` and ``sensor_noise`` [0, 10] m; ``encoder_resolution`` [0, π/4] rad;
+    ``max_wheel_speed`` (0, 10] m/s. Scaled by ``noise``, a noise level must stay in its range
+    and the proximity noise at most ``sensor_range``.
+    """
 
     body_speed_keys: ClassVar[tuple[str, ...]] = ("max_wheel_speed",)
     default_body_speed: ClassVar[float] = 0.0
@@ -72,6 +82,21 @@ class BoxPushingConfig(EnvConfig):
         "encoder_noise",
         "motor_noise",
     )
+    #: Own ranges of the keys that scale a sensor reading (``docs/box_pushing.md``, *Sensor ranges
+    #: and saturation*); a noise level scaled by ``noise`` must hold its range too (``check_relations``).
+    READING_LIMITS: ClassVar[dict[str, Limit]] = {
+        "noise": (0.0, 10.0, ""),
+        "light_noise": (0.0, 10.0, "(light units; 1 at 1 m from the lamp)"),
+        "light_noise_relative": (0.0, 1.0, ""),
+        "light_gain_spread": (0.0, 1.0, ""),
+        "sensor_range": (0.0, 10.0, "m"),
+        "sensor_noise": (0.0, 10.0, "m"),
+        "sensor_noise_relative": (0.0, 1.0, ""),
+        "encoder_noise": (0.0, 1.0, ""),
+        "encoder_resolution": (0.0, math.pi / 4, "rad (8 ticks per wheel turn)"),
+        "motor_noise": (0.0, 1.0, ""),
+        "max_wheel_speed": (0.0, 10.0, "m/s"),
+    }
 
     max_cycles: int = 6000
     situation: Literal["custom", "S1", "S2", "S3", "S4"] = "custom"
@@ -153,6 +178,7 @@ class BoxPushingConfig(EnvConfig):
         non_negative += ("time_penalty", "success_bonus")
         for key in non_negative:
             require(self, key, getattr(self, key) >= 0, "must be >= 0")
+        require_limits(self, self.READING_LIMITS)
         for key in ("cruise_speed", "push_speed", "follow_speed", "turn_rate", "turn_step"):
             require(self, key, getattr(self, key) > 0, "must be > 0")
         require(self, "direction_change_jitter", 0 <= self.direction_change_jitter <= math.pi / 2, "must be in [0, π/2] rad")
@@ -165,6 +191,7 @@ class BoxPushingConfig(EnvConfig):
 
     def check_relations(self) -> None:
         super().check_relations()
+        self._check_noise_levels()
         if self.situation in SITUATIONS:
             for key, value in zip(("n_robots", "n_light_boxes", "n_heavy_boxes"), SITUATIONS[self.situation]):
                 require_together(
@@ -209,6 +236,13 @@ class BoxPushingConfig(EnvConfig):
             self.boxes_to_goal <= total,
             f"boxes_to_goal must be in [0, {total}] (0 = every box)",
         )
+
+    def _check_noise_levels(self) -> None:
+        """Every noise level scaled by ``noise`` holds its range (the proximity noise also stays below the range)."""
+        for key in self.NOISE_KEYS:
+            level, top = self.noise_level(key), self.READING_LIMITS[key][1]
+            require_together(self, ("noise", key), level <= top, f"noise × {key} = {level:g} must not exceed {top:g}")
+        require_ring_noise(self, self.noise_level("sensor_noise"), ("noise", "sensor_noise", "sensor_range"))
 
     def _check_boxes(self) -> None:
         """Light and heavy as paper 004 defines them: one robot slides a light box; a heavy box needs two."""

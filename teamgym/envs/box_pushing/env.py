@@ -16,9 +16,11 @@ field          shape  meaning
 =============  =====  ============================================================
 ``proximity``  (8,)   Khepera ring distances (m), ``sensor_range`` if free; rays as
                       in the paper's Fig. 3 (0 left, 1–4 front, 5 right, 6–7 back)
-``light``      (8,)   lamp intensity per sensor direction, I₀ max(0, cos)/d², I₀ = 1
+``light``      (8,)   lamp intensity per sensor direction, I₀ max(0, cos)/d², I₀ = 1;
+                      the sensor saturates at ``LIGHT_SATURATION`` (1000)
 ``encoders``   (4,)   last step's commanded left/right and actual left/right wheel
-                      rotation (rad); actual ≪ commanded is the paper's "no-rotation"
+                      rotation (rad); actual ≪ commanded is the paper's "no-rotation";
+                      saturates at ``teamgym.envs.bounds.wheel_rotation_limit``
 ``busy``       (1,)   1 while a multi-cycle primitive runs (its choices are ignored)
 ``stall``      (1,)   only with ``observe_stall=True``: the robot's consecutive stalled
                       cycles (wheel slip > 0.9) / ``STALL_CAP``, at most 1. A memory the
@@ -61,6 +63,7 @@ from gymnasium import spaces
 from teamgym.control.primitives import PrimitiveExecutor, PrimitiveParams
 from teamgym.envs.actions import ActionType, WheelSpeedAction
 from teamgym.envs.base import EpisodeOverError, TeamEnv
+from teamgym.envs.bounds import wheel_rotation_limit
 from teamgym.envs.box_pushing.actions import PrimitiveAction
 from teamgym.envs.box_pushing.config import SITUATIONS, BoxPushingConfig, BoxPushingV1Config, Event
 from teamgym.envs.box_pushing.scene import GoalWall, Placer
@@ -81,6 +84,10 @@ _STALL_SLIP = 0.9
 #: Consecutive stalled cycles at which the ``stall`` observation reads 1 (1 s at the default Δt).
 STALL_CAP = 10
 _BRAKE_FACTOR = 3.0
+#: Where the light sensor saturates (light units, I₀ = 1 at 1 m): 2.5 times the brightest
+#: noise-free reading, 400 at the sensor's 5 cm minimum distance; reached only with the lamp
+#: beside the table and strong gains or noise (the default lamp gives at most about 80).
+LIGHT_SATURATION = 1000.0
 
 
 class BoxPushing(TeamEnv):
@@ -106,8 +113,10 @@ class BoxPushing(TeamEnv):
             blockers=blockers,
             relative_noise=level("light_noise_relative"),
             gain_spread=level("light_gain_spread"),
+            saturation=LIGHT_SATURATION,
         )
-        encoders = WheelEncoders(level("encoder_noise"), c.effective_encoder_resolution)
+        self.encoder_limit = wheel_rotation_limit(c, self.spec_robot)
+        encoders = WheelEncoders(level("encoder_noise"), c.effective_encoder_resolution, self.encoder_limit)
         self.sensors = SensorSuite({"proximity": self.ring, "light": self.light, "encoders": encoders})
         self.goal = GoalWall(c.goal_side(), c.table_width, c.table_height)
         self.object_threshold = c.object_threshold
@@ -148,8 +157,13 @@ class BoxPushing(TeamEnv):
         return PrimitiveAction()
 
     def _make_layout(self) -> ObservationLayout:
-        rays = len(KHEPERA_RING)
-        fields = [("proximity", (rays,)), ("light", (rays,)), ("encoders", (4,)), ("busy", (1,))]
+        rays, c = len(KHEPERA_RING), self.config
+        fields = [
+            Field("proximity", (rays,), 0.0, c.sensor_range),
+            Field("light", (rays,), 0.0, LIGHT_SATURATION),
+            Field("encoders", (4,), -self.encoder_limit, self.encoder_limit),
+            Field("busy", (1,), 0.0, 1.0),
+        ]
         if self.config.observe_stall:
             fields.append(Field("stall", (1,), 0.0, 1.0))
         return ObservationLayout(fields)
@@ -440,7 +454,7 @@ class BoxPushing(TeamEnv):
     def _robot_spot(self, position, heading) -> tuple[float, float, float]:
         r = self.spec_robot.radius
         theta = float(self.np_random.uniform(-np.pi, np.pi)) if heading is None else _finite(heading, "heading")
-        placer = Placer(self.config.table_width, self.config.table_height, self.np_random)
+        placer = Placer(self.config.table_width, self.config.table_height, self.np_random, type(self.config).__name__)
         if position is None:
             x, y = placer.sample(r, _ROBOT_WALL_GAP, self._occupied(), _ROBOT_CLEARANCE, "robot")
             return x, y, theta
@@ -456,7 +470,7 @@ class BoxPushing(TeamEnv):
             theta = _finite(angle, "angle")
         else:
             theta = float(self.np_random.uniform(0, np.pi / 2)) if self.config.box_orientation == "random" else 0.0
-        placer = Placer(c.table_width, c.table_height, self.np_random)
+        placer = Placer(c.table_width, c.table_height, self.np_random, type(c).__name__)
         radius = half * math.sqrt(2)
         if position is None:
             x, y = placer.sample(radius, c.box_margin, self._occupied(), 2 * self.spec_robot.radius, "box")
@@ -479,7 +493,7 @@ class BoxPushing(TeamEnv):
     def _sample_initial(self, rng: np.random.Generator) -> tuple[list, list]:
         """Initial boxes (not touching walls, section 4) and robots, as ``(heavy, (x, y, angle))`` and ``(x, y, θ)``."""
         c = self.config
-        placer = Placer(c.table_width, c.table_height, rng)
+        placer = Placer(c.table_width, c.table_height, rng, type(c).__name__)
         occupied: list[tuple[float, float, float]] = []
         boxes = []
         for heavy in [False] * c.n_light_boxes + [True] * c.n_heavy_boxes:

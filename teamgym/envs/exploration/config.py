@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass
-from typing import Literal
+from typing import ClassVar, Literal
 
+from teamgym.envs.bounds import PROXIMITY_LIMITS, Limit, require_limits, require_ring_noise
 from teamgym.envs.config import ConfigError, EnvConfig, require, require_together
 from teamgym.maps.model import MapError, OfficeMap, load_map
 from teamgym.sim.robot import RobotSpec
@@ -19,7 +20,14 @@ def cached_map(name: str) -> OfficeMap:
 
 @dataclass(frozen=True)
 class ExplorationConfig(EnvConfig):
-    """Configuration of ``Exploration-v0`` (SI units; ids are the map's sector and door ids)."""
+    """Configuration of ``Exploration-v0`` (SI units; ids are the map's sector and door ids).
+
+    ``READING_LIMITS`` (the proximity ring): ``sensor_range`` and ``sensor_noise`` in [0, 10] m,
+    and ``sensor_noise`` at most ``sensor_range`` (a larger std saturates every ray).
+    """
+
+    #: Own ranges of the keys that scale a sensor reading (see the class docstring).
+    READING_LIMITS: ClassVar[dict[str, Limit]] = PROXIMITY_LIMITS
 
     max_cycles: int = 3000
     map: str = "office12"
@@ -57,6 +65,7 @@ class ExplorationConfig(EnvConfig):
         require(self, "clutter_prior_weight", self.clutter_prior_weight > 0, "must be > 0")
         require(self, "sensor_range", self.sensor_range > 0, "must be > 0")
         require(self, "sensor_noise", self.sensor_noise >= 0, "must be >= 0")
+        require_limits(self, self.READING_LIMITS)
         both = sorted(set(self.open_doors) & set(self.closed_doors))
         require(self, "closed_doors", not both, f"names door(s) {both} that open_doors also names")
         try:
@@ -66,6 +75,7 @@ class ExplorationConfig(EnvConfig):
 
     def check_relations(self) -> None:
         super().check_relations()
+        require_ring_noise(self, self.sensor_noise)
         office = cached_map(self.map)
         sectors, doors = set(office.sector_ids), set(office.door_ids)
         for key in ("goal_sectors", "start_sectors"):

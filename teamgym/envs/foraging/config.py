@@ -38,7 +38,9 @@ class ForagingConfig(EnvConfig):
     ``rotational_certainty`` is Pe of eq. (2) (certainty kept per radian turned);
     ``odometry_rotation_noise`` is the heading error (rad) per radian turned and
     ``odometry_distance_noise`` the position error (m) per metre travelled (0 and 0: exact
-    odometry).
+    odometry). Ranges: ``vision_noise`` [0, 10] (σ_d up to 1.5 m, σ_b up to 1 rad; measured
+    distances saturate at ``camera_range`` + 1 m, bearings wrap to [−π, π]), the odometry
+    noises [0, 1].
     """
 
     body_speed_keys: ClassVar[tuple[str, ...]] = ("max_speed",)

@@ -137,7 +137,7 @@ class Foraging(TeamEnv):
             Field("pose_estimate", (3,), [-w, -h, -math.pi], [2 * w, 2 * h, math.pi]),
             Field("localisation_certainty", (1,), 0.0, 1.0),
             Field("detections", (d, 4), 0.0, [SENDER, top, top, 1.0]),
-            Field("detection_polar", (d, 2), [0.0, -math.pi], [c.camera_range + 1.0, math.pi]),
+            Field("detection_polar", (d, 2), [0.0, -math.pi], [self.vision.max_distance, math.pi]),
             Field("detection_mask", (d,), 0, 1, np.int8),
             Field("received", (r, 4), 0.0, [SENDER, top, top, 1.0]),
             Field("received_sender", (r,), -1, c.n_robots - 1, np.int32),

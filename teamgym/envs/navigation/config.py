@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import ClassVar, Literal
 
+from teamgym.envs.bounds import PROXIMITY_LIMITS, Limit, require_limits, require_ring_noise
 from teamgym.envs.config import EnvConfig, require, require_together
 
 
@@ -18,7 +19,13 @@ class NavigationConfig(EnvConfig):
     ``mate_goals`` appends field ``mate_goals`` (N−1, 2): each team mate's goal relative to
     the robot (in its own frame with ``local_features``, else world axes), the information
     that paper 001's central arbiter has and a robot's own observation lacks.
+
+    ``READING_LIMITS`` (the proximity ring): ``sensor_range`` and ``sensor_noise`` in [0, 10] m,
+    and ``sensor_noise`` at most ``sensor_range`` (a larger std saturates every ray).
     """
+
+    #: Own ranges of the keys that scale a sensor reading (see the class docstring).
+    READING_LIMITS: ClassVar[dict[str, Limit]] = PROXIMITY_LIMITS
 
     body_speed_keys: ClassVar[tuple[str, ...]] = ("max_wheel_speed", "obstacle_speed")
     default_body_speed: ClassVar[float] = 0.0
@@ -75,9 +82,11 @@ class NavigationConfig(EnvConfig):
         require(self, "spawn_margin", self.spawn_margin >= 0, "must be >= 0 m")
         require(self, "sensor_range", self.sensor_range > 0, "must be > 0")
         require(self, "sensor_noise", self.sensor_noise >= 0, "must be >= 0")
+        require_limits(self, self.READING_LIMITS)
 
     def check_relations(self) -> None:
         super().check_relations()
+        require_ring_noise(self, self.sensor_noise)
         s = self.arena_size
         require_together(
             self, ("obstacle_radius", "arena_size"), self.obstacle_radius <= s / 4, "obstacle_radius must be at most arena_size/4"

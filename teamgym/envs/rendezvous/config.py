@@ -6,6 +6,7 @@ import functools
 from dataclasses import dataclass
 from typing import ClassVar, Literal
 
+from teamgym.envs.bounds import PROXIMITY_LIMITS, Limit, require_limits, require_ring_noise
 from teamgym.envs.config import ConfigError, EnvConfig, require, require_together
 from teamgym.maps.graph import GraphMap, load_graph_map
 from teamgym.maps.model import MapError
@@ -22,7 +23,12 @@ class RendezvousConfig(EnvConfig):
     """Configuration of ``Rendezvous-v0`` (SI units; place ids are the map's).
 
     Map coordinates and way lengths are multiplied by ``scale`` (m per map unit) in the world.
+    ``READING_LIMITS`` (the proximity ring): ``sensor_range`` and ``sensor_noise`` in [0, 10] m,
+    and ``sensor_noise`` at most ``sensor_range`` (a larger std saturates every ray).
     """
+
+    #: Own ranges of the keys that scale a sensor reading (see the class docstring).
+    READING_LIMITS: ClassVar[dict[str, Limit]] = PROXIMITY_LIMITS
 
     body_speed_keys: ClassVar[tuple[str, ...]] = ("max_speed",)
     default_body_speed: ClassVar[float] = 0.0
@@ -64,6 +70,7 @@ class RendezvousConfig(EnvConfig):
         require(self, "message_len", 8 <= self.message_len <= 100_000, "must be in [8, 100000]")
         require(self, "sensor_range", self.sensor_range > 0, "must be > 0")
         require(self, "sensor_noise", self.sensor_noise >= 0, "must be >= 0")
+        require_limits(self, self.READING_LIMITS)
         require(
             self, "blockings", all(len(w) == 3 and w[2] >= 0 for w in self.blockings), "must hold (a, b, time) with times >= 0 s"
         )
@@ -80,6 +87,7 @@ class RendezvousConfig(EnvConfig):
 
     def check_relations(self) -> None:
         super().check_relations()
+        require_ring_noise(self, self.sensor_noise)
         graph_map = cached_graph_map(self.map)
         ids = set(graph_map.place_ids)
         require_together(

@@ -68,16 +68,18 @@ from gymnasium import spaces
 from teamgym.control.way_following import WayFollower
 from teamgym.envs.actions import ActionType, VelocityAction
 from teamgym.envs.base import EpisodeOverError, TeamEnv
+from teamgym.envs.bounds import region
 from teamgym.envs.config import ConfigError
 from teamgym.envs.infos import InfoKey, categorical, metrics, unknown
 from teamgym.envs.rendezvous.actions import NextPlaceAction, WithRecords
 from teamgym.envs.rendezvous.config import RendezvousConfig
-from teamgym.envs.rendezvous.messages import Kind, decode
+from teamgym.envs.rendezvous.messages import MESSAGE_VALUE_MAX, Kind, decode
 from teamgym.envs.rendezvous.scene import blocker_vertices, corridor_walls
 from teamgym.envs.spaces import Field, ObservationLayout
 from teamgym.sim.objects import StaticPolygon, Wall
 from teamgym.sim.render import Overlay, robot_colour
 from teamgym.sim.robot import DiffDriveRobot, RobotSpec
+from teamgym.sim.scene import StaticScene
 from teamgym.sim.sensors import KHEPERA_RING, ProximityRing
 from teamgym.sim.world import World
 
@@ -125,7 +127,9 @@ class Rendezvous(TeamEnv):
         self.followers = [WayFollower(speed=v, stop_distance=0.9 * c.meet_distance) for v in speeds]
         n, w = c.n_robots, len(self.way_ends)
         self.state_space = spaces.Box(-np.inf, np.inf, shape=(5 * n + w,), dtype=np.float32)
-        self._walls = corridor_walls(self.map, c.scale, c.corridor_width, _MARGIN) if c.corridor_walls else []
+        walls = corridor_walls(self.map, c.scale, c.corridor_width, _MARGIN) if c.corridor_walls else []
+        #: The corridor walls, built once and placed in every episode's world first (see :mod:`teamgym.sim.scene`).
+        self._scene = StaticScene(Wall(f"wall_{k}", a, b, 0.01) for k, (a, b) in enumerate(walls))
 
     def _make_action_type(self) -> ActionType:
         c = self.config
@@ -136,8 +140,9 @@ class Rendezvous(TeamEnv):
 
     def _make_layout(self) -> ObservationLayout:
         c, d, n = self.config, self.max_degree, len(self.place_index)
+        low, high = region(c, self._world_size(), c.corridor_walls, self.spec_robot.max_wheel_speed)
         fields = [
-            Field("pose", (3,)),
+            Field("pose", (3,), [*low, -math.pi], [*high, math.pi]),
             Field("place", (1,), 0, n - 1),
             Field("target", (1,), -1, n - 1),
             Field("progress", (1,), 0.0, 1.0),
@@ -148,19 +153,22 @@ class Rendezvous(TeamEnv):
         if c.protocol_messages:
             k = c.n_robots - 1
             fields += [
-                Field("messages", (k, c.message_len), -1, np.iinfo(np.int32).max, np.int32),
+                Field("messages", (k, c.message_len), -1, MESSAGE_VALUE_MAX, np.int32),
                 Field("message_sender", (k,), -1, c.n_robots - 1, np.int32),
                 Field("message_mask", (k,), 0, 1, np.int8),
             ]
         return ObservationLayout(fields)
 
+    def _world_size(self) -> tuple[float, float]:
+        """The world (m): the map scaled, with ``_MARGIN`` of floor around it."""
+        width, height = self.map.size
+        return 2 * _MARGIN + width * self.config.scale, 2 * _MARGIN + height * self.config.scale
+
     # -- episodes ----------------------------------------------------------------------
     def _build(self, rng: np.random.Generator) -> None:
         c = self.config
-        width, height = self.map.size
-        self.world = World((2 * _MARGIN + width * c.scale, 2 * _MARGIN + height * c.scale), **c.world_options())
-        for k, (a, b) in enumerate(self._walls):
-            self.world.add(Wall(f"wall_{k}", a, b, 0.01))
+        self.world = World(self._world_size(), **c.world_options())
+        self._scene.place(self.world)
         n = c.n_robots
         if c.start_places:
             starts = np.array([self.place_index[p] for p in c.start_places])
