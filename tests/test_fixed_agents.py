@@ -52,6 +52,20 @@ def test_parallel_api_test_passes_with_fixed_agents(env_id, obs_format):
     assert env.agents == []
 
 
+MESSAGES = {
+    "BoxPushing-v0": {"n_spare_robots": 1, "events": ((5, "add_robot"), (10, "remove_robot", "robot_0"))},
+    "Exploration-v0": {"action_type": "operator", "obs_format": "dict"},
+}
+
+
+@pytest.mark.parametrize("env_id", sorted(MESSAGES))
+def test_parallel_api_test_passes_with_fixed_agents_and_learned_messages(env_id):
+    env = teamgym.make(env_id, fixed_agents=True, comm_dim=2, max_cycles=25, **MESSAGES[env_id])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UserWarning)
+        parallel_api_test(env, num_cycles=60)
+
+
 @pytest.mark.parametrize("env_id", ENV_IDS)
 def test_agents_stay_the_possible_agents_and_present_is_observed(env_id):
     env = teamgym.make(env_id, fixed_agents=True, max_cycles=15)
