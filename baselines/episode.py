@@ -4,7 +4,9 @@ Every episode loop of the package (the evaluation CLI, the experiments of ``expe
 is this one. The env is reset with ``seed``, then the policy with ``policy.reset(seed)``;
 while agents are live, the policy gets the live agents' observations and the last infos and
 the env steps. Success is the episode contract's: ``infos[agent]["success"]`` of the last
-step (every agent of one step holds the same value; see :func:`success_of`).
+step (every agent of one step holds the same value; see :func:`success_of`). With
+``fixed_agents=True`` robots that are not present (``infos[agent]["present"]`` is 0) neither
+act nor add to the returns and final metrics, so results equal those without it.
 
 Hooks let callers collect what they need without writing their own loop. Both receive one
 :class:`Step`::
@@ -39,7 +41,8 @@ class Step:
     """What an episode hook sees: the env and policy, and one step's joint action and outcome.
 
     ``index`` counts the steps taken (0 after reset). ``agents`` are the agents that acted
-    in this step, in ``env.agents`` order (after reset: the live agents); ``actions`` is the
+    in this step, in ``env.agents`` order (after reset: the live agents; a teamgym env's
+    ``live_agents``, so with ``fixed_agents=True`` absent robots are left out); ``actions`` is the
     policy's joint action (empty after reset). ``observations`` ... ``infos`` are what
     ``env.step`` (or ``env.reset``) returned; ``rewards``, ``terminations`` and
     ``truncations`` are empty after reset.
@@ -154,23 +157,25 @@ def run_episode(
         raise ValueError("record_frames needs an env made with render_mode='rgb_array'")
     observations, infos = env.reset(seed=seed)
     policy.reset(seed)
-    final: dict[str, dict[str, Any]] = {a: dict(infos[a]) for a in env.possible_agents if a in infos}
-    returns = {a: 0.0 for a in env.agents}
+    final: dict[str, dict[str, Any]] = {a: dict(infos[a]) for a in env.possible_agents if _present(infos, a)}
+    returns = {a: 0.0 for a in _live(env)}
     frames = [env.render()] if record_frames else None
     limit = getattr(getattr(env, "config", None), "cycle_limit", None)
     length = 0
     success = success_of(infos)
     if on_reset is not None:
-        on_reset(Step(env, policy, 0, tuple(env.agents), {}, observations, {}, {}, {}, infos))
+        on_reset(Step(env, policy, 0, _live(env), {}, observations, {}, {}, {}, infos))
     while env.agents:
-        agents = tuple(env.agents)
+        agents = _live(env)
         actions = policy.act({a: observations[a] for a in agents}, infos)
         observations, rewards, terminations, truncations, infos = env.step(actions)
         length += 1
         for agent, reward in rewards.items():
-            returns[agent] = returns.get(agent, 0.0) + float(reward)
+            if _present(infos, agent):
+                returns[agent] = returns.get(agent, 0.0) + float(reward)
         for agent, info in infos.items():
-            final[agent] = dict(info)
+            if _present(infos, agent):
+                final[agent] = dict(info)
         success = success_of(infos)
         if frames is not None:
             frames.append(env.render())
@@ -187,6 +192,17 @@ def run_episode(
     if record_trajectories:
         _record_scene(env, result)
     return result
+
+
+def _live(env: Any) -> tuple[str, ...]:
+    """The agents that act now: a teamgym env's ``live_agents`` (with ``fixed_agents=True``, ``env.agents``
+    also lists absent robots, whose actions are ignored), else ``env.agents``."""
+    return tuple(getattr(env, "live_agents", env.agents))
+
+
+def _present(infos: Mapping[str, Mapping[str, Any]], agent: str) -> bool:
+    """Whether ``agent`` reported this step as a robot in the episode (``fixed_agents=True`` reports absent ones too)."""
+    return agent in infos and infos[agent].get("present", 1) != 0
 
 
 def _numeric_metrics(info: Mapping[str, Any]) -> dict[str, float | int | bool]:

@@ -56,6 +56,7 @@ EVERY_KEY = dict(
     comm_throughput=0.9,
     comm_latency=2,
     comm_byte_budget=100,
+    fixed_agents=True,
 )
 
 

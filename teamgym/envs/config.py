@@ -144,6 +144,12 @@ class EnvConfig:
         Continuous actions as ``Box(-1, 1)`` on every axis, mapped linearly onto the action
         type's native range (:class:`teamgym.envs.actions.UnitScaled`); for RL. Scripted
         baselines act in native units and refuse it. A discrete action type cannot be built with it.
+    fixed_agents:
+        Keep ``agents`` equal to ``possible_agents`` (spare robots included) from reset until
+        the team's episode ends, for engines that need a fixed agent list; robots not present
+        (not yet added, or after their last step) observe zeros with the observation field
+        ``present`` = 0, get reward 0 and have their actions ignored
+        (:mod:`teamgym.envs.fixed_agents`). Off by default: ``agents`` holds the live robots.
     """
 
     max_cycles: int = 400
@@ -157,6 +163,7 @@ class EnvConfig:
     comm_latency: int = 0
     comm_byte_budget: int | None = None
     normalize_actions: bool = False
+    fixed_agents: bool = False
 
     #: Keys :attr:`cycle_limit` is derived from (named when it is out of range).
     cycle_limit_keys: ClassVar[tuple[str, ...]] = ("max_cycles",)

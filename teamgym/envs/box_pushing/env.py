@@ -208,10 +208,10 @@ class BoxPushing(TeamEnv):
             self._place_box(heavy, x, y, angle)
         for x, y, heading in robots:
             self._place_robot(x, y, heading)
-        self.agents = [a for a in self.possible_agents if a in self.robots]
+        self.live_agents = [a for a in self.possible_agents if a in self.robots]
         self._joining = []
         self.world.read_states()
-        self._read_sensors(self.agents)
+        self._read_sensors(self.live_agents)
 
     def _before_physics(self) -> None:
         """Motor noise: each wheel's commanded speed is scaled by 1 + N(0, σ²), σ = ``noise`` × ``motor_noise``."""
@@ -219,8 +219,8 @@ class BoxPushing(TeamEnv):
         if noise <= 0:
             return
         base = self.spec_robot.wheel_base
-        draws = self.np_random.normal(1.0, noise, size=(len(self.agents), 2))
-        for agent, (a, b) in zip(self.agents, draws.tolist()):
+        draws = self.np_random.normal(1.0, noise, size=(len(self.live_agents), 2))
+        for agent, (a, b) in zip(self.live_agents, draws.tolist()):
             robot = self.robots[agent]
             left, right = wheel_speeds(*robot.command, base)
             robot.set_command(*body_command(left * a, right * b, base))
@@ -251,12 +251,12 @@ class BoxPushing(TeamEnv):
 
     def _sense(self) -> None:
         """Sensors of the robots that go on, including robots added by events in this step."""
-        going_on = [a for a in [*self.agents, *self._joining] if not (self._success or a in self._leaving)]
+        going_on = [a for a in [*self.live_agents, *self._joining] if not (self._success or a in self._leaving)]
         self._read_sensors(going_on)
 
     def _terminations(self) -> dict[str, bool]:
         """Every robot on success; removed and broken robots (their status is recorded)."""
-        terminations = {a: self._success or a in self._leaving for a in self.agents}
+        terminations = {a: self._success or a in self._leaving for a in self.live_agents}
         for agent, status in self._leaving.items():
             self._status[agent] = status
             self.executors[agent].cancel()
@@ -264,12 +264,12 @@ class BoxPushing(TeamEnv):
         return terminations
 
     def _observe(self, out: np.ndarray) -> None:
-        if not self.agents:
+        if not self.live_agents:
             return
         rows = self._live_rows()
         s = self.layout.slices
         out[:, : self.sensors.width] = self._readings[rows]
-        out[:, s["busy"].start] = [float(self.executors[a].busy) for a in self.agents]
+        out[:, s["busy"].start] = [float(self.executors[a].busy) for a in self.live_agents]
         if "stall" in s:
             out[:, s["stall"].start] = np.minimum(self._stall_run[rows], STALL_CAP) / STALL_CAP
 
@@ -425,7 +425,7 @@ class BoxPushing(TeamEnv):
 
     # -- checks and spots -------------------------------------------------------------------
     def _require_running(self, what: str) -> None:
-        if self.world is None or not self.agents:
+        if self.world is None or not self.live_agents:
             raise EpisodeOverError(f"{what}() needs a running episode; call reset() first")
 
     def _check_spare(self) -> None:
@@ -438,8 +438,8 @@ class BoxPushing(TeamEnv):
         self._require_running(what)
         if agent not in self.possible_agents:
             raise KeyError(f"{what}: unknown agent {agent!r}; possible agents are {self.possible_agents}")
-        if agent not in self.agents or agent in self._leaving:
-            raise ValueError(f"{what}: {agent!r} is not a live agent; live agents are {self.agents}")
+        if agent not in self.live_agents or agent in self._leaving:
+            raise ValueError(f"{what}: {agent!r} is not a live agent; live agents are {self.live_agents}")
 
     def _box_slot(self, name: str) -> int:
         for slot, box in enumerate(self.boxes):

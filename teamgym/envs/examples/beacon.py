@@ -207,7 +207,7 @@ class Beacon(TeamEnv):
         self._success = bool(np.all(self._distance <= self.config.goal_radius))
 
     def _accumulate_rewards(self, total: np.ndarray) -> None:
-        c, live = self.config, [self._row[a] for a in self.agents]
+        c, live = self.config, [self._row[a] for a in self.live_agents]
         total[live] += c.progress_reward * self._progress[live] - c.time_penalty - c.collision_penalty * self._hits[live]
 
     def _read_sensors(self) -> None:
@@ -218,17 +218,17 @@ class Beacon(TeamEnv):
         """Sensing phase: read the sensors; robots that see the beacon broadcast it (delivered this step)."""
         self._read_sensors()
         payload = np.asarray(self.beacon, dtype=np.float32)
-        for agent in self.agents:
+        for agent in self.live_agents:
             if self._seen[self._row[agent]]:
                 self.channel.send(agent, payload, size=REPORT_BYTES, kind="beacon")
 
     def _terminations(self) -> dict[str, bool]:
-        return dict.fromkeys(self.agents, self._success)
+        return dict.fromkeys(self.live_agents, self._success)
 
     # -- outputs ------------------------------------------------------------------------------
     def _observe(self, out: np.ndarray) -> None:
         view, s = self.layout.view, self.config.arena_size
-        for obs, agent in zip(out, self.agents):
+        for obs, agent in zip(out, self.live_agents):
             i = self._row[agent]
             view(obs, "position")[:] = np.clip(self._pos[i], 0.0, s)
             view(obs, "heading")[0] = self._theta[i]

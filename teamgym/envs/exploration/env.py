@@ -304,7 +304,7 @@ class Exploration(TeamEnv):
             sector = self.map.sector_ids[self._sector[i]]
             watcher.assign(self._tasks.make(self.operators[op], sector), time, states[i, :2], self.robot_list[i].odometer)
             self._task_sector[i] = self._sector[i]
-        self._stage_robots = [self._index[a] for a in self.agents]
+        self._stage_robots = [self._index[a] for a in self.live_agents]
         self._stage_start = self.cycles
         self._stage_ended = False
 
@@ -415,13 +415,13 @@ class Exploration(TeamEnv):
         return bool(np.all(self.visited[self.goal]))
 
     def _terminations(self) -> dict[str, bool]:
-        return dict.fromkeys(self.agents, self._all_explored())
+        return dict.fromkeys(self.live_agents, self._all_explored())
 
     # -- observations, metrics -------------------------------------------------------
     def _observe(self, out: np.ndarray) -> None:
         layout = self.layout
         states = self.world.robot_states
-        for row, agent in enumerate(self.agents):
+        for row, agent in enumerate(self.live_agents):
             i = self._index[agent]
             buffer = out[row]
             buffer[0:3] = states[i, :3]

@@ -273,7 +273,7 @@ class Foraging(TeamEnv):
         """Goals phase: consume (a robot stayed ``consume_time``) or surround (enough robots at once)."""
         c, now = self.config, self.world.time
         self._finished_now = 0
-        live = np.array([a in self.agents for a in self.possible_agents])
+        live = np.array([a in self.live_agents for a in self.possible_agents])
         if c.task == "consume":
             self._timer[self._at >= 0] += c.dt
             done = np.unique(self._at[(self._at >= 0) & (self._timer >= c.consume_time - 1e-9) & live])
@@ -347,7 +347,7 @@ class Foraging(TeamEnv):
         """Landmark sightings: the nearest landmark in view re-localises a robot when its Pv ≥ Pl."""
         odometry = self.odometry
         for i in np.flatnonzero(seen.any(axis=1)).tolist():
-            if self.possible_agents[i] not in self.agents:
+            if self.possible_agents[i] not in self.live_agents:
                 continue
             visible = np.flatnonzero(seen[i])
             k = visible[np.argmin(distance[i, visible])]
@@ -367,7 +367,7 @@ class Foraging(TeamEnv):
         """Every live robot broadcasts its location tuple and detections (section 4.3)."""
         est, grid = self.odometry.estimate, self.grid
         own_cells = grid.cell_of(est[:, :2])
-        for agent in self.agents:
+        for agent in self.live_agents:
             i = self._row[agent]
             m = int(self._detection_count[i])
             payload = np.empty((1 + m, 4), dtype=np.float32)
@@ -385,13 +385,13 @@ class Foraging(TeamEnv):
         return np.concatenate(tuples)[: self.n_received], np.concatenate(senders)[: self.n_received]
 
     def _terminations(self) -> dict[str, bool]:
-        return dict.fromkeys(self.agents, self._success)
+        return dict.fromkeys(self.live_agents, self._success)
 
     # -- outputs ------------------------------------------------------------------------------
     def _observe(self, out: np.ndarray) -> None:
         view, c = self.layout.view, self.config
         (w, h) = self.grid_size
-        for obs, agent in zip(out, self.agents):
+        for obs, agent in zip(out, self.live_agents):
             i = self._row[agent]
             estimate = self.odometry.estimate[i]
             view(obs, "pose_estimate")[:] = (min(max(estimate[0], -w), 2 * w), min(max(estimate[1], -h), 2 * h), estimate[2])
@@ -462,7 +462,7 @@ class Foraging(TeamEnv):
         for point in self.landmarks:
             overlay.points.append((tuple(point), (90, 90, 90)))
         arc = np.linspace(-0.5 * c.camera_fov, 0.5 * c.camera_fov, 9)
-        for agent in self.agents:
+        for agent in self.live_agents:
             x, y, theta = self._pose[self._row[agent]]
             edge = [(x + c.camera_range * math.cos(theta + a), y + c.camera_range * math.sin(theta + a)) for a in arc]
             overlay.paths.append(([(x, y), *edge, (x, y)], (170, 170, 220)))

@@ -225,7 +225,7 @@ class NavigationBatch:
         for k in np.flatnonzero(done.any(axis=1)).tolist():
             env = self.copies[k]
             finished = {self.possible_agents[i] for i in np.flatnonzero(done[k]).tolist()}
-            env.agents = [a for a in env.agents if a not in finished]
+            env.live_agents = [a for a in env.live_agents if a not in finished]
             for agent in finished:
                 env.robots[agent].set_command(0.0, 0.0)
 

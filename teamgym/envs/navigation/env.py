@@ -363,7 +363,7 @@ class Navigation(TeamEnv):
 
     def _terminations(self) -> dict[str, bool]:
         """A robot that arrives terminates, stops and stays in the world."""
-        return dict(zip(self.agents, self._team.arrived[self._k, self._live_rows()].tolist()))
+        return dict(zip(self.live_agents, self._team.arrived[self._k, self._live_rows()].tolist()))
 
     def _read_proximity(self, indices: np.ndarray, free: np.ndarray | None = None) -> None:
         """Ring readings of robots ``indices``; ``free`` flags robots known to have nothing within range (no rays cast)."""
@@ -459,11 +459,11 @@ class Navigation(TeamEnv):
     def make_batch(self, n_copies: int) -> NavigationBatch | None:
         """``n_copies`` copies with this env's config, stepped together (:class:`NavigationBatch`).
 
-        ``None`` for configs the batch does not take (learned messages, dict observations).
+        ``None`` for configs the batch does not take (learned messages, dict observations, ``fixed_agents``).
         """
         from teamgym.envs.navigation.batch import NavigationBatch
 
-        if self.config.comm_dim or self.config.obs_format != "flat":
+        if self.config.comm_dim or self.config.obs_format != "flat" or self.config.fixed_agents:
             return None
         return NavigationBatch(n_copies, **self.config.as_dict())
 

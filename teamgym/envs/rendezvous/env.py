@@ -355,7 +355,7 @@ class Rendezvous(TeamEnv):
                         self._known[i].add(k)
 
     def _terminations(self) -> dict[str, bool]:
-        return dict.fromkeys(self.agents, self._met)
+        return dict.fromkeys(self.live_agents, self._met)
 
     def episode_success(self) -> bool:
         """The robots met (every pair within ``meet_distance``) without a collision between robots."""
@@ -419,7 +419,7 @@ class Rendezvous(TeamEnv):
         Recorded, so copies and pickles replay it. Raises ``KeyError`` naming the way if the map
         has no such way, :class:`EpisodeOverError` outside an episode.
         """
-        if self.world is None or not self.agents:
+        if self.world is None or not self.live_agents:
             raise EpisodeOverError("block_way() needs a running episode; call reset() first")
         ends = frozenset((self.place_index.get(a, -1), self.place_index.get(b, -2)))
         if ends not in self.way_index:
@@ -450,7 +450,7 @@ class Rendezvous(TeamEnv):
     # -- state, metrics, rendering -------------------------------------------------------
     def _observe(self, out: np.ndarray) -> None:
         layout, states = self.layout, self.world.robot_states
-        for row, agent in enumerate(self.agents):
+        for row, agent in enumerate(self.live_agents):
             i, buffer = self._row[agent], out[row]
             buffer[0:3] = states[i, :3]
             buffer[2] = math.remainder(float(states[i, 2]), math.tau)
