@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import pickle
 
 import numpy as np
@@ -41,6 +42,32 @@ def test_external_objects_are_referred_to_and_resolved_on_load():
     assert loaded["me"] is a and loaded["list"][0] is b and loaded["again"] is b
     with pytest.raises(pickle.UnpicklingError, match="external object 1.*given 1"):
         snapshot.loads(data, external=[a])
+
+
+@dataclasses.dataclass(frozen=True)
+class Frozen:
+    a: int
+    b: tuple
+
+
+class Trimmed:
+    """Pickles its own ``__getstate__`` (without the cache) and has no ``__setstate__``."""
+
+    def __init__(self) -> None:
+        self.kept, self.cache = [1, 2], "rebuilt"
+
+    def __getstate__(self) -> dict:
+        return {"kept": self.kept, "cache": None}
+
+
+def test_objects_pickled_by_their_attributes_come_back_with_the_same_ones():
+    """Such objects get their attributes set one by one (not written into their ``__dict__``, see the module docstring)."""
+    frozen, trimmed = Frozen(1, (2.5, "x")), Trimmed()
+    again_frozen, again_trimmed = snapshot.loads(snapshot.dumps([frozen, trimmed]))
+    assert again_frozen == frozen and type(again_frozen) is Frozen
+    assert (again_trimmed.kept, again_trimmed.cache) == ([1, 2], None)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        again_frozen.a = 3
 
 
 def test_the_struct_layouts_match_the_linked_chipmunk():
