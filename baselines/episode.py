@@ -4,7 +4,9 @@ Every episode loop of the package (the evaluation CLI, the experiments of ``expe
 is this one. The env is reset with ``seed``, then the policy with ``policy.reset(seed)``;
 while agents are live, the policy gets the live agents' observations and the last infos and
 the env steps. Success is the episode contract's: ``infos[agent]["success"]`` of the last
-step (every agent of one step holds the same value; see :func:`success_of`).
+step (every agent of one step holds the same value; see :func:`success_of`). With
+``fixed_agents=True`` robots that are not present (``infos[agent]["present"]`` is 0) neither
+act nor add to the returns and final metrics, so results equal those without it.
 
 Hooks let callers collect what they need without writing their own loop. Both receive one
 :class:`Step`::
@@ -29,6 +31,8 @@ from typing import Any
 
 import numpy as np
 
+from teamgym.envs.infos import known_values
+
 __all__ = ["EpisodeResult", "Step", "StepHook", "metric_names", "run_episode", "static_geometry", "success_of"]
 
 
@@ -37,7 +41,8 @@ class Step:
     """What an episode hook sees: the env and policy, and one step's joint action and outcome.
 
     ``index`` counts the steps taken (0 after reset). ``agents`` are the agents that acted
-    in this step, in ``env.agents`` order (after reset: the live agents); ``actions`` is the
+    in this step, in ``env.agents`` order (after reset: the live agents; a teamgym env's
+    ``live_agents``, so with ``fixed_agents=True`` absent robots are left out); ``actions`` is the
     policy's joint action (empty after reset). ``observations`` ... ``infos`` are what
     ``env.step`` (or ``env.reset``) returned; ``rewards``, ``terminations`` and
     ``truncations`` are empty after reset.
@@ -105,6 +110,8 @@ class EpisodeResult:
     walls: list[tuple[tuple[float, float], tuple[float, float]]] | None = field(default=None, compare=False, repr=False)
     furniture: list[list[tuple[float, float]]] | None = field(default=None, compare=False, repr=False)
     frames: list[np.ndarray] | None = field(default=None, compare=False, repr=False)
+    #: Keys of ``metrics`` that are categorical (indices of a sector, place, task: ``env.info_schema()``), never averaged.
+    categorical: frozenset[str] = field(default=frozenset(), compare=False, repr=False)
 
     @property
     def mean_return(self) -> float:
@@ -116,16 +123,16 @@ class EpisodeResult:
         return [float(m[name]) for m in self.metrics.values() if name in m]
 
     def metric_means(self) -> dict[str, float]:
-        """Per-episode mean of every metric over the agents that report it."""
+        """Per-episode mean of every (non-categorical) metric over the agents that report it."""
         return {name: float(np.mean(self.metric_values(name))) for name in metric_names([self])}
 
 
 def metric_names(results: Iterable[EpisodeResult]) -> list[str]:
-    """Every metric name in ``results``, in first-seen order."""
+    """Every metric name in ``results`` that is a quantity (categorical keys left out), in first-seen order."""
     names: dict[str, None] = {}
     for result in results:
         for metrics in result.metrics.values():
-            names.update(dict.fromkeys(metrics))
+            names.update(dict.fromkeys(k for k in metrics if k not in result.categorical))
     return list(names)
 
 
@@ -150,23 +157,25 @@ def run_episode(
         raise ValueError("record_frames needs an env made with render_mode='rgb_array'")
     observations, infos = env.reset(seed=seed)
     policy.reset(seed)
-    final: dict[str, dict[str, Any]] = {a: dict(infos[a]) for a in env.possible_agents if a in infos}
-    returns = {a: 0.0 for a in env.agents}
+    final: dict[str, dict[str, Any]] = {a: dict(infos[a]) for a in env.possible_agents if _present(infos, a)}
+    returns = {a: 0.0 for a in _live(env)}
     frames = [env.render()] if record_frames else None
     limit = getattr(getattr(env, "config", None), "cycle_limit", None)
     length = 0
     success = success_of(infos)
     if on_reset is not None:
-        on_reset(Step(env, policy, 0, tuple(env.agents), {}, observations, {}, {}, {}, infos))
+        on_reset(Step(env, policy, 0, _live(env), {}, observations, {}, {}, {}, infos))
     while env.agents:
-        agents = tuple(env.agents)
+        agents = _live(env)
         actions = policy.act({a: observations[a] for a in agents}, infos)
         observations, rewards, terminations, truncations, infos = env.step(actions)
         length += 1
         for agent, reward in rewards.items():
-            returns[agent] = returns.get(agent, 0.0) + float(reward)
+            if _present(infos, agent):
+                returns[agent] = returns.get(agent, 0.0) + float(reward)
         for agent, info in infos.items():
-            final[agent] = dict(info)
+            if _present(infos, agent):
+                final[agent] = dict(info)
         success = success_of(infos)
         if frames is not None:
             frames.append(env.render())
@@ -174,15 +183,34 @@ def run_episode(
             on_step(Step(env, policy, length, agents, actions, observations, rewards, terminations, truncations, infos))
         if limit is not None and length > limit:
             raise RuntimeError(f"episode with seed {seed} ran past its cycle limit ({limit} steps); the env does not truncate")
-    metrics = {agent: _numeric_metrics(info) for agent, info in final.items()}
-    result = EpisodeResult(seed=int(seed), length=length, success=success, returns=returns, metrics=metrics, frames=frames)
+    schema = env.info_schema() if hasattr(env, "info_schema") else {}
+    metrics = {agent: _numeric_metrics(known_values(info, schema)) for agent, info in final.items()}
+    categorical = frozenset(k for k, spec in schema.items() if spec.kind == "categorical")
+    result = EpisodeResult(
+        seed=int(seed), length=length, success=success, returns=returns, metrics=metrics, frames=frames, categorical=categorical
+    )
     if record_trajectories:
         _record_scene(env, result)
     return result
 
 
+def _live(env: Any) -> tuple[str, ...]:
+    """The agents that act now: a teamgym env's ``live_agents`` (with ``fixed_agents=True``, ``env.agents``
+    also lists absent robots, whose actions are ignored), else ``env.agents``."""
+    return tuple(getattr(env, "live_agents", env.agents))
+
+
+def _present(infos: Mapping[str, Mapping[str, Any]], agent: str) -> bool:
+    """Whether ``agent`` reported this step as a robot in the episode (``fixed_agents=True`` reports absent ones too)."""
+    return agent in infos and infos[agent].get("present", 1) != 0
+
+
 def _numeric_metrics(info: Mapping[str, Any]) -> dict[str, float | int | bool]:
-    """The numeric scalars of one agent's infos, ``success`` left out (it is the episode's)."""
+    """The numeric scalars of one agent's infos, ``success`` left out (it is the episode's).
+
+    ``run_episode`` passes the known values only (``teamgym.envs.infos.known_values``: a time to goal
+    of a robot that never arrived is left out), so means run over the robots and episodes that report it.
+    """
     values = {k: _numeric(v) for k, v in info.items() if k != "success"}
     return {k: v for k, v in values.items() if v is not None}
 

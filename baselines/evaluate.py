@@ -3,14 +3,15 @@
 Command line::
 
     python -m baselines.evaluate [--env Navigation-v0] [--policy goto] [--episodes 10] [--seed 0]
-        [--set key=value ...] [--max-cycles M] [--out DIR] [--gif] [--workers W|ray] [--quiet] [--stochastic]
+        [--set key=value ...] [--max-cycles M] [--out DIR] [--gif] [--workers W|ray] [--ray-address ADDR]
+        [--quiet] [--stochastic]
 
 Episode ``i`` resets the env with seed ``S + i`` and the policy with ``policy.reset(S + i)``,
 so results do not depend on ``--workers``. ``--workers ray`` runs the episodes on a Ray
-cluster (one actor per CPU; ``RAY_ADDRESS`` names an existing cluster, else a local one starts;
-needs ``pip install ray``) with the same results. ``--policy sb3:PATH`` evaluates a saved
-Stable-Baselines3 model (see :mod:`baselines.rl.sb3_policy`), deterministically unless
-``--stochastic``.
+cluster (one actor per CPU; ``--ray-address HOST:PORT`` or ``RAY_ADDRESS`` names an existing
+cluster, else a local one starts; needs ``pip install ray``) with the same results.
+``--policy sb3:PATH`` evaluates a saved Stable-Baselines3 model (see
+:mod:`baselines.rl.sb3_policy`), deterministically unless ``--stochastic``.
 
 A model saved by ``python -m baselines.train`` has a sidecar ``<model>.json`` with the env
 id and config overrides it was trained with. When it exists they are the defaults: the
@@ -23,8 +24,9 @@ naming both envs. Files written to ``DIR`` (default ``results/<env>_<policy>/``)
 * ``summary.json``: env, policy, resolved config, episodes, seed, ``success_rate``,
   ``mean_episode_length``, ``mean_return`` and ``mean_<metric>`` for every numeric
   metric, plus ``metrics`` (mean/std/min/max/count of each), ``deterministic`` (false
-  with ``--stochastic``), ``overrides`` (the ``--set`` and sidecar settings, as strings) and, for
-  a model with a sidecar, ``sidecar`` (its path);
+  with ``--stochastic``), ``overrides`` (the ``--set`` and sidecar settings, as strings), for
+  a model with a sidecar ``sidecar`` (its path) and, with ``--workers ray``, ``ray_nodes``
+  (the episodes each Ray node ran, by node id);
 * ``episodes.csv``: one row per episode (seed, length, success, mean return over robots
   and the per-episode mean of every metric over the robots that report it);
 * ``trajectories.png``: the robots' (and moving obstacles' or boxes') paths in the first episode;
@@ -34,10 +36,12 @@ Success is the episode contract's: ``infos[agent]["success"]`` of an episode's l
 (one episode: :func:`baselines.episode.run_episode`, re-exported here); it is the
 ``success`` column, never a metric column.
 
-Errors: a bad command line, env id, config, ``--out`` (an existing file, or under one) or a
-policy that does not fit the env (``Policy.check_env``) exits with code 2 and one
-``error: ...`` line before any episode runs; a failure while running exits with code 1 and
-one line (``TEAMGYM_TRACEBACK=1`` shows the traceback instead).
+Errors: a bad command line (an empty ``--env``, ``--policy`` or ``--out`` included, ``--episodes``
+above :data:`MAX_EPISODES` = 10**6), env id, config, ``--out`` (an existing file, under one, or
+not writable) or a policy that does not fit the env (``Policy.check_env``) exits with code 2
+and one ``error: ...`` line before any episode runs; a failure while running exits with code 1
+and one line (``TEAMGYM_TRACEBACK=1`` shows the traceback instead). Seeds are made episode by
+episode, never listed up front.
 
 Metric means pool all (robot, episode) values: a metric a robot does not report (such as
 ``time_to_goal`` before arrival) is left out rather than counted as zero; booleans count
@@ -64,7 +68,7 @@ import json
 import math
 import re
 import sys
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any, NoReturn
 
@@ -87,6 +91,9 @@ __all__ = [
 
 #: The env evaluated when neither ``--env`` nor an SB3 model's sidecar names one.
 DEFAULT_ENV = "Navigation-v0"
+#: The most episodes one evaluation runs: their results are kept for the summary and the CSV
+#: (about 2 kB each for ``goto`` on Navigation-v0, 0.1 CPU-s to play), so more would not fit in memory.
+MAX_EPISODES = 10**6
 
 
 class _Runner:
@@ -151,17 +158,20 @@ def _ray_results(
     policy_kwargs: Mapping[str, Any] | None,
     items: Sequence[tuple[int, bool]],
     on_done: Callable[[int], None],
+    address: str | None = None,
+    nodes: dict[str, int] | None = None,
 ) -> list[EpisodeResult]:
     """Episodes ``items`` (seed, keep trajectories) on Ray actors, one per cluster CPU, each with its own env and policy.
 
-    Uses the running Ray session, else ``ray.init()`` (``RAY_ADDRESS`` or a new local cluster), shut down after.
+    Uses the running Ray session, else ``ray.init(address)`` (``None``: ``RAY_ADDRESS`` or a new local
+    cluster), shut down after. ``nodes`` gets the number of episodes each node ran (node id -> count).
     """
     ray = require_ray()
     started = not ray.is_initialized()
     if started:
         import logging
 
-        ray.init(logging_level=logging.WARNING)
+        ray.init(address=address, logging_level=logging.WARNING)
     try:
         cpus = max(1, int(ray.cluster_resources().get("CPU", 1)))
         chunks = _chunks(items, cpus)
@@ -175,8 +185,10 @@ def _ray_results(
             pool.submit(lambda actor, job: actor.run_chunk.remote(*job), (i, chunk))
         slots: list[list[EpisodeResult] | None] = [None] * len(chunks)
         while pool.has_next():
-            i, results = pool.get_next_unordered()
+            i, node, results = pool.get_next_unordered()
             slots[i] = results
+            if nodes is not None:
+                nodes[node] = nodes.get(node, 0) + len(results)
             on_done(len(results))
         for actor in actors:
             ray.kill(actor)
@@ -190,10 +202,14 @@ class _RayRunner:
     """A Ray actor's state: one env and policy (as a process-pool worker has), reused for its chunks."""
 
     def __init__(self, env_id: str, policy_name: str, config: Mapping[str, Any], policy_kwargs: Mapping[str, Any] | None) -> None:
-        _init_worker(env_id, policy_name, config, policy_kwargs)
+        import ray
 
-    def run_chunk(self, index: int, chunk: Sequence[tuple[int, bool]]) -> tuple[int, list[EpisodeResult]]:
-        return index, _worker_run_chunk(chunk)
+        _init_worker(env_id, policy_name, config, policy_kwargs)
+        self.node = ray.get_runtime_context().get_node_id()
+
+    def run_chunk(self, index: int, chunk: Sequence[tuple[int, bool]]) -> tuple[int, str, list[EpisodeResult]]:
+        """The chunk's results, with its index and the id of the Ray node that ran it."""
+        return index, self.node, _worker_run_chunk(chunk)
 
 
 def require_ray() -> Any:
@@ -209,6 +225,18 @@ def require_ray() -> Any:
     return ray
 
 
+#: What ``ray.init(address=...)`` takes for an existing cluster: ``auto``, ``HOST:PORT`` or ``ray://HOST:PORT``.
+_RAY_ADDRESS = re.compile(r"(ray://)?(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9_.-]+):(\d{1,5})")
+
+
+def check_ray_address(address: str) -> str:
+    """``address`` if it names an existing Ray cluster (``HOST:PORT``, ``ray://HOST:PORT`` or ``auto``), else ``ValueError``."""
+    match = _RAY_ADDRESS.fullmatch(address)
+    if address != "auto" and not (match and 1 <= int(match.group(3)) <= 65535):
+        raise ValueError(f"a Ray address is HOST:PORT, ray://HOST:PORT or auto, got {address!r}")
+    return address
+
+
 def _pool_context():
     """``fork`` where the platform has it and torch is not loaded (forking after torch's threads start
     can hang); ``spawn`` otherwise. Forked workers start in milliseconds instead of re-importing."""
@@ -218,10 +246,29 @@ def _pool_context():
     return multiprocessing.get_context("fork" if "fork" in methods and "torch" not in sys.modules else "spawn")
 
 
-def _chunks(items: Sequence[Any], workers: int) -> list[list[Any]]:
-    """``items`` in consecutive chunks, about four per worker, so that the load still balances."""
+class _Episodes(Sequence[tuple[int, bool]]):
+    """The ``(seed, keep trajectories)`` pairs of a run's episodes ``indices``, made on demand (a slice is another)."""
+
+    def __init__(self, seed: int, keep_all: bool, indices: range) -> None:
+        self.seed, self.keep_all, self.indices = seed, keep_all, indices
+
+    def __len__(self) -> int:
+        return len(self.indices)
+
+    def __iter__(self) -> Iterator[tuple[int, bool]]:
+        return ((self.seed + i, self.keep_all or i == 0) for i in self.indices)
+
+    def __getitem__(self, item: Any) -> Any:
+        if isinstance(item, slice):
+            return _Episodes(self.seed, self.keep_all, self.indices[item])
+        index = self.indices[item]
+        return self.seed + index, self.keep_all or index == 0
+
+
+def _chunks(items: Sequence[Any], workers: int) -> list[Sequence[Any]]:
+    """``items`` in consecutive slices, about four per worker, so that the load still balances."""
     size = max(1, math.ceil(len(items) / (4 * workers)))
-    return [list(items[i : i + size]) for i in range(0, len(items), size)]
+    return [items[i : i + size] for i in range(0, len(items), size)]
 
 
 def evaluate(
@@ -235,50 +282,60 @@ def evaluate(
     progress: bool = False,
     keep_trajectories: bool = False,
     policy_kwargs: Mapping[str, Any] | None = None,
+    ray_address: str | None = None,
+    ray_nodes: dict[str, int] | None = None,
 ) -> list[EpisodeResult]:
     """Run ``episodes`` episodes (seeds ``seed .. seed+episodes-1``) and return their results in seed order.
+
+    ``episodes`` is at most :data:`MAX_EPISODES`; the seeds are made one by one, never listed.
 
     ``config`` is passed to ``teamgym.make`` (strings are parsed as on the command line).
     With ``workers > 1`` episodes run in that many worker processes (forked where possible),
     each with its own env and policy, handed out in chunks of consecutive seeds; results are
     identical to a sequential run. ``workers="ray"`` runs the chunks on Ray actors, one per CPU of
-    the running Ray session or of ``ray.init()`` (``RAY_ADDRESS``, else a new local cluster, shut
-    down after); results are again identical. Trajectories are kept for
+    the running Ray session or of ``ray.init(address=ray_address)`` (by default ``RAY_ADDRESS``,
+    else a new local cluster; shut down after); results are again identical, and ``ray_nodes``
+    (a dict, if given) gets the number of episodes each Ray node ran. Trajectories are kept for
     the first episode only unless ``keep_trajectories``. ``policy_kwargs`` go to
     :func:`baselines.registry.make_policy` (e.g. ``{"deterministic": False}`` for an
     ``sb3:PATH`` policy). Config, env-id and policy errors
     (including a policy that does not fit the env) raise (``ConfigError``/``ValueError``/
     ``KeyError``/``FileNotFoundError``) before any episode runs.
     """
-    if episodes < 1:
-        raise ValueError(f"episodes must be >= 1, got {episodes}")
+    if not 1 <= episodes <= MAX_EPISODES:
+        raise ValueError(f"episodes must be in [1, {MAX_EPISODES}], got {episodes}")
     if seed < 0:
         raise ValueError(f"seed must be >= 0, got {seed}")
     if workers == "ray":
-        require_ray()
+        ray = require_ray()
+        if ray_address is not None:
+            check_ray_address(ray_address)
+            if ray.is_initialized():
+                raise ValueError("ray_address was given, but this process already runs a Ray session (it would be used)")
     elif isinstance(workers, str) or workers < 1:
         raise ValueError(f"workers must be an integer >= 1 or 'ray', got {workers!r}")
+    elif ray_address is not None:
+        raise ValueError(f"ray_address applies to workers='ray' only, not workers={workers!r}")
     from tqdm import tqdm
 
     config = dict(config or {})
     runner = _Runner(env_id, policy_name, config, policy_kwargs=policy_kwargs)  # validates env id, config and policy here
-    seeds = [seed + i for i in range(episodes)]
-    keep = [keep_trajectories or i == 0 for i in range(episodes)]
+    items = _Episodes(seed, keep_trajectories, range(episodes))  # episode i: seed + i, trajectories of the first
     bar = tqdm(total=episodes, desc=f"{env_id} {policy_name}", unit="ep", disable=not progress, leave=False)
     try:
         if workers == 1 or (episodes == 1 and workers != "ray"):
             results = []
-            for s, k in zip(seeds, keep):
+            for s, k in items:
                 results.append(runner.run(s, record_trajectories=k))
                 bar.update(1)
             return results
         runner.close()
         if workers == "ray":
-            return _ray_results(env_id, policy_name, config, policy_kwargs, list(zip(seeds, keep)), bar.update)
+            return _ray_results(env_id, policy_name, config, policy_kwargs, items, bar.update, ray_address, ray_nodes)
         assert isinstance(workers, int)
         from concurrent.futures import ProcessPoolExecutor, as_completed
 
-        chunks = _chunks(list(zip(seeds, keep)), workers)
+        chunks = _chunks(items, workers)
         slots: list[list[EpisodeResult] | None] = [None] * len(chunks)
         with ProcessPoolExecutor(
             max_workers=min(workers, episodes),
@@ -422,19 +479,27 @@ def write_episodes_csv(path: str | Path, results: Sequence[EpisodeResult]) -> Pa
 # -- command line -----------------------------------------------------------------------
 
 
-class _UsageError(Exception):
+class _UsageError(ValueError):
     """A command-line or configuration mistake: reported in one line, exit code 2."""
 
 
 class _Parser(argparse.ArgumentParser):
-    """An argument parser that reports a bad command line in one line (``error: ...``), exit code 2."""
+    """An argument parser that reports a bad command line in one line (``error: ...``), exit code 2.
+
+    With ``named`` the line starts with the program's name (``prog: error: ...``, as argparse's does).
+    """
+
+    def __init__(self, *args: Any, named: bool = False, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self.named = named
 
     def error(self, message: str) -> NoReturn:
-        self.exit(2, f"error: {_one_line(message)} (see --help)\n")
+        lead = f"{self.prog}: error" if self.named else "error"
+        self.exit(2, f"{lead}: {_one_line(message)} (see --help)\n")
 
 
-def _at_least(minimum: int) -> Callable[[str], int]:
-    """An argparse ``type``: an integer ``>= minimum``."""
+def _at_least(minimum: int, maximum: int | None = None) -> Callable[[str], int]:
+    """An argparse ``type``: an integer ``>= minimum`` (and ``<= maximum``)."""
 
     def parse(text: str) -> int:
         try:
@@ -443,9 +508,32 @@ def _at_least(minimum: int) -> Callable[[str], int]:
             raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
         if value < minimum:
             raise argparse.ArgumentTypeError(f"must be >= {minimum}, got {value}")
+        if maximum is not None and value > maximum:
+            raise argparse.ArgumentTypeError(f"must be <= {maximum}, got {value}")
         return value
 
     return parse
+
+
+def _nonblank(what: str) -> Callable[[str], str]:
+    """An argparse ``type``: a ``what`` that is not empty or blank (an empty value would fall back to a default)."""
+
+    def parse(text: str) -> str:
+        if not text.strip():
+            raise argparse.ArgumentTypeError(f"expected {what}, got {text!r}")
+        if text.startswith("sb3:") and not text[4:].strip():
+            raise argparse.ArgumentTypeError(f"expected a model path or shipped agent after sb3:, got {text!r}")
+        return text
+
+    return parse
+
+
+def _ray_address(text: str) -> str:
+    """An argparse ``type``: a Ray cluster address (:func:`check_ray_address`)."""
+    try:
+        return check_ray_address(text)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
 
 
 def _workers(text: str) -> int | str:
@@ -468,15 +556,31 @@ def _parse_sets(items: Sequence[str] | None) -> dict[str, str]:
     return config
 
 
-def _check_out(out: Path) -> None:
-    """Raise :class:`_UsageError` if ``out`` cannot be an output directory (a file, or under one)."""
-    if out.exists() and not out.is_dir():
-        raise _UsageError(f"--out {str(out)!r} is an existing file, not a directory")
-    for parent in out.parents:
-        if parent.exists():
-            if not parent.is_dir():
-                raise _UsageError(f"--out {str(out)!r} is under {str(parent)!r}, which is a file")
+def _check_out(out: Path, flag: str = "--out", *, file: bool = False) -> None:
+    """Raise :class:`_UsageError` (a ``ValueError``) if ``out`` cannot be made an output directory.
+
+    It cannot when it is an existing file, lies under a file, or when it (if it exists) or its
+    nearest existing ancestor is a directory this process may not write into. With ``file``,
+    ``out`` names a file to write: it must not be a directory, and its directory is checked.
+    """
+    shown = repr(str(out))
+    try:
+        if file and out.is_dir():
+            raise _UsageError(f"{flag} {shown} is a directory, not a file")
+        for path in out.parents if file else (out, *out.parents):
+            if not path.exists():
+                continue
+            if not path.is_dir():
+                where = "is an existing file" if path == out else f"is under {str(path)!r}, which is a file"
+                raise _UsageError(f"{flag} {shown} {where}, not a directory")
+            if not os.access(path, os.W_OK | os.X_OK):
+                where = "" if path == out else f" under {str(path)!r}"
+                raise _UsageError(f"{flag} {shown}: cannot write{where} (permission denied)")
             return
+    except _UsageError:
+        raise
+    except (OSError, ValueError) as error:  # e.g. a NUL byte or a name too long
+        raise _UsageError(f"{flag} {shown} is not a usable path: {error}") from None
 
 
 def _model_defaults(
@@ -488,8 +592,9 @@ def _model_defaults(
     The sidecar's overrides apply (explicit settings win) only when the env is the sidecar's.
     """
     config = dict(config)
+    default = DEFAULT_ENV if env_id is None else env_id  # an empty --env is refused, never the default
     if not policy.startswith("sb3:"):
-        return env_id or DEFAULT_ENV, config, None, None
+        return default, config, None, None
     from baselines.rl.sb3_policy import read_sidecar, resolve_model
 
     try:
@@ -498,7 +603,7 @@ def _model_defaults(
         raise _UsageError(str(error)) from error
     trained_on = sidecar.get("env") if sidecar else None
     if not isinstance(trained_on, str):
-        return env_id or DEFAULT_ENV, config, None, None
+        return default, config, None, None
     path = resolve_model(policy[4:]).with_suffix(".json")
     if env_id is not None and env_id != trained_on:
         return env_id, config, path, trained_on
@@ -528,16 +633,28 @@ def build_parser() -> argparse.ArgumentParser:
         prog="python -m baselines.evaluate",
         description="Evaluate a policy on a teamgym env over seeded episodes.",
     )
-    count, seed = _at_least(1), _at_least(0)  # episodes and workers; seeds (numpy rejects negative ones)
+    seed = _at_least(0)  # numpy rejects negative seeds
     parser.add_argument(
-        "--env", default=None, help=f"env id (default: an sb3:PATH model's, from its sidecar <model>.json; else {DEFAULT_ENV})"
+        "--env",
+        type=_nonblank("an env id"),
+        default=None,
+        help=f"env id (default: an sb3:PATH model's, from its sidecar <model>.json; else {DEFAULT_ENV})",
     )
-    parser.add_argument("--policy", default="goto", help="policy name or sb3:PATH (default: goto)")
-    parser.add_argument("--episodes", type=count, default=10, help="number of episodes, >= 1 (default: 10)")
+    parser.add_argument(
+        "--policy", type=_nonblank("a policy name or sb3:PATH"), default="goto", help="policy name or sb3:PATH (default: goto)"
+    )
+    parser.add_argument(
+        "--episodes",
+        type=_at_least(1, MAX_EPISODES),
+        default=10,
+        help=f"number of episodes, 1 to {MAX_EPISODES} (default: 10)",
+    )
     parser.add_argument("--seed", type=seed, default=0, help="first seed, >= 0; episode i uses seed+i (default: 0)")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="env config override (repeatable)")
     parser.add_argument("--max-cycles", type=int, default=None, help="shorthand for --set max_cycles=M")
-    parser.add_argument("--out", default=None, help="output directory (default: results/<env>_<policy>/)")
+    parser.add_argument(
+        "--out", type=_nonblank("a directory"), default=None, help="output directory (default: results/<env>_<policy>/)"
+    )
     parser.add_argument("--gif", action="store_true", help="also write an animated GIF of the first episode")
     parser.add_argument("--no-plot", action="store_true", help="do not draw trajectories.png (matplotlib is then not loaded)")
     parser.add_argument(
@@ -545,6 +662,13 @@ def build_parser() -> argparse.ArgumentParser:
         type=_workers,
         default=1,
         help="parallel worker processes, >= 1, or 'ray': Ray actors, one per cluster CPU (RAY_ADDRESS; default: 1)",
+    )
+    parser.add_argument(
+        "--ray-address",
+        type=_ray_address,
+        default=None,
+        metavar="ADDR",
+        help="with --workers ray: the Ray cluster to run on, HOST:PORT of its head (default: RAY_ADDRESS, else a new local one)",
     )
     parser.add_argument("--quiet", action="store_true", help="no progress bar or table")
     parser.add_argument(
@@ -604,6 +728,8 @@ def _run(args: argparse.Namespace) -> int:
         config["max_cycles"] = str(args.max_cycles)
     if args.stochastic and not args.policy.startswith("sb3:"):
         raise _UsageError(f"--stochastic applies to sb3:PATH policies only, not {args.policy!r}")
+    if args.ray_address is not None and args.workers != "ray":
+        raise _UsageError(f"--ray-address applies to --workers ray only, not --workers {args.workers}")
     if args.workers == "ray":
         try:
             require_ray()
@@ -612,7 +738,7 @@ def _run(args: argparse.Namespace) -> int:
     env_id, config, sidecar, trained_on = _model_defaults(args.policy, args.env, config)
     policy_kwargs = {"deterministic": False} if args.stochastic else {}
     name = _slug(args.policy) + ("-stochastic" if args.stochastic else "")
-    out = Path(args.out) if args.out else Path("results") / f"{_slug(env_id)}_{name}"
+    out = Path(args.out) if args.out is not None else Path("results") / f"{_slug(env_id)}_{name}"
     _check_out(out)
     try:
         probe = _Runner(env_id, args.policy, config, policy_kwargs=policy_kwargs)
@@ -637,11 +763,23 @@ def _run(args: argparse.Namespace) -> int:
     except OSError as error:
         raise _UsageError(f"cannot create --out {str(out)!r}: {error.strerror or error}") from error
 
+    nodes: dict[str, int] = {}
     results = evaluate(
-        env_id, args.policy, args.episodes, args.seed, config, args.workers, progress=not args.quiet, policy_kwargs=policy_kwargs
+        env_id,
+        args.policy,
+        args.episodes,
+        args.seed,
+        config,
+        args.workers,
+        progress=not args.quiet,
+        policy_kwargs=policy_kwargs,
+        ray_address=args.ray_address,
+        ray_nodes=nodes,
     )
     summary = {"env": env_id, "policy": args.policy, "config": resolved, "seed": args.seed, "workers": args.workers}
     summary.update(summarise(results))
+    if args.workers == "ray":
+        summary["ray_nodes"] = dict(sorted(nodes.items()))
     summary["deterministic"] = not args.stochastic
     summary["overrides"] = {k: str(v) for k, v in config.items()}
     if sidecar is not None:

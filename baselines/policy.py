@@ -76,7 +76,7 @@ class Policy(ABC):
 
 
 class RandomPolicy(Policy):
-    """Uniformly random actions from each agent's action space (seeded by ``reset``)."""
+    """Uniformly random actions from each agent's action space (seeded by ``reset``); admissible ones where the env masks."""
 
     name = "random"
     native_actions = False  # samples the env's own action space
@@ -87,7 +87,10 @@ class RandomPolicy(Policy):
             self.env.action_space(agent).seed(None if seed is None else seed + i)
 
     def act(self, observations, infos=None):
-        return {agent: self.env.action_space(agent).sample() for agent in observations}
+        infos = infos or {}
+        return {
+            agent: self.env.action_space(agent).sample(mask=infos.get(agent, {}).get("action_mask")) for agent in observations
+        }
 
 
 def env_id_of(env: Any) -> str | None:

@@ -40,8 +40,8 @@ import numpy as np
 
 import teamgym
 from baselines.episode import Step, run_episode
-from baselines.evaluate import evaluate, markdown_table
-from baselines.registry import make_policy
+from baselines.evaluate import _message, _nonblank, _Parser, evaluate, markdown_table
+from baselines.registry import make_policy, required_config
 from baselines.stats import mean_ci, wilson
 
 THROUGHPUTS = (0.0, 0.25, 0.5, 0.75, 1.0)
@@ -225,17 +225,28 @@ def report(out: Path, suffix: str = "") -> str:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description="Paper 002 (DMAPS): throughput sweeps on Foraging-v0.")
+    """The command line: a bad one (an empty or unknown ``--policy`` included) exits 2 with one line, before any output."""
+    parser = _Parser(description="Paper 002 (DMAPS): throughput sweeps on Foraging-v0.", named=True)
     parser.add_argument("experiment", choices=["consume", "surround", "search", "robots", "large", "all", "report"])
     parser.add_argument("--out", type=Path, default=Path("results/paper002"))
     parser.add_argument("--games", type=int, default=2000, help="games per setting (default 2000, as in the paper)")
     parser.add_argument("--first-seed", type=int, default=0)
     parser.add_argument("--workers", type=int, default=2)
-    parser.add_argument("--policy", default="dmaps", help="dmaps (default), dmaps-nocomm or random-walk")
+    parser.add_argument(
+        "--policy", type=_nonblank("a policy name"), default="dmaps", help="dmaps (default), dmaps-nocomm or random-walk"
+    )
     parser.add_argument("--quiet", action="store_true")
     args = parser.parse_args(argv)
     if args.games < 2 or args.workers < 1 or args.first_seed < 0:
         parser.error("--games must be >= 2, --workers >= 1 and --first-seed >= 0")
+    try:  # an unknown policy, or one that does not fit Foraging-v0, fails here, before any output
+        env = teamgym.make("Foraging-v0", **required_config(args.policy))
+        try:
+            make_policy(args.policy, env)
+        finally:
+            env.close()
+    except (KeyError, ValueError, TypeError, FileNotFoundError) as error:
+        parser.error(f"argument --policy: {_message(error)}")
     args.out.mkdir(parents=True, exist_ok=True)
     suffix = "" if args.policy == "dmaps" else f"-{args.policy}"
     if args.experiment == "report":

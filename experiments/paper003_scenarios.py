@@ -24,10 +24,10 @@ from pathlib import Path
 
 
 def load_scenario(name: str) -> dict:
-    """A scenario of section 6 (``teamgym/maps/data/scenarios/NAME.json``)."""
-    from teamgym.maps.graph import GRAPH_DIR
+    """A scenario of section 6 (``teamgym/maps/data/scenarios/NAME.json``), checked by ``teamgym.maps.scenarios``."""
+    from teamgym.maps.scenarios import load_scenario as load
 
-    return json.loads((GRAPH_DIR.parent / "scenarios" / f"{name}.json").read_text())
+    return load(name)
 
 
 def scenario_config(scenario: dict) -> dict:

@@ -30,7 +30,6 @@ Subcommands (each writes JSON and a Markdown table into ``--out``; figures also 
 
 from __future__ import annotations
 
-import argparse
 import json
 import shutil
 from collections import Counter
@@ -43,7 +42,7 @@ import numpy as np
 
 import teamgym
 from baselines.episode import Step, run_episode
-from baselines.evaluate import markdown_table
+from baselines.evaluate import _nonblank, _Parser, markdown_table
 from baselines.registry import make_policy, required_config
 from baselines.stats import mean_text, rate_text
 from teamgym.envs.config import parse_value
@@ -531,20 +530,23 @@ def _run_label(data: dict[str, Any]) -> str:
     return label + (f", {extra}" if extra else "")
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def main(argv: Sequence[str] | None = None) -> None:
+    """The command line: a bad one (an empty ``--env`` or ``--policies`` included) exits 2 with one line, before any run."""
+    parser = _Parser(description=__doc__.splitlines()[0], named=True)
     parser.add_argument("experiment", choices=["static", "dynamic", "all", "diagnose", "report"])
     parser.add_argument("--out", type=Path, default=Path("results/paper004"))
     parser.add_argument("--figures", type=Path, default=None)
     parser.add_argument("--seeds", type=int, default=30)
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--first-seed", type=int, default=None, help="first seed (default: 0; `diagnose`: 100, held out)")
-    parser.add_argument("--env", default=DEFAULT_ENV[0], help="env id (BoxPushing-v0 or BoxPushing-v1)")
+    parser.add_argument(
+        "--env", type=_nonblank("an env id"), default=DEFAULT_ENV[0], help="env id (BoxPushing-v0 or BoxPushing-v1)"
+    )
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="env config override (repeatable)")
     parser.add_argument("--policies", default=",".join(POLICIES), help="policies of `static` and `dynamic`, comma-separated")
     parser.add_argument("--no-recognition", action="store_true", help="`dynamic`: skip sbs's recognizer-triggered runs")
     parser.add_argument("--tag", default="", help="suffix of the output files (e.g. _v1_noise0); `report`: comma-separated")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     if args.experiment == "report":
         print(report(args.out, args.tag.split(",")))
         return
@@ -558,6 +560,8 @@ def main() -> None:
         overrides[key] = parse_value(value)
     env = (args.env, overrides)
     policies = tuple(p for p in args.policies.split(",") if p)
+    if not policies:
+        parser.error(f"argument --policies: expected comma-separated policy names, got {args.policies!r}")
     try:
         make_env(env)  # an unknown id or a bad override fails here, before any run
         for policy in policies:

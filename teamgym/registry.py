@@ -55,7 +55,10 @@ def make_batch(env_id: str, n_copies: int, **config: Any) -> Any:
         env.close()
     if batch is None:
         batched = [e for e in envs() if env_class(e).make_batch is not TeamEnv.make_batch]
-        raise ValueError(f"{env_id} has no batch form for this config; envs with one (flat observations, no comm_dim): {batched}")
+        raise ValueError(
+            f"{env_id} has no batch form for this config; envs with one (flat observations, no comm_dim, "
+            f"fixed_agents=False): {batched}"
+        )
     return batch
 
 

@@ -5,7 +5,8 @@ For each registered env and each ``action_type`` it offers, seeds 0–9 run up t
 ones where the env masks actions). The fingerprint is a SHA-256 over the flat observations,
 rewards, terminations, truncations and the numeric ``infos`` values present when the
 fixture was recorded (string-valued infos were later replaced by indices, so they are left
-out; keys added later are ignored).
+out; keys added later are ignored, and so are metrics at their "not known yet" sentinel of
+``env.info_schema()``, which were absent keys when the fixture was recorded).
 
 ``python -m tests.regression record`` adds the cases missing from ``tests/data/regression_hashes.json``
 (a new env or action type; recorded hashes are never rewritten); the test
@@ -69,11 +70,19 @@ def _sample(env, agent: str, infos: dict, rng: np.random.Generator):
     return rng.uniform(space.low, space.high).astype(space.dtype)
 
 
-def _numeric_items(info: dict, keys: list[str] | None) -> list:
+def _numeric_items(info: dict, keys: list[str] | None, schema: dict | None = None) -> list:
+    """The numeric infos hashed: every key (of ``keys``) but metrics still at their "not known yet" sentinel.
+
+    Those sentinels (``env.info_schema()``: a time to goal of -1 before arrival) were absent keys
+    when the fixture was recorded; leaving them out hashes what the env knows, as then.
+    """
     items = []
     for key in sorted(info):
         value = info[key]
         if isinstance(value, str) or (keys is not None and key not in keys):
+            continue
+        spec = (schema or {}).get(key)
+        if spec is not None and spec.kind == "metric" and spec.sentinel and np.shape(value) == () and value == spec.missing:
             continue
         items.append((key, np.asarray(value).tolist()))
     return items
@@ -94,7 +103,7 @@ def fingerprint(env_id: str, action_type: str, seed: int, info_keys: list[str] |
         for table in more:
             digest.update(repr(sorted(table.items())).encode())
         for agent in sorted(infos):
-            items = _numeric_items(infos[agent], info_keys)
+            items = _numeric_items(infos[agent], info_keys, env.info_schema())
             seen.update(k for k, _ in items)
             digest.update(repr(items).encode())
 

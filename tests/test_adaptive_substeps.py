@@ -84,9 +84,12 @@ def test_off_by_default_and_deterministic_when_on(random_policy):
     assert len(first) == len(second) and all(np.array_equal(a, b) for a, b in zip(first, second))
 
 
-@pytest.mark.parametrize("value", [-1, 21])
-def test_invalid_coarse_substeps_is_a_one_line_config_error(value):
-    with pytest.raises(ConfigError, match=r"coarse_substeps=.* must be in \[0, substeps\]"):
+@pytest.mark.parametrize(
+    ("value", "reason"),
+    [(-1, r"it must be in \[0, 1000\]"), (21, r"substeps=20 do not fit together; coarse_substeps must not exceed")],
+)
+def test_invalid_coarse_substeps_is_a_one_line_config_error(value, reason):
+    with pytest.raises(ConfigError, match=rf"coarse_substeps={value}.* {reason}"):
         teamgym.make("Navigation-v0", coarse_substeps=value)
 
 

@@ -61,7 +61,7 @@ def test_one_robot_cannot_turn_the_heavy_box_at_a_corner_and_two_can_slide_it():
     assert 2 * V1.max_motor_force / friction > 1.2  # two robots through the centre: 1.2 N against 0.98 N
     # A uniformly loaded box of the same mass could be turned by one robot at a corner (0.50 N):
     # the config refuses it.
-    with pytest.raises(teamgym.ConfigError, match="lets one robot turn the box at a corner"):
+    with pytest.raises(teamgym.ConfigError, match="let one robot turn the heavy box at a corner"):
         teamgym.make("BoxPushing-v1", table_friction="area")
 
 

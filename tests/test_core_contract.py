@@ -126,8 +126,10 @@ def test_dict_format_holds_the_flat_fields(env_id, action_type):
             assert nested.observation_space(agent).contains(obs_dict[agent])
             assert flat.observation_space(agent).contains(vector)
             decoded = flat.decode(vector)
-            for name, value in obs_dict[agent].items():
-                np.testing.assert_array_equal(value, decoded[name].astype(value.dtype))
+            extra = {nested._mask_field} if nested.action_type.has_masks else set()
+            assert set(obs_dict[agent]) == set(decoded) | extra
+            for name, value in decoded.items():
+                np.testing.assert_array_equal(obs_dict[agent][name], value.astype(obs_dict[agent][name].dtype))
         if not flat.agents:
             break
         obs_flat, *_ = flat.step(admissible_actions(flat, rng_a))

@@ -56,6 +56,7 @@ EVERY_KEY = dict(
     comm_throughput=0.5,
     comm_latency=1,
     comm_byte_budget=64,
+    fixed_agents=True,
 )
 
 

@@ -5,7 +5,6 @@ all the ways at its place; when a robot's next way is known to be blocked both r
 shortest path between them, split at the place ceil(n/2) ways from the red robot.
 """
 
-import json
 import math
 
 import networkx as nx
@@ -13,15 +12,14 @@ import pytest
 import shapely
 
 from teamgym.maps import load_graph_map, validate_graph_map
-from teamgym.maps.graph import GRAPH_DIR
+from teamgym.maps.scenarios import load_scenario
 
-SCENARIO_DIR = GRAPH_DIR.parent / "scenarios"
 NAMES = ["paper003_fig5", "paper003_fig8"]
 TOL = 1e-9
 
 
 def scenario(name: str) -> dict:
-    return json.loads((SCENARIO_DIR / f"{name}.json").read_text())
+    return load_scenario(name)
 
 
 def way(a: str, b: str) -> frozenset:

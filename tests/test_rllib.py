@@ -6,7 +6,6 @@ and are skipped elsewhere. The tests without the marker check the one-line error
 is missing and are skipped where it is installed.
 """
 
-import importlib.util
 import json
 import math
 
@@ -16,22 +15,7 @@ from gymnasium import spaces
 
 import teamgym
 from baselines import evaluate as evaluation
-
-
-def _importable(module: str) -> bool:
-    try:
-        return importlib.util.find_spec(module) is not None
-    except ImportError:  # the parent package is missing
-        return False
-
-
-HAVE_RAY = _importable("ray")
-HAVE_RLLIB = HAVE_RAY and _importable("ray.rllib") and _importable("torch")
-needs_rllib = pytest.mark.skipif(
-    not HAVE_RLLIB, reason="needs ray[rllib]: pip install 'teamgym[rllib]' in its own venv (bash scripts/run_tests_rllib.sh)"
-)
-#: A tiny PPO iteration: 200 env steps (600 agent steps), two epochs of 3 minibatches.
-TINY = {"train_batch_size_per_learner": 200, "minibatch_size": 200, "num_epochs": 2}
+from tests.rllib_support import HAVE_RAY, HAVE_RLLIB, TINY, needs_rllib
 
 
 @pytest.fixture(scope="module")
@@ -70,6 +54,33 @@ def test_workers_must_be_a_count_or_ray(capsys):
     assert "expected an integer >= 1 or 'ray'" in capsys.readouterr().err
     with pytest.raises(ValueError, match="'ray'"):
         evaluation.evaluate(workers="dask")
+
+
+@pytest.mark.parametrize("address", ["auto", "127.0.0.1:6379", "[::1]:6379", "head-node.example:6379", "ray://head:10001"])
+def test_a_ray_address_is_host_port_or_auto(address):
+    assert evaluation.check_ray_address(address) == address
+
+
+@pytest.mark.parametrize("address", ["", "local", "127.0.0.1", "127.0.0.1:0", "127.0.0.1:65536", "http://head:6379", "a b:1"])
+def test_a_malformed_ray_address_is_refused(address):
+    with pytest.raises(ValueError, match="HOST:PORT, ray://HOST:PORT or auto"):
+        evaluation.check_ray_address(address)
+
+
+def test_ray_address_errors_are_one_line_before_any_work(tmp_path, capsys):
+    from baselines.rl import rllib as rl
+
+    out = str(tmp_path / "out")
+    assert evaluation.main(["--workers", "ray", "--ray-address", "head", "--out", out]) == 2
+    assert evaluation.main(["--workers", "2", "--ray-address", "127.0.0.1:6379", "--out", out]) == 2
+    assert rl.main(["--num-cpus", "2", "--ray-address", "127.0.0.1:6379", "--out", out]) == 2
+    errors = capsys.readouterr().err.splitlines()
+    assert len(errors) == 3 and "got 'head'" in errors[0]
+    assert "--ray-address applies to --workers ray only, not --workers 2" in errors[1]
+    assert "not allowed with argument" in errors[2]
+    assert not (tmp_path / "out").exists()
+    with pytest.raises(ValueError, match="workers='ray' only"):
+        evaluation.evaluate(workers=2, ray_address="127.0.0.1:6379")
 
 
 # -- the env adapter -------------------------------------------------------------------
@@ -286,6 +297,22 @@ def test_masked_discrete_actions_train_and_act_admissibly(ray_session, tmp_path)
 
 @pytest.mark.rllib
 @needs_rllib
+def test_a_ray_address_beside_a_running_session_or_num_cpus_is_refused(ray_session, tmp_path, capsys):
+    from baselines.rl import rllib as rl
+
+    with pytest.raises(ValueError, match="already runs a Ray session"):
+        evaluation.evaluate(episodes=2, workers="ray", ray_address="127.0.0.1:6379")
+    with pytest.raises(ValueError, match="already runs a Ray session"):
+        rl.train(iterations=1, out=tmp_path / "a", ray_address="127.0.0.1:6379")
+    with pytest.raises(ValueError, match="cannot be given with ray_address"):
+        rl.train(iterations=1, out=tmp_path / "b", ray_address="127.0.0.1:6379", num_cpus=2)
+    assert rl.main(["--evaluate", str(tmp_path / "c"), "--ray-address", "127.0.0.1:6379"]) == 2
+    assert "--ray-address applies to training" in capsys.readouterr().err
+    assert not any(tmp_path.iterdir())
+
+
+@pytest.mark.rllib
+@needs_rllib
 def test_evaluate_on_ray_equals_one_worker(ray_session, tmp_path):
     kwargs = {"episodes": 5, "seed": 7, "config": {"max_cycles": 120}, "keep_trajectories": True}
     sequential = evaluation.evaluate("Navigation-v0", "goto", workers=1, **kwargs)
@@ -302,4 +329,6 @@ def test_evaluate_on_ray_equals_one_worker(ray_session, tmp_path):
     ray_summary = json.loads((tmp_path / "ray" / "summary.json").read_text())
     one_summary = json.loads((tmp_path / "one" / "summary.json").read_text())
     assert ray_summary.pop("workers") == "ray" and one_summary.pop("workers") == 1
+    (node,) = [n["NodeID"] for n in ray_session.nodes() if n["Alive"]]
+    assert ray_summary.pop("ray_nodes") == {node: 4} and "ray_nodes" not in one_summary
     assert ray_summary == one_summary

@@ -41,7 +41,7 @@ class TrueRobotBearings:
         moving = {agent: self._moved(agent, pose[:2]) for agent, pose in poses.items()}
         reach = self.sensor_range + 2.0 * env.spec_robot.radius
         bearings: dict[str, list[float]] = {}
-        for agent in env.agents:
+        for agent in env.live_agents:  # not env.agents: with fixed_agents=True that includes absent spares
             x, y, heading = poses[agent]
             bearings[agent] = [
                 float(wrap_angle(math.atan2(oy - y, ox - x) - heading))

@@ -16,11 +16,17 @@ is judged on the same task.
 The table (printed, and written to ``DIR/comparison.md`` and ``DIR/comparison.json``) gives per
 policy: success with its Wilson 95 % interval; *clean* success (success and no contact of any
 robot, for envs that count collisions); the time to success (s: the latest simulated time the
-env reports, ``time_to_goal``, ``explore_time`` or ``meeting_time``, else ``length × dt`` of
+env reports, ``time_to_goal``, ``explore_time``, ``meeting_time`` or Foraging's ``TG``, else ``length × dt`` of
 successful episodes); path length per
-robot (m) and collisions per robot, as means with 95 % intervals. With ``--curve``, the agent's
+robot (m) and collisions per robot, as means with 95 % intervals; and the env's own metrics
+(``OWN_METRICS``: Foraging's TL, TT1-TT3, TG, DG; Rendezvous' meeting time, re-plans, plan
+optimality and bytes sent; ...), per episode the mean over its robots of the values known. With ``--curve``, the agent's
 learning curve (its ``<agent>_eval.csv``; ``--curve-metric``: success rate, collisions or path length) is
 drawn with the scripted rows' values as lines.
+
+A bad command line (``--episodes`` above ``baselines.evaluate.MAX_EPISODES``, an empty ``--env``,
+``--agent`` or ``--out``), env id, task config, agent, ``--out`` that cannot be written or missing
+learning curve exits 2 with one ``error: ...`` line before any policy plays.
 """
 
 from __future__ import annotations
@@ -46,6 +52,29 @@ SCRIPTED: dict[str, list[tuple[str, str]]] = {
     "Exploration-v0": [("nash-explore (paper 000)", "nash-explore"), ("greedy", "greedy"), ("random", "random-admissible")],
     "BoxPushing-v0": [("sbs (paper 004)", "sbs"), ("cooperative-push", "cooperative-push"), ("random", "random")],
     "BoxPushing-v1": [("sbs (paper 004)", "sbs"), ("cooperative-push", "cooperative-push"), ("random", "random")],
+    "Rendezvous-v0": [
+        ("bidir-astar (paper 003)", "bidir-astar"),
+        ("bidir-astar-opt", "bidir-astar-opt"),
+        ("centralized", "centralized"),
+        ("random", "random"),
+    ],
+    "Foraging-v0": [
+        ("dmaps (paper 002)", "dmaps"),
+        ("dmaps-nocomm", "dmaps-nocomm"),
+        ("random-walk", "random-walk"),
+        ("random", "random"),
+    ],
+}
+
+#: Per env: its own metrics (``infos`` keys), shown beside the common columns as means over episodes
+#: (each episode's value is the mean over its robots; times only where known).
+OWN_METRICS: dict[str, tuple[str, ...]] = {
+    "Navigation-v0": ("time_to_goal", "min_clearance", "smoothness"),
+    "Exploration-v0": ("explore_time", "explored_fraction", "tasks_failed"),
+    "BoxPushing-v0": ("boxes_delivered", "box_progress", "stalled_steps"),
+    "BoxPushing-v1": ("boxes_delivered", "box_progress", "stalled_steps"),
+    "Rendezvous-v0": ("meeting_time", "replans", "optimality", "bytes_sent"),
+    "Foraging-v0": ("TL", "TT1", "TT2", "TT3", "TG", "DG", "bytes_sent"),
 }
 
 
@@ -54,7 +83,7 @@ def _metric(result: EpisodeResult, name: str) -> list[float]:
 
 
 #: Metrics in which envs report the simulated time (s) at which their goal was reached.
-TIME_METRICS = ("time_to_goal", "explore_time", "meeting_time")
+TIME_METRICS = ("time_to_goal", "explore_time", "meeting_time", "TG")
 
 
 def _time_to_success(result: EpisodeResult, dt: float | None) -> float | None:
@@ -72,8 +101,10 @@ def _time_to_success(result: EpisodeResult, dt: float | None) -> float | None:
     return result.length * dt if dt else None
 
 
-def row_of(label: str, policy: str, results: Sequence[EpisodeResult], dt: float | None) -> dict[str, Any]:
-    """One table row: rates with Wilson intervals, means with 95 % half-widths."""
+def row_of(
+    label: str, policy: str, results: Sequence[EpisodeResult], dt: float | None, own: Sequence[str] = ()
+) -> dict[str, Any]:
+    """One table row: rates with Wilson intervals, means with 95 % half-widths (``own``: the env's metrics, under ``metrics``)."""
     n = len(results)
     successes = sum(r.success for r in results)
     has_collisions = any(_metric(r, "collisions") for r in results)
@@ -92,6 +123,7 @@ def row_of(label: str, policy: str, results: Sequence[EpisodeResult], dt: float 
         "time_to_success": mean_ci(times),
         "path_length": mean_ci(paths),
         "collisions": mean_ci(collisions),
+        "metrics": {name: mean_ci([float(np.mean(_metric(r, name))) for r in results if _metric(r, name)]) for name in own},
     }
 
 
@@ -110,16 +142,19 @@ def _mean(stats: Mapping[str, float], digits: int) -> str:
 
 
 def markdown(rows: Sequence[Mapping[str, Any]]) -> str:
-    """The comparison as a markdown table."""
+    """The comparison as a markdown table (the env's own metrics that any row reports as extra columns)."""
+    own = [name for name in rows[0].get("metrics", {}) if any(row["metrics"][name]["n"] for row in rows)] if rows else []
     lines = [
-        "| policy | success | clean success (no contact) | time to success (s) | path length / robot (m) | collisions / robot |",
-        "|---|---|---|---|---|---|",
+        "| policy | success | clean success (no contact) | time to success (s) | path length / robot (m) | collisions / robot |"
+        + "".join(f" {name} |" for name in own),
+        "|---|---|---|---|---|---|" + "---|" * len(own),
     ]
     for row in rows:
         lines.append(
             f"| {row['label']} | {_rate(row['success'], row['success_ci'])} | "
             f"{_rate(row['clean_success'], row['clean_success_ci'])} | {_mean(row['time_to_success'], 1)} | "
             f"{_mean(row['path_length'], 2)} | {_mean(row['collisions'], 2)} |"
+            + "".join(f" {_mean(row['metrics'][name], 2)} |" for name in own)
         )
     return "\n".join(lines)
 
@@ -140,6 +175,8 @@ def compare(
     from baselines.rl.sb3_policy import read_sidecar, resolve_model
 
     task = dict(task or {})
+    if policies is None and env_id not in SCRIPTED:
+        print(f"note: no scripted baselines are listed for {env_id}; comparing with random only", file=sys.stderr)
     entries = list(policies if policies is not None else SCRIPTED.get(env_id, [("random", "random")]))
     agent_config: dict[str, Any] = {}
     if agent is not None:
@@ -158,19 +195,34 @@ def compare(
     for label, policy in entries:
         config = {**agent_config, **task} if policy.startswith("sb3:") else {**required_config(policy), **task}
         results = evaluate(env_id, policy, episodes=episodes, seed=seed, config=config, workers=workers)
-        rows.append(row_of(label, policy, results, dt))
+        rows.append(row_of(label, policy, results, dt, OWN_METRICS.get(env_id, ())))
     return rows
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="python -m baselines.rl.compare", description=__doc__.splitlines()[0])
-    parser.add_argument("--env", default="Navigation-v0")
-    parser.add_argument("--agent", default=None, help="a shipped agent name or a model path (sb3); none: scripted only")
-    parser.add_argument("--episodes", type=int, default=100)
-    parser.add_argument("--seed", type=int, default=20_000, help="first held-out seed")
-    parser.add_argument("--workers", type=int, default=1)
+    """The ``python -m baselines.rl.compare`` argument parser (a bad command line exits 2 with a one-line error)."""
+    from baselines.evaluate import MAX_EPISODES, _at_least, _nonblank, _Parser
+
+    parser = _Parser(prog="python -m baselines.rl.compare", description=__doc__.splitlines()[0])
+    parser.add_argument("--env", type=_nonblank("an env id"), default="Navigation-v0", help="env id (default: Navigation-v0)")
+    parser.add_argument(
+        "--agent",
+        type=_nonblank("a shipped agent name or a model path"),
+        default=None,
+        help="a shipped agent name or a model path (sb3); none: scripted only",
+    )
+    parser.add_argument(
+        "--episodes",
+        type=_at_least(1, MAX_EPISODES),
+        default=100,
+        help=f"held-out episodes per policy, 1 to {MAX_EPISODES} (default: 100)",
+    )
+    parser.add_argument("--seed", type=_at_least(0), default=20_000, help="first held-out seed, >= 0 (default: 20000)")
+    parser.add_argument("--workers", type=_at_least(1), default=1, help="worker processes, >= 1 (default: 1)")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="task config for every policy")
-    parser.add_argument("--out", default=None, help="directory for comparison.md/.json (and curve.png)")
+    parser.add_argument(
+        "--out", type=_nonblank("a directory"), default=None, help="directory for comparison.md/.json (and curve.png)"
+    )
     parser.add_argument("--curve", action="store_true", help="draw the agent's learning curve (needs its _eval.csv)")
     parser.add_argument(
         "--curve-metric",
@@ -189,37 +241,49 @@ CURVE_METRICS: dict[str, Callable[[Mapping[str, Any]], float]] = {
 }
 
 
-def _curve(agent: str, rows: Sequence[Mapping[str, Any]], out: Path, metric: str = "success_rate") -> Path:
-    from baselines.rl.plot_curves import load_curves, plot_curves
+def _curve_csv(agent: str) -> Path:
+    """The agent's learning curve (``<model-stem>_eval.csv``); ``FileNotFoundError`` if there is none."""
     from baselines.rl.sb3_policy import resolve_model
 
     path = resolve_model(agent)
     csv = path.with_name(f"{path.stem}_eval.csv")
     if not csv.is_file():
         raise FileNotFoundError(f"no learning curve beside the agent: {str(csv)!r}")
-    curves = load_curves({f"trained: {agent}": [csv]}, metric)
+    return csv
+
+
+def _curve(agent: str, rows: Sequence[Mapping[str, Any]], out: Path, metric: str = "success_rate") -> Path:
+    from baselines.rl.plot_curves import load_curves, plot_curves
+
+    curves = load_curves({f"trained: {agent}": [_curve_csv(agent)]}, metric)
     value = CURVE_METRICS[metric]
     lines = [(row["label"], value(row), "") for row in rows if not row["policy"].startswith("sb3:")]
     return plot_curves(curves, out / "curve.png", metric, lines, title=f"{agent}: {metric} on held-out seeds while training")
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the comparison CLI: exit 2 with one line for bad arguments, 1 for a failure while playing."""
+    """Run the comparison CLI: exit 2 with one line for bad arguments (``--out`` included) before any
+    episode, 1 for a failure while playing."""
     import teamgym
-    from baselines.evaluate import _message, guarded
+    from baselines.evaluate import _check_out, _message, guarded
     from baselines.rl.sb3_policy import resolve_model
     from baselines.rl.train import _pairs
 
-    args = build_parser().parse_args(argv)
     try:
-        if args.episodes < 1 or args.seed < 0 or args.workers < 1:
-            raise ValueError("--episodes and --workers must be >= 1 and --seed >= 0")
+        args = build_parser().parse_args(argv)
+    except SystemExit as done:  # --help, or a usage error already reported in one line
+        return 0 if done.code is None else done.code if isinstance(done.code, int) else 2
+    try:
         if args.curve and (args.agent is None or args.out is None):
             raise ValueError("--curve needs --agent and --out")
+        if args.out is not None:
+            _check_out(Path(args.out))
         task = _pairs(args.set, "--set")
         teamgym.make(args.env, **task).close()  # a bad env id or task config fails here, before any episode
         if args.agent is not None:
             resolve_model(args.agent)
+        if args.curve:
+            _curve_csv(args.agent)
     except (ValueError, KeyError, FileNotFoundError) as error:
         print(f"error: {_message(error)}", file=sys.stderr)
         return 2
@@ -230,7 +294,7 @@ def _report(args: argparse.Namespace, rows: Sequence[Mapping[str, Any]]) -> int:
     table = markdown(rows)
     print(f"{args.env}, {args.episodes} held-out seeds from {args.seed}" + (f", task {args.set}" if args.set else ""))
     print(table)
-    if args.out:
+    if args.out is not None:
         out = Path(args.out)
         out.mkdir(parents=True, exist_ok=True)
         (out / "comparison.md").write_text(table + "\n")

@@ -3,8 +3,9 @@
 Command line::
 
     python -m baselines.rl.rllib [--env Navigation-v0] [--iterations 10] [--set key=value ...]
-        [--hp key=value ...] [--defaults] [--seed 0] [--out DIR] [--env-runners 0] [--num-cpus N]
-        [--threads 1] [--eval-episodes K] [--eval-seed 10000] [--evaluate CHECKPOINT]
+        [--hp key=value ...] [--defaults] [--seed 0] [--out DIR] [--env-runners 0]
+        [--num-cpus N | --ray-address HOST:PORT] [--threads 1] [--eval-episodes K] [--eval-seed 10000]
+        [--evaluate CHECKPOINT]
 
 Trains PPO with one RLModule (``"shared"``) that every robot maps to, saves an RLlib
 checkpoint to ``--out`` (default ``results/rllib/<env>_ppo``) with ``teamgym.json`` beside it
@@ -13,6 +14,7 @@ evaluates the trained module greedily on held-out seeds through :func:`baselines
 (the loop of ``baselines.evaluate``). ``--hp`` sets :meth:`PPOConfig.training` keywords (e.g.
 ``lr=1e-4``); ``--defaults`` starts from RLlib's own PPO defaults instead of :data:`TESTED_SETTINGS`.
 ``--evaluate CHECKPOINT`` only evaluates a saved checkpoint (env and config from its ``teamgym.json``).
+``--ray-address`` trains on an existing Ray cluster (the env runners anywhere on it, the learner here).
 
 Pieces, for use from Python (see docs/scale_out.md):
 
@@ -430,16 +432,29 @@ def evaluate_checkpoint(
         env.close()
 
 
-def _init_ray(num_cpus: int | None) -> bool:
-    """Start a local Ray session (``num_cpus``) unless one runs; ``True`` if this call started it."""
+def _init_ray(num_cpus: int | None, address: str | None = None) -> bool:
+    """Start a local Ray session (``num_cpus``) or connect to the cluster at ``address``, unless a session runs.
+
+    ``True`` if this call started or connected the session (``ray.init``; ``RAY_ADDRESS`` applies when neither is given).
+    """
     import logging
 
     import ray
 
     if ray.is_initialized():
         return False
-    ray.init(num_cpus=num_cpus, include_dashboard=False, logging_level=logging.WARNING)
+    if address is not None:
+        ray.init(address=address, logging_level=logging.WARNING)
+    else:
+        ray.init(num_cpus=num_cpus, include_dashboard=False, logging_level=logging.WARNING)
     return True
+
+
+def _node_id(env_runner: Any) -> str:
+    """The id of the Ray node an env runner runs on (called on each remote env runner)."""
+    import ray
+
+    return ray.get_runtime_context().get_node_id()
 
 
 def train(
@@ -453,17 +468,31 @@ def train(
     model: Mapping[str, Any] | None = None,
     num_env_runners: int = 0,
     num_cpus: int | None = None,
+    ray_address: str | None = None,
     rllib_defaults: bool = False,
     on_iteration: Callable[[dict[str, Any]], None] | None = None,
 ) -> Path:
     """Train PPO with one shared module for ``iterations`` iterations; save the checkpoint to ``out``.
 
-    Starts a local Ray session with ``num_cpus`` CPUs unless one is running (and then shuts it
-    down). ``out`` (default ``results/rllib/<env>_ppo``) gets RLlib's checkpoint and
-    ``teamgym.json``: env id, config, settings and one row per iteration (see
-    :func:`_iteration_row`); ``on_iteration(row)`` is called after each. Returns ``out``.
+    Unless a Ray session is running, starts a local one with ``num_cpus`` CPUs or connects to the
+    cluster at ``ray_address`` (``HOST:PORT`` of its head; not with ``num_cpus``), and ends it
+    after. The ``num_env_runners`` env runners (one CPU each) go wherever the cluster has room; the
+    learner runs in this process. ``out`` (default ``results/rllib/<env>_ppo``) gets RLlib's
+    checkpoint and ``teamgym.json``: env id, config, settings, the Ray node of each env runner
+    (``env_runner_nodes``) and one row per iteration (see :func:`_iteration_row`);
+    ``on_iteration(row)`` is called after each. Returns ``out``.
     """
     require_rllib()
+    if ray_address is not None:
+        import ray
+
+        from baselines.evaluate import check_ray_address
+
+        check_ray_address(ray_address)
+        if num_cpus is not None:
+            raise ValueError("num_cpus sizes a new local Ray cluster; it cannot be given with ray_address")
+        if ray.is_initialized():
+            raise ValueError("ray_address was given, but this process already runs a Ray session (it would be used)")
     out = Path(out) if out is not None else Path("results") / "rllib" / f"{env_id}_ppo"
     if out.exists() and not out.is_dir():
         raise ValueError(f"--out {str(out)!r} is an existing file, not a directory")
@@ -476,10 +505,11 @@ def train(
         num_env_runners=num_env_runners,
         rllib_defaults=rllib_defaults,
     )
-    started = _init_ray(num_cpus)
+    started = _init_ray(num_cpus, ray_address)
     try:
         algo = algo_config.build_algo()
         try:
+            nodes = algo.env_runner_group.foreach_env_runner(_node_id, local_env_runner=False) if num_env_runners else []
             rows = []
             for i in range(iterations):
                 begin = time.perf_counter()
@@ -511,6 +541,7 @@ def train(
         "training": training_settings,
         "model": model_settings,
         "num_env_runners": num_env_runners,
+        "env_runner_nodes": nodes,
         "history": rows,
     }
     _write_sidecar(out, sidecar)
@@ -539,14 +570,19 @@ def read_sidecar(checkpoint: str | Path) -> dict[str, Any]:
 
 def build_parser() -> argparse.ArgumentParser:
     """The ``python -m baselines.rl.rllib`` argument parser (a bad command line exits 2 with a one-line error)."""
-    from baselines.evaluate import _at_least, _Parser
+    from baselines.evaluate import _at_least, _nonblank, _Parser, _ray_address
 
     parser = _Parser(
         prog="python -m baselines.rl.rllib",
         description="Train one shared PPO policy on a teamgym env with Ray RLlib (new API stack).",
     )
     count, natural = _at_least(1), _at_least(0)
-    parser.add_argument("--env", default=None, help=f"env id (default: {DEFAULT_ENV}; with --evaluate: the checkpoint's)")
+    parser.add_argument(
+        "--env",
+        type=_nonblank("an env id"),
+        default=None,
+        help=f"env id (default: {DEFAULT_ENV}; with --evaluate: the checkpoint's)",
+    )
     parser.add_argument(
         "--iterations", type=natural, default=DEFAULT_ITERATIONS, help=f"PPO iterations (default: {DEFAULT_ITERATIONS})"
     )
@@ -556,9 +592,19 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--defaults", action="store_true", help="start from RLlib's PPO defaults, not the tested settings")
     parser.add_argument("--seed", type=natural, default=0, help="random seed (default: 0)")
-    parser.add_argument("--out", default=None, help="checkpoint directory (default: results/rllib/<env>_ppo)")
+    parser.add_argument(
+        "--out", type=_nonblank("a directory"), default=None, help="checkpoint directory (default: results/rllib/<env>_ppo)"
+    )
     parser.add_argument("--env-runners", type=natural, default=0, help="remote env runners; 0 samples in this process (default)")
-    parser.add_argument("--num-cpus", type=count, default=None, help="CPUs of the local Ray cluster (default: all)")
+    cluster = parser.add_mutually_exclusive_group()
+    cluster.add_argument("--num-cpus", type=count, default=None, help="CPUs of the local Ray cluster (default: all)")
+    cluster.add_argument(
+        "--ray-address",
+        type=_ray_address,
+        default=None,
+        metavar="ADDR",
+        help="train on the existing Ray cluster whose head is HOST:PORT (default: RAY_ADDRESS, else a new local one)",
+    )
     parser.add_argument("--threads", type=count, default=1, help="torch CPU threads of this process (default: 1)")
     parser.add_argument(
         "--eval-episodes", type=natural, default=0, help="after training, evaluate greedily on K held-out episodes (default: 0)"
@@ -566,7 +612,13 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--eval-seed", type=natural, default=DEFAULT_EVAL_SEED, help=f"first held-out seed (default: {DEFAULT_EVAL_SEED})"
     )
-    parser.add_argument("--evaluate", default=None, metavar="CHECKPOINT", help="evaluate a saved checkpoint instead of training")
+    parser.add_argument(
+        "--evaluate",
+        type=_nonblank("a checkpoint"),
+        default=None,
+        metavar="CHECKPOINT",
+        help="evaluate a saved checkpoint instead of training",
+    )
     return parser
 
 
@@ -607,16 +659,18 @@ def main(argv: Sequence[str] | None = None) -> int:
         config: dict[str, Any] = _pairs(args.set, "--set")
         training = _training_keywords(_pairs(args.hp, "--hp"))
         if args.evaluate is not None:
+            if args.ray_address is not None:
+                raise ValueError("--ray-address applies to training; --evaluate plays its episodes in this process")
             module_path(args.evaluate)  # FileNotFoundError: one line
             saved = read_sidecar(args.evaluate)
-            env_id = args.env or saved.get("env") or DEFAULT_ENV
+            env_id = args.env if args.env is not None else saved.get("env") or DEFAULT_ENV
             if env_id == saved.get("env"):
                 config = {**(saved.get("config") or {}), **config}
             import teamgym
 
             teamgym.make(env_id, **config).close()  # a bad id or config fails here, in one line
         else:
-            env_id = args.env or DEFAULT_ENV
+            env_id = DEFAULT_ENV if args.env is None else args.env
     except (ValueError, TypeError, KeyError, FileNotFoundError, ImportError) as error:
         print(f"error: {_message(error)}", file=sys.stderr)
         return 2
@@ -648,6 +702,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                     training=training,
                     num_env_runners=args.env_runners,
                     num_cpus=args.num_cpus,
+                    ray_address=args.ray_address,
                     rllib_defaults=args.defaults,
                     on_iteration=show,
                 )

@@ -60,11 +60,38 @@ _ACTION_SPACES: dict[str, tuple[type[spaces.Space], ...]] = {
 }
 
 
+#: algorithms that take action masks (``MaskablePPO.learn`` reads ``env.action_masks()``)
+MASKABLE_ALGORITHMS = frozenset({"maskable_ppo"})
+
+
+def algorithm_name(name: str) -> str:
+    """The registered name of algorithm ``name``, spelled any common way (``maskable-ppo``, ``MaskablePPO``, ``PPO``)."""
+    if not isinstance(name, str) or not name.strip():
+        raise ValueError(f"an SB3 algorithm name is needed, got {name!r}; choose one of {sorted(ALGORITHMS)}")
+    key = name.strip().lower().replace("-", "_")
+    by_class = {cls.lower(): algo for algo, cls in ALGORITHMS.items()}
+    key = by_class.get(key, key)
+    if key not in ALGORITHMS:
+        raise ValueError(f"unknown SB3 algorithm {name!r}; choose one of {sorted(ALGORITHMS)} (hyphens work too: maskable-ppo)")
+    return key
+
+
+def check_masks(algo: str, env: Any) -> None:
+    """Raise ``ValueError`` if ``env``'s actions are masked and ``algo`` cannot respect masks, naming the one to use."""
+    key = algorithm_name(algo)
+    action_type = getattr(env, "action_type", None)
+    if key in MASKABLE_ALGORITHMS or not getattr(action_type, "has_masks", False):
+        return
+    raise ValueError(
+        f"{key} cannot respect the action masks of {type(env).__name__} (action_type={action_type.name!r}): it would "
+        "pick masked actions, which the env refuses; use --algo maskable-ppo (sb3-contrib's MaskablePPO), "
+        "or an action type without masks"
+    )
+
+
 def algorithm_class(name: str) -> type:
     """The class of algorithm ``name`` (``"ppo"``, ``"sac"``, ``"maskable_ppo"``: sb3-contrib's ``MaskablePPO``, ...)."""
-    key = name.lower()
-    if key not in ALGORITHMS:
-        raise ValueError(f"unknown SB3 algorithm {name!r}; choose one of {sorted(ALGORITHMS)}")
+    key = algorithm_name(name)
     if key in CONTRIB_ALGORITHMS:
         try:
             import sb3_contrib
@@ -115,7 +142,7 @@ def resolve_model(path: str | Path) -> Path:
     path = Path(path)
     if path.is_file():
         return path
-    if path.suffix != ".zip" and path.with_name(path.name + ".zip").is_file():
+    if path.name and path.suffix != ".zip" and path.with_name(path.name + ".zip").is_file():
         return path.with_name(path.name + ".zip")
     if text and "/" not in text and "\\" not in text and (AGENT_DIR / f"{path.stem}.zip").is_file():
         return AGENT_DIR / f"{path.stem}.zip"

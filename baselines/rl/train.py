@@ -46,8 +46,10 @@ Research tooling (all off by default; see ``docs/training.md``):
   sidecar's ``bc`` records the settings and the expert's and the clone's success on the
   collected episodes.
 
-Bad arguments exit with code 2 and one ``error: ...`` line before training starts; a
-failure during training exits 1 with one line (``TEAMGYM_TRACEBACK=1`` shows the traceback).
+Bad arguments exit with code 2 and one ``error: ...`` line before training starts (``--hp``
+values and a preset's hyperparameters before any env is built: :mod:`baselines.rl.hyperparameters`;
+an ``--out`` that cannot be written before anything runs); any other failure exits 1 with one
+line (``TEAMGYM_TRACEBACK=1`` shows the traceback).
 Ctrl-C saves the model trained so far to ``--out`` (its sidecar says ``"interrupted": true``).
 """
 
@@ -55,7 +57,6 @@ from __future__ import annotations
 
 import argparse
 import importlib.util
-import inspect
 import json
 import math
 import os
@@ -77,7 +78,9 @@ DEFAULT_ENV, DEFAULT_ALGO, DEFAULT_N_ENVS, DEFAULT_EVAL_EPISODES = "Navigation-v
 
 def default_hyperparameters(algo: str, num_envs: int) -> dict[str, Any]:
     """Modest defaults: on-policy rollouts of ~2048 transitions in 8 equal mini-batches."""
-    algo = algo.lower()
+    from baselines.rl.sb3_policy import algorithm_name
+
+    algo = algorithm_name(algo)
     if algo in ("ppo", "maskable_ppo"):
         n_steps = max(8, math.ceil(2048 / num_envs / 8) * 8)
         return {"n_steps": n_steps, "batch_size": n_steps * num_envs // 8}
@@ -121,13 +124,12 @@ def _require(module: str, what: str) -> None:
         raise ImportError(f"{what} needs the {module} package (pip install {module}, or the 'train' extra of teamgym)")
 
 
-def _check_hyperparameters(cls: type, params: Mapping[str, Any]) -> None:
-    """Raise ``ValueError`` for a keyword that ``cls`` (an SB3 algorithm) does not take or that training sets itself."""
-    reserved = {"self", "policy", "env", "seed", "verbose", "device", "tensorboard_log", "_init_setup_model"}
-    accepted = sorted(set(inspect.signature(cls.__init__).parameters) - reserved)
-    for key in params:
-        if key not in accepted:
-            raise ValueError(f"{key!r} is not a hyperparameter of {cls.__name__}; choose from {', '.join(accepted)}")
+def _saved_hyperparameters(sidecar: Mapping[str, Any]) -> dict[str, Any]:
+    """The hyperparameters a sidecar records (as ``repr`` strings), parsed back where they are literals."""
+    from teamgym.envs.config import parse_value
+
+    saved = sidecar.get("hyperparameters")
+    return {str(k): parse_value(v) if isinstance(v, str) else v for k, v in (saved if isinstance(saved, dict) else {}).items()}
 
 
 def _write_json(path: Path, data: Mapping[str, Any]) -> Path:
@@ -184,8 +186,17 @@ class Training:
     ) -> None:
         import teamgym
         from baselines.rl.callbacks import EvalLog, PaddingShareLog
+        from baselines.rl.hyperparameters import check_hyperparameters, check_rollout
         from baselines.rl.sb3_env import TeamVecEnv
-        from baselines.rl.sb3_policy import algorithm_class, check_action_space, detect_algorithm, read_sidecar, resolve_model
+        from baselines.rl.sb3_policy import (
+            algorithm_class,
+            algorithm_name,
+            check_action_space,
+            check_masks,
+            detect_algorithm,
+            read_sidecar,
+            resolve_model,
+        )
 
         for name, value, minimum in [("timesteps", timesteps, 1), ("n_envs", n_envs, 1), ("seed", seed, 0)]:
             if value < minimum:
@@ -207,20 +218,21 @@ class Training:
         previous = (read_sidecar(self.resume) or {}) if self.resume else {}
         if self.resume:
             detected = detect_algorithm(self.resume)
-            if detected and detected != algo.lower():
-                raise ValueError(f"the model {str(self.resume)!r} was trained with {detected}, not {algo.lower()}")
-        self.algo = algo.lower()
+            if detected and detected != algorithm_name(algo):
+                raise ValueError(f"the model {str(self.resume)!r} was trained with {detected}, not {algorithm_name(algo)}")
+        self.algo = algorithm_name(algo)
         cls = algorithm_class(self.algo)
+        resumed_hp = _saved_hyperparameters(previous) if self.resume else {}
+        check_hyperparameters(self.algo, hyperparameters or {}, resumed_hp)  # before any env: keys, types and ranges
         hyperparameters = dict(hyperparameters or {})
-        _check_hyperparameters(cls, hyperparameters)
         if progress_bar:
             _require("tqdm", "the progress bar")
             _require("rich", "the progress bar")
         if self.tensorboard_log is not None:
             _require("tensorboard", "TensorBoard logging")
         self.bc = previous.get("bc") if isinstance(previous.get("bc"), dict) else None
-        self.bc_pending = bool(bc_expert)
-        if bc_expert:
+        self.bc_pending = bc_expert is not None
+        if bc_expert is not None:  # an empty name is refused by make_expert below
             if self.resume:
                 raise ValueError("behaviour cloning (--bc-expert) pre-trains a new model; it cannot be combined with --resume")
             if self.algo not in ("ppo", "a2c"):
@@ -251,8 +263,13 @@ class Training:
             torch.set_num_threads(threads)
         probe = teamgym.make(env_id, **self.config)  # validate id and config (and the expert) before building the VecEnv
         try:
-            check_action_space(self.algo, probe.action_space(probe.possible_agents[0]))
-            if bc_expert:
+            action_space = probe.action_space(probe.possible_agents[0])
+            check_action_space(self.algo, action_space)
+            check_masks(self.algo, probe)
+            slots = self.n_envs * len(probe.possible_agents)  # TeamVecEnv's num_envs
+            base = resumed_hp if self.resume else default_hyperparameters(self.algo, slots)
+            check_rollout(self.algo, {**base, **hyperparameters}, action_space, slots)
+            if bc_expert is not None:
                 from baselines.rl.imitation import make_expert
 
                 make_expert(bc_expert, probe, **self.bc.get("expert_kwargs", {}))
@@ -523,7 +540,9 @@ def _train_in_process(kwargs: dict[str, Any], log: str) -> str:
 
 def seed_run_path(out_dir: str | Path, seed: int, env_id: str, algo: str) -> Path:
     """``<out_dir>/seed<seed>/<env>_<algo>.zip``: the model of one seed of :func:`train_seeds`."""
-    return Path(out_dir) / f"seed{seed}" / f"{env_id}_{algo.lower()}.zip"
+    from baselines.rl.sb3_policy import algorithm_name
+
+    return Path(out_dir) / f"seed{seed}" / f"{env_id}_{algorithm_name(algo)}.zip"
 
 
 def train_seeds(
@@ -597,17 +616,32 @@ def _seed_list(text: str) -> list[int]:
     return seeds
 
 
+def _algorithm_arg(text: str) -> str:
+    """``--algo``: an algorithm name in any common spelling, as its registered name."""
+    from baselines.rl.sb3_policy import algorithm_name
+
+    try:
+        return algorithm_name(text)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The ``python -m baselines.train`` argument parser (a bad command line exits 2 with a one-line error)."""
-    from baselines.evaluate import _at_least, _Parser
+    from baselines.evaluate import _at_least, _nonblank, _Parser
     from baselines.rl.sb3_policy import ALGORITHMS
 
     parser = _Parser(prog="python -m baselines.train", description="Train a parameter-shared SB3 policy on a teamgym env.")
     count, natural = _at_least(1), _at_least(0)
     resumed = "; with --resume: the saved run's"
-    parser.add_argument("--env", default=None, help=f"env id (default: {DEFAULT_ENV}{resumed})")
+    parser.add_argument("--env", type=_nonblank("an env id"), default=None, help=f"env id (default: {DEFAULT_ENV}{resumed})")
     parser.add_argument(
-        "--algo", default=None, choices=sorted(ALGORITHMS), help=f"SB3 algorithm (default: {DEFAULT_ALGO}{resumed})"
+        "--algo",
+        default=None,
+        type=_algorithm_arg,
+        metavar="ALGO",
+        help=f"SB3 algorithm: {', '.join(sorted(ALGORITHMS))}; hyphens work too, e.g. maskable-ppo "
+        f"(default: {DEFAULT_ALGO}{resumed})",
     )
     parser.add_argument(
         "--timesteps",
@@ -622,6 +656,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--jobs", type=count, default=1, help="with --seeds: parallel training processes (default: 1)")
     parser.add_argument(
         "--out",
+        type=_nonblank("a path"),
         default=None,
         help="model path (.zip; default: results/models/<env>_<algo>.zip); with --seeds a directory "
         "(default: results/models/<env>_<algo>/)",
@@ -636,7 +671,13 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--threads", type=count, default=1, help="torch CPU threads (default: 1)")
     parser.add_argument("--verbose", type=int, choices=(0, 1, 2), default=1, help="SB3 verbosity (default: 1)")
-    parser.add_argument("--tensorboard", default=None, metavar="DIR", help=f"write TensorBoard logs under DIR{resumed}")
+    parser.add_argument(
+        "--tensorboard",
+        type=_nonblank("a directory"),
+        default=None,
+        metavar="DIR",
+        help=f"write TensorBoard logs under DIR{resumed}",
+    )
     parser.add_argument("--progress-bar", action="store_true", help="show SB3's progress bar (needs tqdm and rich)")
     parser.add_argument(
         "--checkpoint-every",
@@ -645,7 +686,9 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="N",
         help=f"save <out-stem>_<steps>_steps.zip every N timesteps (0: off; default: off{resumed})",
     )
-    parser.add_argument("--resume", default=None, metavar="PATH", help="continue training the model saved at PATH")
+    parser.add_argument(
+        "--resume", type=_nonblank("a model path"), default=None, metavar="PATH", help="continue training the model saved at PATH"
+    )
     parser.add_argument(
         "--eval-every",
         type=natural,
@@ -665,6 +708,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument(
         "--preset",
+        type=_nonblank("a preset name"),
         default=None,
         metavar="NAME",
         help="train with a shipped RL preset (env, config, algo, hyper-parameters, budget; see docs/training.md); "
@@ -674,7 +718,11 @@ def build_parser() -> argparse.ArgumentParser:
         "--workers", type=count, default=None, help="step the env copies in this many worker processes (default: 1)"
     )
     parser.add_argument(
-        "--bc-expert", default=None, metavar="NAME", help="behaviour-clone this scripted policy before training (ppo, a2c)"
+        "--bc-expert",
+        type=_nonblank("a scripted policy name"),
+        default=None,
+        metavar="NAME",
+        help="behaviour-clone this scripted policy before training (ppo, a2c)",
     )
     parser.add_argument(
         "--bc-steps", type=count, default=None, metavar="N", help=f"expert transitions to clone (default: {DEFAULT_BC_STEPS})"
@@ -704,11 +752,16 @@ def _pairs(items: Sequence[str], flag: str) -> dict[str, str]:
 
 def _preset_settings(name: str, env_id: str | None) -> dict[str, Any]:
     """A preset in the shape of a saved sidecar (``env``, ``algo``, ``overrides``, ...) for :func:`_plan`."""
+    from baselines.rl.hyperparameters import check_hyperparameters
     from baselines.rl.presets import load_preset
 
     preset = load_preset(name)
     if env_id is not None and env_id != preset.env:
         raise ValueError(f"preset {name!r} is for {preset.env}, not {env_id}")
+    try:
+        check_hyperparameters(preset.algo, preset.hyperparameters)
+    except ValueError as error:
+        raise ValueError(f"preset {name!r}: {error}") from None
     return {
         "env": preset.env,
         "algo": preset.algo,
@@ -730,6 +783,7 @@ def _pick(given: Any, saved: Any, default: Any) -> Any:
 
 def _plan(args: argparse.Namespace) -> tuple[dict[str, Any], list[int] | None]:
     """Keyword arguments of :class:`Training` (without ``seed``/``out`` for ``--seeds``) and the seeds, from the command line."""
+    from baselines.evaluate import _check_out
     from baselines.rl.sb3_policy import detect_algorithm, read_sidecar, resolve_model
     from teamgym.envs.config import parse_value
 
@@ -797,7 +851,7 @@ def _plan(args: argparse.Namespace) -> tuple[dict[str, Any], list[int] | None]:
         kwargs["workers"] = args.workers
     bc = saved.get("bc") if args.preset and isinstance(saved.get("bc"), dict) else {}
     expert = args.bc_expert if args.bc_expert is not None else bc.get("expert")
-    if expert:  # a --bc-expert other than the preset's keeps the preset's amounts unless given
+    if expert is not None:  # a --bc-expert other than the preset's keeps the preset's amounts unless given
         kwargs["bc_expert"] = expert
         kwargs["bc_steps"] = _pick(args.bc_steps, bc.get("steps"), DEFAULT_BC_STEPS)
         kwargs["bc_epochs"] = _pick(args.bc_epochs, bc.get("epochs"), DEFAULT_BC_EPOCHS)
@@ -811,65 +865,78 @@ def _plan(args: argparse.Namespace) -> tuple[dict[str, Any], list[int] | None]:
     elif args.bc_dagger:
         raise ValueError("--bc-dagger needs --bc-expert (or a preset with behaviour cloning)")
     if args.seeds is not None:
-        out_dir = Path(args.out) if args.out else Path("results") / "models" / f"{env_id}_{algo}"
+        out_dir = Path(args.out) if args.out is not None else Path("results") / "models" / f"{env_id}_{algo}"
         if out_dir.suffix == ".zip" or out_dir.is_file():
             raise ValueError(f"with --seeds, --out names a directory, not {str(out_dir)!r}")
+        _check_out(out_dir)
         kwargs["out"] = out_dir
         return kwargs, args.seeds
     if args.resume:
         kwargs["resume"] = args.resume
         kwargs["tb_log_name"] = saved.get("tb_log_name")
-        out = Path(args.out) if args.out else continued_path(resolve_model(args.resume))
+        out = Path(args.out) if args.out is not None else continued_path(resolve_model(args.resume))
     else:
-        out = Path(args.out) if args.out else Path("results") / "models" / f"{env_id}_{algo}.zip"
+        out = Path(args.out) if args.out is not None else Path("results") / "models" / f"{env_id}_{algo}.zip"
+    _check_out(_zip_path(out), file=True)
     kwargs["out"] = out
     kwargs["seed"] = _pick(args.seed, saved.get("seed"), 0)
     return kwargs, None
 
 
+#: Errors of a bad command line or configuration found while setting a run up (exit code 2); SB3 checks
+#: some of its settings with ``assert``.
+_BAD_INPUT = (ValueError, TypeError, KeyError, FileNotFoundError, ImportError, AssertionError)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the training CLI; returns the exit code (2 for usage or configuration errors, 1 for a failure while training)."""
-    from baselines.evaluate import _message
+    """Run the training CLI; returns the exit code.
+
+    2 with one ``error: ...`` line for usage or configuration errors (found before any env is
+    trained); 1 with one line for any other failure (``TEAMGYM_TRACEBACK=1`` re-raises it); 130
+    on Ctrl-C (the model trained so far is saved).
+    """
+    from baselines.evaluate import _message, guarded
 
     try:
         args = build_parser().parse_args(argv)
     except SystemExit as done:  # --help, or a usage error already reported in one line
         return 0 if done.code is None else done.code if isinstance(done.code, int) else 2
-    run: Training | None = None
-    try:
-        kwargs, seeds = _plan(args)
-        if seeds is None:
-            run = Training(**kwargs)
-        else:  # validate the settings with the first seed's run before training any
-            out_dir = kwargs.pop("out")
-            Training(**kwargs, seed=seeds[0], out=seed_run_path(out_dir, seeds[0], kwargs["env_id"], kwargs["algo"])).close()
-    except (ValueError, TypeError, KeyError, FileNotFoundError, ImportError) as error:
-        print(f"error: {_message(error)}", file=sys.stderr)
-        return 2
-    try:
-        if run is not None:
-            path = run.learn()
-            print(f"saved {path} (settings in {path.with_suffix('.json')})")
-            if run.eval_every:
-                print(f"evaluations in {run.eval_log.path}; best model {best_path(path)} ({run.best})")
-        else:
-            assert seeds is not None
 
-            def report(seed: int, path: Path) -> None:
-                print(f"seed {seed}: saved {path}", flush=True)
+    def body() -> int:
+        run: Training | None = None
+        try:
+            kwargs, seeds = _plan(args)
+            if seeds is None:
+                run = Training(**kwargs)
+            else:  # validate the settings with the first seed's run before training any
+                out_dir = kwargs.pop("out")
+                Training(**kwargs, seed=seeds[0], out=seed_run_path(out_dir, seeds[0], kwargs["env_id"], kwargs["algo"])).close()
+        except _BAD_INPUT as error:
+            print(f"error: {_message(error)}", file=sys.stderr)
+            return 2
+        try:
+            if run is not None:
+                path = run.learn()
+                print(f"saved {path} (settings in {path.with_suffix('.json')})")
+                if run.eval_every:
+                    print(f"evaluations in {run.eval_log.path}; best model {best_path(path)} ({run.best})")
+            else:
+                assert seeds is not None
 
-            train_seeds(seeds, out_dir, args.jobs, on_done=report, **kwargs)
-            print(f"runs listed in {Path(out_dir) / 'runs.json'}")
-    except KeyboardInterrupt:
-        where = f"; the model so far is saved at {run.out} (continue with --resume {run.out})" if run is not None else ""
-        print(f"error: interrupted{where}", file=sys.stderr)
-        return 130
-    except Exception as error:  # noqa: BLE001 - no traceback reaches a command-line user
-        if os.environ.get("TEAMGYM_TRACEBACK"):
-            raise
-        print(f"error: {type(error).__name__}: {_message(error)} (TEAMGYM_TRACEBACK=1 shows where)", file=sys.stderr)
-        return 1
-    return 0
+                def report(seed: int, path: Path) -> None:
+                    print(f"seed {seed}: saved {path}", flush=True)
+
+                train_seeds(seeds, out_dir, args.jobs, on_done=report, **kwargs)
+                print(f"runs listed in {Path(out_dir) / 'runs.json'}")
+        except KeyboardInterrupt:
+            if run is None:
+                raise  # guarded: "error: interrupted", 130
+            where = f"the model so far is saved at {run.out} (continue with --resume {run.out})"
+            print(f"error: interrupted; {where}", file=sys.stderr)
+            return 130
+        return 0
+
+    return guarded(body)
 
 
 if __name__ == "__main__":

@@ -8,12 +8,14 @@ implements these hooks:
 * ``_setup()`` once, after the config is parsed and the agents are named (build what depends
   only on the config: robot specs, sensors, maps), then ``_make_action_type()`` and ``_make_layout()``;
 * ``_build(rng)``: a new episode's :class:`~teamgym.sim.world.World`, robots and initial readings
-  (``self.reset_options`` holds the ``options`` given to ``reset``; messages sent here are
-  delivered before the first observation);
-* ``_observe(out)``: every live agent's flat observation into a preallocated array;
+  (``self.reset_options`` holds the ``options`` given to ``reset``, as ``_check_reset_options``
+  returned them; messages sent here are delivered before the first observation);
+* ``_observe(out)``: every live agent's flat observation into a preallocated array (the base
+  then saturates it at the layout's finite bounds, :meth:`ObservationLayout.clip`);
 * ``episode_success()``: the episode contract;
 
-and may override the step phases, which :meth:`TeamEnv.step` runs in this order:
+and may declare ``reset_option_keys`` with ``_check_reset_options(options)`` (validate every
+option before the reset changes anything), and override the step phases, which :meth:`TeamEnv.step` runs in this order:
 
 1. **control**: ``action_type.start`` once, then per control step ``action_type.act`` for
    every acting agent and ``_before_physics()``;
@@ -27,7 +29,11 @@ and may override the step phases, which :meth:`TeamEnv.step` runs in this order:
    phases 1–7 repeat while a macro action type says its stage goes on;
 8. **communication**: the channel delivers this step's messages;
 9. **agents**: robots admitted by events join; ``_terminations()`` decides who ends;
-   ``_metrics(agent)`` (through ``_metrics_of``) fills ``infos``; finished agents leave ``agents``.
+   ``_metrics(agent)`` (through ``_metrics_of``) fills ``infos``; finished agents leave ``live_agents``.
+
+Task code reads ``self.live_agents`` (the robots in the episode now). ``agents``, PettingZoo's
+list, is the same list unless ``fixed_agents=True`` (:mod:`teamgym.envs.fixed_agents`): then it
+holds every possible agent until the team's episode ends.
 """
 
 from __future__ import annotations
@@ -41,6 +47,9 @@ from pettingzoo import ParallelEnv
 
 from teamgym.envs.actions import ActionType, UnitScaled, WithMessage
 from teamgym.envs.config import ConfigError, EnvConfig
+from teamgym.envs.fixed_agents import PRESENT, PRESENT_INFO, FixedRoster
+from teamgym.envs.infos import COUNT, InfoKey, metrics
+from teamgym.envs.reset_input import check_option_keys, check_seed
 from teamgym.envs.spaces import ActionChecker, Field, ObservationLayout
 from teamgym.envs.trails import TrailArchive
 from teamgym.sim import snapshot
@@ -73,6 +82,8 @@ class TeamEnv(ParallelEnv):
     #: Observation fields the base adds when ``comm_dim > 0``; a task may not use these names.
     INBOX_FIELDS: ClassVar[tuple[str, ...]] = ("inbox", "inbox_sender", "inbox_mask")
     pixels_per_metre: ClassVar[float] = 200.0
+    #: Keys ``reset(options=...)`` accepts (checked by ``_check_reset_options``); others are refused.
+    reset_option_keys: ClassVar[tuple[str, ...]] = ()
 
     def __init__(self, render_mode: str | None = None, **config: Any) -> None:
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
@@ -81,8 +92,9 @@ class TeamEnv(ParallelEnv):
             )
         self.render_mode = render_mode
         self.config = self.config_class.from_kwargs(**config)
+        self._roster: FixedRoster | None = None
         self.possible_agents: list[str] = self._agent_names()
-        self.agents: list[str] = []
+        self.live_agents: list[str] = []
         self._row = {a: i for i, a in enumerate(self.possible_agents)}
         self._live_names: list[str] | None = None
         self._live_array = np.zeros(0, dtype=int)
@@ -97,15 +109,24 @@ class TeamEnv(ParallelEnv):
                 raise ConfigError(f"{type(self.config).__name__}: normalize_actions=True is invalid; {error}") from None
         self.action_type: ActionType = WithMessage(action_type, c.comm_dim) if c.comm_dim else action_type
         self.layout: ObservationLayout = self._make_layout()
-        reserved = [f.name for f in self.layout.fields if f.name in self.INBOX_FIELDS]
+        owners = {**dict.fromkeys(self.INBOX_FIELDS, "the message inbox"), PRESENT.name: "fixed_agents"}
+        reserved = {f.name: owners[f.name] for f in self.layout.fields if f.name in owners}
         if reserved:
-            raise ValueError(f"{type(self).__name__}: observation field name(s) {reserved} are reserved for the message inbox")
+            uses = " and ".join(sorted(set(reserved.values())))
+            raise ValueError(f"{type(self).__name__}: observation field name(s) {list(reserved)} are reserved for {uses}")
         if c.comm_dim:
             self.layout = self.layout.extended(self._inbox_fields())
+        if c.fixed_agents:
+            self.layout = self.layout.extended([PRESENT])
         self.channel = Channel(self.possible_agents, self._channel_config())
-        self._observation_spaces = {a: self.layout.space(c.obs_format) for a in self.possible_agents}
         self._action_spaces = {a: self.action_type.space() for a in self.possible_agents}
+        self._mask_size = self._action_mask_size()
+        self._observation_spaces = {a: self._observation_space() for a in self.possible_agents}
+        self._info_schema = self._full_info_schema()
+        self._info_template = {key: spec.missing for key, spec in self._info_schema.items()}
         self._checkers = {a: ActionChecker(space) for a, space in self._action_spaces.items()}
+        if c.fixed_agents:
+            self._roster = FixedRoster(self)
         self._masks: dict[str, np.ndarray] = {}
         self._reward_total = np.zeros(len(self.possible_agents))
         self._joining: list[str] = []
@@ -121,6 +142,13 @@ class TeamEnv(ParallelEnv):
     # -- hooks for subclasses --------------------------------------------------------
     def _setup(self) -> None:
         """Build once what depends only on ``self.config`` (robot specs, sensors, maps)."""
+
+    def _check_reset_options(self, options: dict) -> dict:
+        """Validate the ``reset`` options (keys already in ``reset_option_keys``) before anything changes.
+
+        Returns them as ``_build`` reads them from ``self.reset_options``; raise naming the key.
+        """
+        return options
 
     def _check_feasible(self) -> None:
         """Raise :class:`ConfigError` if episodes of this config cannot be built (e.g. sample scenes)."""
@@ -158,7 +186,7 @@ class TeamEnv(ParallelEnv):
         raise NotImplementedError
 
     def _observe(self, out: np.ndarray) -> None:
-        """Fill row ``i`` of ``out`` with the flat observation of ``self.agents[i]``."""
+        """Fill row ``i`` of ``out`` with the flat observation of ``self.live_agents[i]``."""
         raise NotImplementedError
 
     def episode_success(self) -> bool:
@@ -170,7 +198,11 @@ class TeamEnv(ParallelEnv):
         raise NotImplementedError(f"{type(self).__name__} must define episode_success()")
 
     def _metrics(self, agent: str) -> dict[str, Any]:
-        """Numbers and arrays only (no strings) for ``infos[agent]``."""
+        """Numbers and arrays only (no strings) for ``infos[agent]``; keys from :meth:`_info_keys` only."""
+        return {}
+
+    def _info_keys(self) -> dict[str, InfoKey]:
+        """The task's keys of ``infos[agent]`` (from the config alone), each with its kind and its value until known."""
         return {}
 
     def _metrics_of(self, agents: list[str]) -> dict[str, dict[str, Any]]:
@@ -197,8 +229,8 @@ class TeamEnv(ParallelEnv):
         """Sensing phase: read the sensors of the robots that go on."""
 
     def _terminations(self) -> dict[str, bool]:
-        """Agents phase: which live agents end now (every agent in ``self.agents``)."""
-        return dict.fromkeys(self.agents, False)
+        """Agents phase: which live agents end now (every agent in ``self.live_agents``)."""
+        return dict.fromkeys(self.live_agents, False)
 
     def _overlay(self) -> Overlay:
         return Overlay()
@@ -216,6 +248,37 @@ class TeamEnv(ParallelEnv):
         self._joining.append(agent)
 
     # -- spaces ----------------------------------------------------------------------
+    def _action_mask_size(self) -> int | None:
+        """Length of an action mask (the masked part of the action space), or None without masks."""
+        if not self.action_type.has_masks:
+            return None
+        return int(self.action_type.masked_space(self._action_spaces[self.possible_agents[0]]).n)
+
+    def _observation_space(self) -> spaces.Space:
+        """The space of one agent's observation in ``obs_format`` (masks added where the action type has them)."""
+        fmt, layout, n = self.config.obs_format, self.layout, self._mask_size
+        if fmt == "flat":
+            return layout.flat_space()
+        mask = None if n is None else spaces.Box(0, 1, shape=(n,), dtype=np.int8)
+        if fmt == "dict":
+            space = layout.dict_space()
+            return space if mask is None else spaces.Dict({**space.spaces, self._mask_field: mask})
+        action_space = self._action_spaces[self.possible_agents[0]]
+        if not isinstance(action_space, spaces.Discrete):
+            raise ConfigError(
+                f"{type(self.config).__name__}: obs_format='masked' needs a discrete action space; action_type="
+                f"{self.action_type.name!r} (comm_dim={self.config.comm_dim}) gives {action_space} (use 'flat' or 'dict')"
+            )
+        if mask is None:  # a discrete action type without masks: every action is always admissible
+            mask = spaces.Box(0, 1, shape=(int(action_space.n),), dtype=np.int8)
+        return spaces.Dict({"observation": layout.flat_space(), "action_mask": mask})
+
+    @property
+    def _mask_field(self) -> str:
+        """Name of the mask in a dict observation: ``action_mask`` (PettingZoo's, for a discrete action space)
+        or ``motion_mask`` (the mask of ``action["motion"]`` when a learned message makes the action a Dict)."""
+        return "action_mask" if isinstance(self._action_spaces[self.possible_agents[0]], spaces.Discrete) else "motion_mask"
+
     def observation_space(self, agent: str) -> spaces.Space:
         try:
             return self._observation_spaces[agent]
@@ -229,22 +292,29 @@ class TeamEnv(ParallelEnv):
             raise KeyError(f"unknown agent {agent!r}; possible agents are {self.possible_agents}") from None
 
     # -- episode protocol ------------------------------------------------------------
+    @property
+    def agents(self) -> list[str]:
+        """PettingZoo's agents: ``live_agents``, or with ``fixed_agents=True`` every possible agent until the team ends."""
+        return self.live_agents if self._roster is None else self._roster.agents
+
     def reset(self, seed: int | None = None, options: dict | None = None):
-        if options is not None and not isinstance(options, dict):
-            raise TypeError(f"reset options must be a dict or None, got {type(options).__name__}")
+        seed = check_seed(seed)
+        checked = self._check_reset_options(check_option_keys(type(self).__name__, options, self.reset_option_keys))
         self._log = [("reset", self.np_random.bit_generator.state, seed, copy.deepcopy(options))]
         if seed is not None:
             self.np_random = np.random.default_rng(seed)
-        self.agents = list(self.possible_agents)
+        self.live_agents = list(self.possible_agents)
         self.cycles = 0
         self._joining = []
-        self.reset_options: dict = dict(options) if options else {}
+        self.reset_options: dict = checked
         self.channel.reset()
         self._build(self.np_random)
         self._deliver_messages()
-        self._trails = {a: [self.robots[a].position] for a in self.agents}
+        self._trails = {a: [self.robots[a].position] for a in self.live_agents}
         self._object_trails = {}
         self._record_object_trails()
+        if self._roster is not None:
+            self._roster.reset()
         self._refresh_masks()
         observations = self._collect_observations()
         infos = self._collect_infos()
@@ -255,7 +325,7 @@ class TeamEnv(ParallelEnv):
     def step(self, actions: dict):
         if self.world is None:
             raise EpisodeOverError(f"{type(self).__name__}.step() called before reset()")
-        if not self.agents:
+        if not self.live_agents:
             raise EpisodeOverError(
                 f"{type(self).__name__}.step() called after the episode ended (all agents are done); call reset()"
             )
@@ -274,22 +344,24 @@ class TeamEnv(ParallelEnv):
             if not self.action_type.is_macro or self.action_type.stage_over(self) or self.cycles >= self.config.cycle_limit:
                 break
         self._deliver_messages()
-        rewards = {a: float(total[self._row[a]]) for a in self.agents}
+        rewards = {a: float(total[self._row[a]]) for a in self.live_agents}
         for agent in self._joining:
-            self.agents.append(agent)
+            self.live_agents.append(agent)
             self._trails[agent] = [self.robots[agent].position]
             rewards[agent] = 0.0
         self._joining = []
         terminations = self._terminations()
         truncated = self.cycles >= self.config.cycle_limit
-        truncations = {a: truncated and not terminations[a] for a in self.agents}
+        truncations = {a: truncated and not terminations[a] for a in self.live_agents}
         self._refresh_masks()
         observations = self._collect_observations()
         infos = self._collect_infos()
-        self.agents = [a for a in self.agents if not (terminations[a] or truncations[a])]
+        self.live_agents = [a for a in self.live_agents if not (terminations[a] or truncations[a])]
         for agent in terminations:
             if terminations[agent] or truncations[agent]:
                 self.robots[agent].set_command(0.0, 0.0)
+        if self._roster is not None:
+            rewards, terminations, truncations = self._roster.step(self, rewards, terminations, truncations)
         self._rebase_if_due()
         if self.render_mode == "human":
             self.render()
@@ -308,7 +380,7 @@ class TeamEnv(ParallelEnv):
     def _record_trails(self) -> None:
         points = self.world.robot_states[:, :2].tolist()
         rows, trails = self.world.robot_rows if points else {}, self._trails
-        for agent in self.agents:
+        for agent in self.live_agents:
             row = rows.get(agent)
             trails[agent].append(tuple(points[row]) if row is not None else self.robots[agent].position)
         self._record_object_trails()
@@ -325,9 +397,9 @@ class TeamEnv(ParallelEnv):
 
         The array is shared between calls and read-only: index with it, do not write to it.
         """
-        if self._live_names != self.agents:
-            self._live_names = list(self.agents)
-            self._live_array = np.array([self._row[a] for a in self.agents], dtype=int)
+        if self._live_names != self.live_agents:
+            self._live_names = list(self.live_agents)
+            self._live_array = np.array([self._row[a] for a in self.live_agents], dtype=int)
             self._live_array.flags.writeable = False
         return self._live_array
 
@@ -335,7 +407,9 @@ class TeamEnv(ParallelEnv):
         """Validate every action before anything changes; raise naming the culprit."""
         if not isinstance(actions, dict):
             raise TypeError(f"actions must be a dict from agent name to action, got {type(actions).__name__}")
-        checkers, live = self._checkers, self.agents
+        if self._roster is not None:
+            actions = self._roster.live_actions(self, actions)
+        checkers, live = self._checkers, self.live_agents
         if len(actions) == len(live) and all(a in actions for a in live):  # the usual case: exactly the live agents
             checked = {a: checkers[a].check(a, actions[a]) for a in live}
         else:
@@ -349,15 +423,15 @@ class TeamEnv(ParallelEnv):
         """The slow path of :meth:`_check_actions`: raise naming unknown, finished or missing agents."""
         unknown = [a for a in actions if a not in self._row]
         if unknown:
-            raise KeyError(f"actions for unknown agent(s) {unknown}; live agents are {self.agents}")
-        finished = [a for a in actions if a not in self.agents]
+            raise KeyError(f"actions for unknown agent(s) {unknown}; live agents are {self.live_agents}")
+        finished = [a for a in actions if a not in self.live_agents]
         if finished:
-            raise ValueError(f"actions for agent(s) {finished} whose episode is over; live agents are {self.agents}")
-        missing = [a for a in self.agents if a not in actions]
+            raise ValueError(f"actions for agent(s) {finished} whose episode is over; live agents are {self.live_agents}")
+        missing = [a for a in self.live_agents if a not in actions]
         if missing:
             raise ValueError(f"no action for live agent(s) {missing}; every live agent must act each step")
         checkers = self._checkers
-        return {a: checkers[a].check(a, actions[a]) for a in self.agents}
+        return {a: checkers[a].check(a, actions[a]) for a in self.live_agents}
 
     def _check_admissible(self, agent: str, action: Any) -> None:
         mask = self._masks.get(agent)
@@ -379,7 +453,7 @@ class TeamEnv(ParallelEnv):
         if not self.action_type.has_masks:
             self._masks = masks
             return
-        for agent in self.agents:
+        for agent in self.live_agents:
             mask = self.action_type.mask(self, agent)
             if mask is not None:
                 masks[agent] = mask
@@ -389,18 +463,30 @@ class TeamEnv(ParallelEnv):
         self._masks = masks
 
     def action_mask(self, agent: str) -> np.ndarray:
-        """``agent``'s current action mask (int8, 1 = admissible); raises if its action type has none."""
+        """``agent``'s current action mask (int8, 1 = admissible); raises if its action type has none.
+
+        With ``fixed_agents=True`` an agent in ``agents`` that is not live gets an all-admissible mask.
+        """
         if agent not in self._row:
             raise KeyError(f"unknown agent {agent!r}; possible agents are {self.possible_agents}")
         if self.world is None:
             raise EpisodeOverError("action_mask() called before reset()")
+        if self._mask_size is not None and agent not in self.live_agents and agent in self.agents:
+            return self._all_admissible()
         if agent not in self._masks:
             raise ValueError(f"no action mask for {agent!r}: action type {self.action_type.name!r} has none or the agent is done")
         return self._masks[agent].copy()
 
     def action_masks(self) -> dict[str, np.ndarray]:
-        """Masks of the live agents (empty when the action type has none)."""
-        return {a: m.copy() for a, m in self._masks.items() if a in self.agents}
+        """Masks of the live agents (none without masks); with ``fixed_agents=True`` of every agent in ``agents``."""
+        masks = {a: m.copy() for a, m in self._masks.items() if a in self.live_agents}
+        if self._roster is None or self._mask_size is None:
+            return masks
+        return {a: masks[a] if a in masks else self._all_admissible() for a in self.agents}
+
+    def _all_admissible(self) -> np.ndarray:
+        """A mask admitting every action (int8): what an absent agent observes with ``fixed_agents=True``."""
+        return np.ones(self._mask_size, dtype=np.int8)
 
     def _channel_config(self) -> ChannelConfig:
         c = self.config
@@ -432,32 +518,84 @@ class TeamEnv(ParallelEnv):
         if not self.config.comm_dim:
             return
         layout, capacity = self.layout, self.layout.shapes["inbox_mask"][0]
-        for row, agent in enumerate(self.agents):
+        for row, agent in enumerate(self.live_agents):
             packed = self.channel.inbox_array(agent, self.config.comm_dim, capacity, kind="learned")
             layout.view(out[row], "inbox")[:] = packed.payload
             layout.view(out[row], "inbox_sender")[:] = packed.sender
             layout.view(out[row], "inbox_mask")[:] = packed.mask
 
     def _collect_observations(self) -> dict[str, np.ndarray | dict[str, np.ndarray]]:
-        out = np.zeros((len(self.agents), self.layout.size), dtype=np.float32)
+        out = np.zeros((len(self.live_agents), self.layout.size), dtype=np.float32)
         self._observe(out)
         self._observe_inbox(out)
-        if self.config.obs_format == "dict":
-            to_dict = self.layout.to_dict
-            return {a: to_dict(out[i]) for i, a in enumerate(self.agents)}
-        return {a: out[i] for i, a in enumerate(self.agents)}
+        self.layout.clip(out)
+        rows = dict(zip(self.live_agents, out))
+        if self._roster is not None:
+            out[:, self.layout.slices[PRESENT.name]] = 1.0
+            rows = self._roster.observations(rows)
+        fmt = self.config.obs_format
+        if fmt == "flat":
+            return rows
+        if fmt == "masked":
+            return {a: {"observation": row, "action_mask": self._observed_mask(a)} for a, row in rows.items()}
+        to_dict = self.layout.to_dict
+        observations = {a: to_dict(row) for a, row in rows.items()}
+        if self._mask_size is not None:
+            field = self._mask_field
+            for agent, observation in observations.items():
+                observation[field] = self._observed_mask(agent)
+        return observations
+
+    def _observed_mask(self, agent: str) -> np.ndarray:
+        """``agent``'s action mask as an observation field (int8; all admissible if it has none or is absent)."""
+        mask = self._masks.get(agent)
+        if mask is None:
+            field = "action_mask" if self.config.obs_format == "masked" else self._mask_field
+            return np.ones(self._observation_spaces[agent][field].shape, dtype=np.int8)
+        return np.asarray(mask, dtype=np.int8).copy()
+
+    # -- infos -----------------------------------------------------------------------
+    def _full_info_schema(self) -> dict[str, InfoKey]:
+        schema = {"success": COUNT, **self._info_keys()}
+        if self._mask_size is not None:
+            schema["action_mask"] = InfoKey("mask", None, sentinel=False)
+        if self.config.comm_dim or self.uses_channel:
+            schema.update(metrics(*Channel.stat_keys()))
+        if self.config.fixed_agents:
+            schema[PRESENT.name] = PRESENT_INFO
+        return schema
+
+    def info_schema(self) -> dict[str, InfoKey]:
+        """Every key of ``infos[agent]`` (present from reset on, in every agent's dict), its kind and its value until known.
+
+        Times not known yet and categorical indices hold -1 (:mod:`teamgym.envs.infos`);
+        summaries average metrics only, over the values that are known.
+        """
+        return dict(self._info_schema)
+
+    def _schema_info(self, task_metrics: dict[str, Any]) -> dict[str, Any]:
+        """One agent's infos: every schema key at its value until known, updated with the task's ``task_metrics``."""
+        info = self._info_template.copy()
+        info.update(task_metrics)
+        return info
 
     def _collect_infos(self) -> dict[str, dict[str, Any]]:
         success = bool(self.episode_success())
-        infos = self._metrics_of(self.agents)
+        template = self._info_template
         comm = bool(self.config.comm_dim) or self.uses_channel
-        for agent, info in infos.items():
+        infos = {}
+        for agent, task_metrics in self._metrics_of(self.live_agents).items():
+            info = self._schema_info(task_metrics)
             info["success"] = success
             if agent in self._masks:
                 info["action_mask"] = self.action_type.info_mask(self._masks[agent].copy())
             if comm:
                 info.update(self.channel.stats(agent))
-        return infos
+            if len(info) != len(template):
+                extra = sorted(set(info) - set(template))
+                raise RuntimeError(f"{type(self).__name__}: infos key(s) {extra} are not in the env's info schema (_info_keys)")
+            infos[agent] = info
+        return infos if self._roster is None else self._roster.infos(self, infos, success)
 
     # -- rendering -------------------------------------------------------------------
     def render(self) -> np.ndarray | None:

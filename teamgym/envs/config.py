@@ -100,6 +100,12 @@ def _has_non_finite(value: Any) -> bool:
 #: other (at the default 2 mm per substep the deepest penetration is under 2 mm).
 MAX_SUBSTEP_TRAVEL = 0.005
 
+#: Bounds of every env's episode length (control steps) and control step Δt (s): an episode
+#: of up to a billion steps, and a Δt no shorter than a tenth of a millisecond (below it, the
+#: episode length derived from a time limit overflows long before physics means anything).
+MAX_CYCLES = 10**9
+MIN_DT = 1e-4
+
 
 @dataclasses.dataclass(frozen=True)
 class EnvConfig:
@@ -123,7 +129,11 @@ class EnvConfig:
         ``substeps``. The joint-driven motion differs slightly with the substep length, so
         trajectories are not those of ``coarse_substeps=0`` (``benchmarks/bench_adaptive_substeps.py``).
     obs_format:
-        ``"flat"`` (one float32 vector per agent) or ``"dict"`` (named, typed fields).
+        ``"flat"`` (one float32 vector per agent), ``"dict"`` (named, typed fields, and
+        ``action_mask`` where the action type has masks; ``motion_mask`` when ``comm_dim`` makes
+        the action a Dict) or ``"masked"`` (PettingZoo's form for masked envs:
+        ``{"observation": <flat vector>, "action_mask": <int8 mask>}``; discrete action spaces
+        only, all ones where the action type has no masks).
     comm_dim:
         Length of a learned message vector in [-1, 1] added to every action (0: none); the
         observation then gains the inbox fields ``inbox``, ``inbox_sender``, ``inbox_mask``.
@@ -134,21 +144,30 @@ class EnvConfig:
         Continuous actions as ``Box(-1, 1)`` on every axis, mapped linearly onto the action
         type's native range (:class:`teamgym.envs.actions.UnitScaled`); for RL. Scripted
         baselines act in native units and refuse it. A discrete action type cannot be built with it.
+    fixed_agents:
+        Keep ``agents`` equal to ``possible_agents`` (spare robots included) from reset until
+        the team's episode ends, for engines that need a fixed agent list; robots not present
+        (not yet added, or after their last step) observe zeros with the observation field
+        ``present`` = 0, get reward 0 and have their actions ignored
+        (:mod:`teamgym.envs.fixed_agents`). Off by default: ``agents`` holds the live robots.
     """
 
     max_cycles: int = 400
     dt: float = 0.1
     substeps: int = 20
     coarse_substeps: int = 0
-    obs_format: Literal["flat", "dict"] = "flat"
+    obs_format: Literal["flat", "dict", "masked"] = "flat"
     comm_dim: int = 0
     comm_range: float | None = None
     comm_throughput: float = 1.0
     comm_latency: int = 0
     comm_byte_budget: int | None = None
     normalize_actions: bool = False
+    fixed_agents: bool = False
 
-    #: Fastest speed (m/s) a body of the env can reach; bounds the substep length (see ``check``).
+    #: Keys :attr:`cycle_limit` is derived from (named when it is out of range).
+    cycle_limit_keys: ClassVar[tuple[str, ...]] = ("max_cycles",)
+    #: Fastest speed (m/s) a body of the env can reach; bounds the substep length (see ``check_relations``).
     body_speed_keys: ClassVar[tuple[str, ...]] = ()
     default_body_speed: ClassVar[float] = 0.4
 
@@ -163,6 +182,7 @@ class EnvConfig:
             if converted is not value:
                 object.__setattr__(self, f.name, converted)
         self.check()
+        self.check_relations()
 
     @classmethod
     def field_names(cls) -> list[str]:
@@ -197,23 +217,46 @@ class EnvConfig:
         return max([self.default_body_speed, *(float(getattr(self, k)) for k in self.body_speed_keys)])
 
     def check(self) -> None:
-        """Range checks; subclasses extend with ``super().check()``."""
-        require(self, "max_cycles", self.max_cycles >= 1, "must be >= 1")
-        require(self, "dt", 0 < self.dt <= 10, "must be in (0, 10] s")
+        """Each key's own range, whatever the other keys say; subclasses extend with ``super().check()``.
+
+        Every key is range-checked here on its own, so an out-of-range value is reported under
+        its own name before any check that ties keys together (:meth:`check_relations`) runs.
+        """
+        require(self, "max_cycles", 1 <= self.max_cycles <= MAX_CYCLES, f"must be in [1, {MAX_CYCLES:.0e}]")
+        require(self, "dt", MIN_DT <= self.dt <= 10, f"must be in [{MIN_DT}, 10] s")
         require(self, "substeps", 1 <= self.substeps <= 1000, "must be in [1, 1000]")
-        require(self, "coarse_substeps", 0 <= self.coarse_substeps <= self.substeps, "must be in [0, substeps] (0: off)")
+        require(self, "coarse_substeps", 0 <= self.coarse_substeps <= 1000, "must be in [0, 1000] (0: off)")
         require(self, "comm_dim", 0 <= self.comm_dim <= 1024, "must be in [0, 1024] (0: no learned message)")
         require(self, "comm_range", self.comm_range is None or self.comm_range >= 0, "must be >= 0 m or None (unlimited)")
         require(self, "comm_throughput", 0 <= self.comm_throughput <= 1, "must be in [0, 1]")
         require(self, "comm_latency", 0 <= self.comm_latency <= 1000, "must be in [0, 1000] steps")
         require(self, "comm_byte_budget", self.comm_byte_budget is None or self.comm_byte_budget >= 0, "must be >= 0 or None")
-        travel = self.body_speed() * self.dt / self.substeps
-        require(
+
+    def check_relations(self) -> None:
+        """Checks that tie several keys together, run after every key's own range (:meth:`check`).
+
+        Subclasses extend with ``super().check_relations()``; each message names every key
+        involved (:func:`require_together`).
+        """
+        require_together(
             self,
-            "substeps",
+            ("coarse_substeps", "substeps"),
+            self.coarse_substeps <= self.substeps,
+            "coarse_substeps must not exceed substeps",
+        )
+        travel = self.body_speed() * self.dt / self.substeps
+        require_together(
+            self,
+            ("substeps", "dt", *self.body_speed_keys),
             travel <= MAX_SUBSTEP_TRAVEL + 1e-12,
-            f"is too few for dt={self.dt} s: a body at {self.body_speed()} m/s would move {travel * 1000:.1f} mm per "
-            f"substep, more than {MAX_SUBSTEP_TRAVEL * 1000:.0f} mm (raise substeps or lower dt)",
+            f"a body at {self.body_speed()} m/s would move {travel * 1000:.1f} mm per substep, more than "
+            f"{MAX_SUBSTEP_TRAVEL * 1000:.0f} mm (raise substeps or lower dt)",
+        )
+        require_together(
+            self,
+            self.cycle_limit_keys,
+            1 <= self.cycle_limit <= MAX_CYCLES,
+            f"they give an episode of {self.cycle_limit} control steps; it must be in [1, {MAX_CYCLES:.0e}]",
         )
 
     def world_options(self) -> dict[str, Any]:
@@ -234,3 +277,12 @@ def require(config: EnvConfig, key: str, condition: bool, message: str) -> None:
     """Raise :class:`ConfigError` naming ``key`` and its value unless ``condition`` holds."""
     if not condition:
         raise ConfigError(f"{type(config).__name__}: {key}={getattr(config, key)!r} is invalid; it {message}")
+
+
+def require_together(config: EnvConfig, keys: tuple[str, ...], condition: bool, message: str) -> None:
+    """Raise :class:`ConfigError` naming every one of ``keys`` with its value unless ``condition`` holds."""
+    if not condition:
+        named = list(dict.fromkeys(keys))
+        values = ", ".join(f"{key}={getattr(config, key)!r}" for key in named)
+        verdict = "is invalid" if len(named) == 1 else "do not fit together"
+        raise ConfigError(f"{type(config).__name__}: {values} {verdict}; {message}")

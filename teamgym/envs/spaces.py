@@ -8,6 +8,9 @@ offers two observation formats built from it (``obs_format`` in the config):
 * ``"dict"``: a gymnasium ``Dict`` of the named fields, each a ``Box`` of its own dtype and
   bounds (vectors, uint8 images, grids, a message inbox and its validity mask).
 
+:meth:`ObservationLayout.clip` saturates flat observations at the fields' bounds (every env
+gives finite ones, :mod:`teamgym.envs.bounds`), so observations always lie in their space.
+
 :class:`ActionChecker` validates an action against its space before the env changes anything
 (``Discrete``, ``Box``, ``MultiDiscrete``, ``MultiBinary`` and nested ``Dict``/``Tuple``),
 with errors that name the agent, the field and the value.
@@ -87,6 +90,9 @@ class ObservationLayout:
             self.shapes[f.name] = f.shape
             start += f.size
         self.size = start
+        bounds = [f.bounds() for f in self.fields]
+        self._low = np.concatenate([lo.ravel() for lo, _ in bounds] or [np.zeros(0)]).astype(np.float32)
+        self._high = np.concatenate([hi.ravel() for _, hi in bounds] or [np.zeros(0)]).astype(np.float32)
 
     def extended(self, fields: Sequence[Field | tuple]) -> ObservationLayout:
         """A new layout with ``fields`` appended (e.g. a message inbox)."""
@@ -103,12 +109,18 @@ class ObservationLayout:
 
     def flat_space(self) -> spaces.Box:
         """A float32 ``Box`` of ``size`` values with every field's bounds."""
-        if not self.fields:
-            return spaces.Box(np.zeros(0, np.float32), np.zeros(0, np.float32), dtype=np.float32)
-        bounds = [f.bounds() for f in self.fields]
-        low = np.concatenate([lo.ravel() for lo, _ in bounds]).astype(np.float32)
-        high = np.concatenate([hi.ravel() for _, hi in bounds]).astype(np.float32)
-        return spaces.Box(low, high, dtype=np.float32)
+        return spaces.Box(self._low.copy(), self._high.copy(), dtype=np.float32)
+
+    def clip(self, out: np.ndarray) -> np.ndarray:
+        """Saturate flat observations ``out`` (``(..., size)``, float32) at the field bounds, in place; returns ``out``.
+
+        Only values outside the bounds change (NaN stays NaN), so in-bounds values keep their bits.
+        """
+        low, high = self._low, self._high
+        inside = (out >= low) & (out <= high)
+        if not inside.all():
+            np.copyto(out, np.clip(out, low, high), where=~inside & ~np.isnan(out))
+        return out
 
     def dict_space(self) -> spaces.Dict:
         """A ``Dict`` of every field's ``Box`` (in field order)."""

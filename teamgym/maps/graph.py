@@ -26,7 +26,6 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
-import numbers
 from collections import Counter
 from collections.abc import Iterable
 from dataclasses import dataclass, field
@@ -36,7 +35,7 @@ from typing import Any
 
 import networkx as nx
 
-from teamgym.maps.model import MapError
+from teamgym.maps.jsonfile import MapError, finite_number, load_json
 
 GRAPH_DIR = Path(__file__).resolve().parent / "data" / "graphs"
 SIZE_MARGIN = 0.5
@@ -97,7 +96,7 @@ class GraphMap:
 
     def __post_init__(self) -> None:
         places = tuple(self.places)
-        coords = {p.id: p.pos for p in places if _finite(p.x) and _finite(p.y)}
+        coords = {p.id: p.pos for p in places if finite_number(p.x) and finite_number(p.y)}
         ways = tuple(_with_length(w, coords) for w in self.ways)
         object.__setattr__(self, "places", places)
         object.__setattr__(self, "ways", ways)
@@ -209,16 +208,6 @@ class GraphMap:
         return item
 
 
-def _finite(value: Any) -> bool:
-    """Whether ``value`` is a real, finite number (not a bool)."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        return False
-    try:
-        return math.isfinite(value)
-    except OverflowError:  # an int too large for a float
-        return False
-
-
 def _straight(p: Place, q: Place) -> float:
     return math.hypot(p.x - q.x, p.y - q.y)
 
@@ -232,7 +221,7 @@ def _with_length(way: Way, coords: dict[str, tuple[float, float]]) -> Way:
 
 def derived_size(places: Iterable[Place]) -> tuple[float, float]:
     """Workspace ``(w, h)`` for a map without ``size``: largest x and y of the places plus :data:`SIZE_MARGIN`."""
-    places = [p for p in places if _finite(p.x) and _finite(p.y)]
+    places = [p for p in places if finite_number(p.x) and finite_number(p.y)]
     width = max((float(p.x) for p in places), default=0.0) + SIZE_MARGIN
     height = max((float(p.y) for p in places), default=0.0) + SIZE_MARGIN
     return (width, height)
@@ -258,7 +247,7 @@ def validate_graph_map(graph_map: GraphMap) -> GraphMap:
 
 def _check_size(graph_map: GraphMap) -> None:
     size = graph_map.size
-    if not (isinstance(size, tuple) and len(size) == 2 and all(_finite(v) and v > 0 for v in size)):
+    if not (isinstance(size, tuple) and len(size) == 2 and all(finite_number(v) and v > 0 for v in size)):
         raise MapError(f"{graph_map.source}: size: expected [width, height] with finite values > 0, got {size!r}")
 
 
@@ -271,7 +260,7 @@ def _check_places(graph_map: GraphMap) -> None:
         if not isinstance(p.id, str) or not p.id:
             raise MapError(f"{src}: places[{i}].id: expected a non-empty string, got {p.id!r}")
         for axis in ("x", "y"):
-            if not _finite(getattr(p, axis)):
+            if not finite_number(getattr(p, axis)):
                 raise MapError(f"{src}: place {p.id!r}: {axis}={getattr(p, axis)!r} is not a finite number")
         if not (0.0 <= p.x <= w and 0.0 <= p.y <= h):
             raise MapError(f"{src}: place {p.id!r} at ({p.x:g}, {p.y:g}) m lies outside the {w:g} x {h:g} m workspace")
@@ -291,14 +280,14 @@ def _check_way(graph_map: GraphMap, way: Way, seen: set[frozenset[str]]) -> None
     if way.ends in seen:
         raise MapError(f"{where} is repeated (ways are undirected: [a, b] and [b, a] are the same way)")
     seen.add(way.ends)
-    if not (_finite(way.length) and way.length > 0):
+    if not (finite_number(way.length) and way.length > 0):
         raise MapError(f"{where}: length must be a finite number > 0, got {way.length!r}")
     straight = _straight(graph_map.place(way.a), graph_map.place(way.b))
     if way.length < straight - LENGTH_TOLERANCE * max(1.0, straight):
         raise MapError(
             f"{where}: length {way.length:.9g} m is shorter than the straight line ({straight:.9g} m) between its places"
         )
-    if way.width is not None and not (_finite(way.width) and way.width > 0):
+    if way.width is not None and not (finite_number(way.width) and way.width > 0):
         raise MapError(f"{where}: width must be a finite number > 0, got {way.width!r}")
 
 
@@ -332,7 +321,7 @@ def _object(source: str, where: str, item: Any, required: set[str], optional: se
 
 
 def _number(source: str, where: str, value: Any) -> float:
-    if not _finite(value):
+    if not finite_number(value):
         raise _fail(source, where, f"expected a finite number, got {value!r}")
     return float(value)
 
@@ -397,19 +386,6 @@ def available_graph_maps() -> list[str]:
     return sorted(p.stem for p in GRAPH_DIR.glob("*.json"))
 
 
-def _read_json(path: Path) -> Any:
-    try:
-        text = path.read_bytes().decode("utf-8-sig")
-    except UnicodeDecodeError:
-        raise MapError(f"{path}: not a JSON graph map file (not UTF-8 text)") from None
-    except OSError as error:
-        raise MapError(f"{path}: cannot be read ({error.strerror or error})") from None
-    try:
-        return json.loads(text)
-    except (ValueError, RecursionError) as error:  # JSONDecodeError, or an int literal too long
-        raise MapError(f"{path}: not valid JSON ({error})") from None
-
-
 def load_graph_map(name_or_path: str | Path) -> GraphMap:
     """Load a shipped graph map by name (``"square4"``) or a JSON file by path; raise :class:`MapError` if invalid."""
     path = Path(name_or_path)
@@ -418,7 +394,7 @@ def load_graph_map(name_or_path: str | Path) -> GraphMap:
     if not path.is_file():
         raise MapError(f"no graph map {str(name_or_path)!r}: not a shipped graph map ({available_graph_maps()}) nor a file")
     source = path.name if path.parent == GRAPH_DIR else str(path)
-    return graph_map_from_dict(_read_json(path), source=source)
+    return graph_map_from_dict(load_json(path, source, "graph map"), source=source)
 
 
 def save_graph_map(graph_map: GraphMap, path: str | Path) -> Path:

@@ -14,11 +14,11 @@ geometry and the graph (both raise :class:`MapError` naming the culprit).
 
 from __future__ import annotations
 
-import json
-import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
+
+from teamgym.maps.jsonfile import MapError, finite_number, load_json
 
 Point = tuple[float, float]
 
@@ -35,10 +35,6 @@ _TOP_KEYS = {
     "passages",
     "furniture",
 }
-
-
-class MapError(ValueError):
-    """A map file or map object is malformed or inconsistent; the message names the culprit."""
 
 
 @dataclass(frozen=True)
@@ -148,7 +144,7 @@ def _fail(source: str, where: str, message: str) -> MapError:
 
 
 def _number(source: str, where: str, value: Any) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+    if not finite_number(value):
         raise _fail(source, where, f"expected a finite number, got {value!r}")
     return float(value)
 
@@ -264,7 +260,7 @@ def map_from_dict(data: Any, source: str = "<map>") -> OfficeMap:
 
     data = _keys(source, "top level", data, {"size", "sectors", "doors"}, _TOP_KEYS - {"size", "sectors", "doors"})
     units = data.get("units", "mm")
-    if units not in UNITS:
+    if not isinstance(units, str) or units not in UNITS:
         raise _fail(source, "units", f"must be one of {sorted(UNITS)}, got {units!r}")
     scale = UNITS[units]
     size = _point(source, "size", data["size"], scale)
@@ -313,12 +309,5 @@ def load_map(name_or_path: str | Path) -> OfficeMap:
         path = DATA_DIR / f"{name_or_path}.json"
     if not path.is_file():
         raise MapError(f"no map {str(name_or_path)!r}: not a shipped map ({available_maps()}) nor a file")
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except UnicodeDecodeError:
-        raise MapError(f"{path}: not a text (UTF-8 JSON) map file") from None
-    except json.JSONDecodeError as error:
-        raise MapError(f"{path}: not valid JSON ({error})") from None
-    except OSError as error:
-        raise MapError(f"{path}: cannot be read ({error.strerror})") from None
-    return map_from_dict(data, source=str(path.name if path.parent == DATA_DIR else path))
+    source = path.name if path.parent == DATA_DIR else str(path)
+    return map_from_dict(load_json(path, source, "map"), source=source)

@@ -409,6 +409,11 @@ class Channel:
         """All drops per sender, summed over the reasons."""
         return sum(self._dropped.values(), np.zeros(len(self.agents), dtype=np.int64))
 
+    @staticmethod
+    def stat_keys() -> tuple[str, ...]:
+        """The keys of :meth:`stats`, in its order."""
+        return (*_TRAFFIC, "messages_dropped", *(f"dropped_{reason}" for reason in DROP_REASONS))
+
     def stats(self, agent: str) -> dict[str, int]:
         """The agent's episode counters as plain ints, for env infos."""
         i = self._agent_index(agent, "agent")

@@ -42,6 +42,45 @@ def set_pivot_anchor_a(pivot: pymunk.PivotJoint, anchor: tuple[float, float]) ->
     _lib.cpPivotJointSetAnchorA(pivot._constraint, anchor)
 
 
+_ffi = pymunk._chipmunk.ffi
+_NULL = _ffi.NULL
+_FLOAT_SIZE = _ffi.sizeof("cpFloat")
+_INT_SIZE = _ffi.sizeof("uintptr_t")
+
+
+class BatchArrays:
+    """The two C arrays pymunk's batch functions fill, freed when this object is.
+
+    Duck-types the ``_float_arr`` / ``_int_arr`` of ``pymunk.batch.Buffer``, which
+    ``pymunk.batch.get_space_bodies`` fills. pymunk 7's own ``Buffer`` allocates them with
+    ``pmFloatArrayNew`` / ``pmIntArrayNew`` and never frees them: each ``Buffer`` leaks
+    arrays grown to a row for every body of the space it read (static wall bodies
+    included), about 27 kB per Rendezvous-v0 world. Here ``ffi.gc`` hands them to
+    ``pmFloatArrayFree`` / ``pmIntArrayFree`` (which free the data and the array).
+    """
+
+    __slots__ = ("_float_arr", "_int_arr")
+
+    def __init__(self) -> None:
+        self._float_arr = _ffi.gc(_lib.pmFloatArrayNew(0), _lib.pmFloatArrayFree)
+        self._int_arr = _ffi.gc(_lib.pmIntArrayNew(0), _lib.pmIntArrayFree)
+
+    def clear(self) -> None:
+        """Mark both arrays empty; their memory is kept for the next fill."""
+        self._float_arr.num = 0
+        self._int_arr.num = 0
+
+    def floats(self) -> np.ndarray:
+        """The float array's values (a view, valid until the next fill)."""
+        arr = self._float_arr
+        return np.frombuffer(_ffi.buffer(arr.arr, _FLOAT_SIZE * arr.num), dtype=np.float64)
+
+    def ints(self) -> np.ndarray:
+        """The integer array's values (a view, valid until the next fill)."""
+        arr = self._int_arr
+        return np.frombuffer(_ffi.buffer(arr.arr, _INT_SIZE * arr.num), dtype=np.uintp)
+
+
 class BodyReader:
     """Reads ``(x, y, angle, vx, vy, ω)`` of chosen bodies of a space in one batch call.
 
@@ -57,16 +96,16 @@ class BodyReader:
     def _setup(self) -> None:
         self.ids = np.array([b.id for b in self.bodies], dtype=np.uintp)
         self._rows: np.ndarray | None = None
-        self._buffer = _batch.Buffer()
+        self._arrays = BatchArrays()
 
     def read(self, space: pymunk.Space) -> np.ndarray:
         """Array of shape ``(len(bodies), 6)``: x, y, angle, vx, vy, angular velocity."""
-        buffer = self._buffer
-        buffer.clear()
-        _batch.get_space_bodies(space, _BODY_FIELDS, buffer)
-        values = np.frombuffer(buffer.float_buf(), dtype=np.float64).reshape(-1, 6)
+        arrays = self._arrays
+        arrays.clear()
+        _batch.get_space_bodies(space, _BODY_FIELDS, arrays)
+        values = arrays.floats().reshape(-1, 6)
         if self._rows is None:
-            ids = np.frombuffer(buffer.int_buf(), dtype=np.uintp)
+            ids = arrays.ints()
             order = np.argsort(ids)
             found = np.minimum(np.searchsorted(ids, self.ids, sorter=order), len(ids) - 1)
             rows = order[found]
@@ -82,10 +121,6 @@ class BodyReader:
         # Body ids are memory addresses: they change when a space is unpickled.
         self.bodies = state["bodies"]
         self._setup()
-
-
-_ffi = pymunk._chipmunk.ffi
-_NULL = _ffi.NULL
 
 
 _POINT_INFO = _ffi.new("cpPointQueryInfo *")

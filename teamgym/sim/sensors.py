@@ -282,7 +282,8 @@ class LightSensor(NoisyRowSensor):
     ``lamp`` is a point or an entity (a :class:`~teamgym.sim.objects.Lamp`), which the sensor
     then follows when it moves. Noise (:class:`NoisyRowSensor`): per-sensor gains
     (``gain_spread``, drawn by :meth:`~NoisyRowSensor.calibrate`), ``relative_noise`` per
-    reading and additive ``noise_std``; readings are clipped at 0.
+    reading and additive ``noise_std``; readings are clipped at 0 and, with ``saturation``
+    (None: none), the sensor saturates: no reading exceeds it, noise and gains included.
     """
 
     def __init__(
@@ -295,6 +296,7 @@ class LightSensor(NoisyRowSensor):
         blockers: int = OPAQUE,
         relative_noise: float = 0.0,
         gain_spread: float = 0.0,
+        saturation: float | None = None,
     ) -> None:
         self.lamp = lamp
         self.intensity = float(intensity)
@@ -302,6 +304,9 @@ class LightSensor(NoisyRowSensor):
         self.min_distance = float(min_distance)
         self._set_noise(noise_std, relative_noise, gain_spread)
         self.blockers = int(blockers)
+        if saturation is not None and not (math.isfinite(saturation) and saturation > 0):
+            raise ValueError(f"LightSensor.saturation must be a finite number > 0 or None, got {saturation!r}")
+        self.saturation = None if saturation is None else float(saturation)
 
     @property
     def lamp(self) -> Point:
@@ -323,6 +328,8 @@ class LightSensor(NoisyRowSensor):
 
     def _clip(self, out: np.ndarray) -> None:
         np.maximum(out, 0.0, out=out)
+        if self.saturation is not None:
+            np.minimum(out, self.saturation, out=out)
 
     def _read_one(self, robot: DiffDriveRobot, space: pymunk.Space, x: float, y: float, theta: float, out: np.ndarray) -> None:
         self._shine(robot, space, self.lamp, x, y, theta, out)
@@ -343,6 +350,8 @@ class LightSensor(NoisyRowSensor):
             bearing = math.atan2(ly - y, lx - x) - theta
             gain = self.intensity / max(d, self.min_distance) ** 2
             np.maximum(np.cos(bearing - self.angles) * gain, 0.0, out=out, casting="unsafe")
+            if self.saturation is not None and gain > self.saturation:
+                np.minimum(out, self.saturation, out=out)
 
 
 @dataclass(frozen=True)
@@ -468,17 +477,22 @@ class WheelEncoders:
     of the tick counts of the total wheel rotation before and after the step (the error
     stays under one tick and does not accumulate). With ``noise_std`` > 0 it is then
     multiplied by ``1 + N(0, noise_std²)`` per wheel (the wheel slips a little on the
-    table; two draws per robot). Both 0: the exact rotation, as before.
+    table; two draws per robot). Both 0: the exact rotation, as before. With ``saturation``
+    (rad; None: none) every value is clipped to ``[-saturation, saturation]``: the counter
+    reads at most that many radians per step.
     """
 
     width = 4
 
-    def __init__(self, noise_std: float = 0.0, resolution: float = 0.0) -> None:
+    def __init__(self, noise_std: float = 0.0, resolution: float = 0.0, saturation: float | None = None) -> None:
         for key, value in (("noise_std", noise_std), ("resolution", resolution)):
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
                 raise ValueError(f"WheelEncoders.{key} must be a finite number >= 0, got {value!r}")
+        if saturation is not None and not (math.isfinite(saturation) and saturation > 0):
+            raise ValueError(f"WheelEncoders.saturation must be a finite number > 0 or None, got {saturation!r}")
         self.noise_std = float(noise_std)
         self.resolution = float(resolution)
+        self.saturation = None if saturation is None else float(saturation)
 
     def read_rows(
         self,
@@ -501,7 +515,11 @@ class WheelEncoders:
             if noisy:
                 a, b = rng.normal(1.0, self.noise_std, size=2).tolist()
                 left, right = left * a, right * b
-            row[:] = (e.commanded_left, e.commanded_right, left, right)
+            values = (e.commanded_left, e.commanded_right, left, right)
+            top = self.saturation
+            if top is not None and max(map(abs, values)) > top:
+                values = tuple(min(max(v, -top), top) for v in values)
+            row[:] = values
 
 
 class SensorSuite:

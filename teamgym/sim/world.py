@@ -11,6 +11,7 @@ The world keeps no list of entity types: it groups entities by what they declare
 
 from __future__ import annotations
 
+from bisect import bisect_right
 from collections.abc import Sequence
 
 import numpy as np
@@ -25,6 +26,10 @@ from teamgym.sim.objects import Wall
 from teamgym.sim.solver_state import SolverSpace
 
 __all__ = ["Contact", "World"]
+
+
+def _kind_value(entity: Entity) -> int:
+    return int(entity.kind)
 
 
 class World:
@@ -118,7 +123,7 @@ class World:
             raise ValueError(f"an entity named {entity.name!r} is already in the world")
         entity.attach(self.space)
         self.entities[entity.name] = entity
-        self._regroup()
+        self._group(entity)
         return entity
 
     def add_boundary(self, thickness: float = 0.02) -> list[Wall]:
@@ -133,27 +138,57 @@ class World:
 
     def remove(self, name: str) -> Entity:
         """Remove the entity called ``name`` from the world and return it."""
-        try:
-            entity = self.entities.pop(name)
-        except KeyError:
-            raise KeyError(f"no entity named {name!r} in the world") from None
-        entity.detach(self.space)
+        return self.remove_many([name])[0]
+
+    def remove_many(self, names: Sequence[str]) -> list[Entity]:
+        """Remove the entities ``names`` from the world and return them, in that order.
+
+        All or nothing: an unknown (or repeated) name raises ``KeyError`` before any is removed.
+        """
+        missing = [name for name in names if name not in self.entities]
+        if missing:
+            raise KeyError(f"no entity named {missing[0]!r} in the world")
+        if len(set(names)) != len(names):
+            raise KeyError(f"entity names to remove repeat: {sorted(n for n in set(names) if names.count(n) > 1)}")
+        removed = [self.entities.pop(name) for name in names]
+        for entity in removed:
+            entity.detach(self.space)
         self._regroup()
-        return entity
+        return removed
 
     def _regroup(self) -> None:
         """Rebuild the lists derived from the entities' declarations (in place, so references stay valid)."""
-        entities = list(self.entities.values())
-        self.robots[:] = [e for e in entities if e.kind == Category.ROBOT]
-        self.movers[:] = [e for e in entities if e.kind == Category.OBSTACLE]
-        self.boxes[:] = [e for e in entities if e.kind == Category.BOX]
-        self._tracked = [e for e in entities if e.tracked]
-        self.robot_rows = {e.name: row for row, e in enumerate(self.robots)}
-        self._stepped = sorted((e for e in entities if e.has_state_row), key=lambda e: int(e.kind))
+        for listed in (self.robots, self.movers, self.boxes):
+            listed.clear()
+        self._tracked = []
+        self.robot_rows = {}
+        self._stepped = []
         self._rows_of = {}
-        for row, entity in enumerate(self._stepped):
-            first = self._rows_of.get(entity.kind, slice(row, row)).start
-            self._rows_of[entity.kind] = slice(first, row + 1)
+        for entity in self.entities.values():
+            self._group(entity)
+        self._reader = None
+        self._contact_check = None
+
+    def _group(self, entity: Entity) -> None:
+        """Enter ``entity``, the last one in ``entities``, in the derived lists.
+
+        Constant time for an entity without a state row (a wall), so building a scene is
+        linear in its size; an entity with a state row re-indexes the state rows.
+        """
+        listed = {Category.ROBOT: self.robots, Category.OBSTACLE: self.movers, Category.BOX: self.boxes}.get(entity.kind)
+        if listed is not None:
+            listed.append(entity)
+            if entity.kind == Category.ROBOT:
+                self.robot_rows[entity.name] = len(listed) - 1
+        if entity.tracked:
+            self._tracked.append(entity)
+        if entity.has_state_row:
+            # State rows are grouped by kind (ascending value), in the order added within a kind.
+            self._stepped.insert(bisect_right(self._stepped, int(entity.kind), key=_kind_value), entity)
+            self._rows_of = {}
+            for row, stepped in enumerate(self._stepped):
+                first = self._rows_of.get(stepped.kind, slice(row, row)).start
+                self._rows_of[stepped.kind] = slice(first, row + 1)
         self._reader = None
         self._contact_check = None
         self._fixed = None

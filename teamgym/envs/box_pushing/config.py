@@ -13,7 +13,8 @@ import math
 from dataclasses import dataclass
 from typing import Any, ClassVar, Literal
 
-from teamgym.envs.config import ConfigError, EnvConfig, require
+from teamgym.envs.bounds import Limit, require_limits, require_ring_noise
+from teamgym.envs.config import ConfigError, EnvConfig, require, require_together
 from teamgym.sim.objects import GRAVITY, SURFACE_FRICTION, footprint_support, weakest_push
 from teamgym.sim.robot import RobotSpec
 
@@ -58,7 +59,16 @@ def weakest_push_ratio(table_friction: str, support_points: int) -> float:
 
 @dataclass(frozen=True)
 class BoxPushingConfig(EnvConfig):
-    """Configuration of ``BoxPushing-v0`` (SI units; the few angles in config are radians)."""
+    """Configuration of ``BoxPushing-v0`` (SI units; the few angles in config are radians).
+
+    Keys that scale a sensor reading have ranges (``READING_LIMITS``; ``docs/box_pushing.md``,
+    *Sensor ranges and saturation*): ``noise`` [0, 10]; ``light_noise`` [0, 10] light units
+    (the sensor saturates at 1000, the brightest noise-free reading is 400); the relative
+    noises, ``light_gain_spread``, ``encoder_noise`` and ``motor_noise`` [0, 1];
+    ``sensor_range`` and ``sensor_noise`` [0, 10] m; ``encoder_resolution`` [0, π/4] rad;
+    ``max_wheel_speed`` (0, 10] m/s. Scaled by ``noise``, a noise level must stay in its range
+    and the proximity noise at most ``sensor_range``.
+    """
 
     body_speed_keys: ClassVar[tuple[str, ...]] = ("max_wheel_speed",)
     default_body_speed: ClassVar[float] = 0.0
@@ -72,6 +82,21 @@ class BoxPushingConfig(EnvConfig):
         "encoder_noise",
         "motor_noise",
     )
+    #: Own ranges of the keys that scale a sensor reading (``docs/box_pushing.md``, *Sensor ranges
+    #: and saturation*); a noise level scaled by ``noise`` must hold its range too (``check_relations``).
+    READING_LIMITS: ClassVar[dict[str, Limit]] = {
+        "noise": (0.0, 10.0, ""),
+        "light_noise": (0.0, 10.0, "(light units; 1 at 1 m from the lamp)"),
+        "light_noise_relative": (0.0, 1.0, ""),
+        "light_gain_spread": (0.0, 1.0, ""),
+        "sensor_range": (0.0, 10.0, "m"),
+        "sensor_noise": (0.0, 10.0, "m"),
+        "sensor_noise_relative": (0.0, 1.0, ""),
+        "encoder_noise": (0.0, 1.0, ""),
+        "encoder_resolution": (0.0, math.pi / 4, "rad (8 ticks per wheel turn)"),
+        "motor_noise": (0.0, 1.0, ""),
+        "max_wheel_speed": (0.0, 10.0, "m/s"),
+    }
 
     max_cycles: int = 6000
     situation: Literal["custom", "S1", "S2", "S3", "S4"] = "custom"
@@ -139,13 +164,9 @@ class BoxPushingConfig(EnvConfig):
 
     def check(self) -> None:
         super().check()
-        if self.situation in SITUATIONS:
-            for key, value in zip(("n_robots", "n_light_boxes", "n_heavy_boxes"), SITUATIONS[self.situation]):
-                require(self, key, getattr(self, key) == value, f"contradicts situation={self.situation!r} (which sets {value})")
         require(self, "n_robots", 1 <= self.n_robots <= 16, "must be in [1, 16]")
         require(self, "n_light_boxes", 0 <= self.n_light_boxes <= 8, "must be in [0, 8]")
         require(self, "n_heavy_boxes", 0 <= self.n_heavy_boxes <= 8, "must be in [0, 8]")
-        require(self, "n_heavy_boxes", self.n_light_boxes + self.n_heavy_boxes >= 1, "leaves no box (need at least one)")
         require(self, "n_spare_robots", 0 <= self.n_spare_robots <= 16, "must be in [0, 16]")
         require(self, "n_spare_boxes", 0 <= self.n_spare_boxes <= 8, "must be in [0, 8]")
         require(self, "support_points", 1 <= self.support_points <= 16, "must be in [1, 16]")
@@ -157,72 +178,118 @@ class BoxPushingConfig(EnvConfig):
         non_negative += ("time_penalty", "success_bonus")
         for key in non_negative:
             require(self, key, getattr(self, key) >= 0, "must be >= 0")
-        require(self, "object_threshold", self.object_threshold <= self.sensor_range, "must not exceed sensor_range")
-        for key in ("cruise_speed", "push_speed", "follow_speed"):
-            require(self, key, 0 < getattr(self, key) <= self.max_wheel_speed, "must be in (0, max_wheel_speed]")
-        half_base = 0.053 / 2
-        require(
-            self,
-            "turn_rate",
-            0 < self.turn_rate * half_base <= self.max_wheel_speed,
-            "must be in (0, 2·max_wheel_speed/wheel_base]",
-        )
-        require(
-            self,
-            "turn_step",
-            0 < self.turn_step / self.dt * half_base <= self.max_wheel_speed,
-            "must be > 0 and turnable in one step",
-        )
+        require_limits(self, self.READING_LIMITS)
+        for key in ("cruise_speed", "push_speed", "follow_speed", "turn_rate", "turn_step"):
+            require(self, key, getattr(self, key) > 0, "must be > 0")
         require(self, "direction_change_jitter", 0 <= self.direction_change_jitter <= math.pi / 2, "must be in [0, π/2] rad")
         require(self, "side_offset", 0 < self.side_offset <= 0.5, "must be in (0, 0.5] m")
         require(self, "follow_step", 0 < self.follow_step <= 0.5, "must be in (0, 0.5] m")
+        for kind in ("light", "heavy"):
+            require(self, f"{kind}_box_size", 0.03 <= getattr(self, f"{kind}_box_size") <= 0.4, "must be in [0.03, 0.4] m")
+            require(self, f"{kind}_box_mass", getattr(self, f"{kind}_box_mass") > 0, "must be > 0")
+        require(self, "boxes_to_goal", 0 <= self.boxes_to_goal <= 24, "must be in [0, 24] (0 = every box)")
+
+    def check_relations(self) -> None:
+        super().check_relations()
+        self._check_noise_levels()
+        if self.situation in SITUATIONS:
+            for key, value in zip(("n_robots", "n_light_boxes", "n_heavy_boxes"), SITUATIONS[self.situation]):
+                require_together(
+                    self, (key, "situation"), getattr(self, key) == value, f"situation={self.situation!r} sets {key}={value}"
+                )
+        require_together(
+            self, ("n_light_boxes", "n_heavy_boxes"), self.n_light_boxes + self.n_heavy_boxes >= 1, "they leave no box (need one)"
+        )
+        require_together(
+            self,
+            ("object_threshold", "sensor_range"),
+            self.object_threshold <= self.sensor_range,
+            "object_threshold must not exceed sensor_range",
+        )
+        for key in ("cruise_speed", "push_speed", "follow_speed"):
+            require_together(
+                self,
+                (key, "max_wheel_speed"),
+                getattr(self, key) <= self.max_wheel_speed,
+                f"{key} must not exceed max_wheel_speed",
+            )
+        half_base = 0.053 / 2
+        require_together(
+            self,
+            ("turn_rate", "max_wheel_speed"),
+            self.turn_rate * half_base <= self.max_wheel_speed,
+            "turn_rate must be in (0, 2·max_wheel_speed/wheel_base]",
+        )
+        require_together(
+            self,
+            ("turn_step", "dt", "max_wheel_speed"),
+            self.turn_step / self.dt * half_base <= self.max_wheel_speed,
+            "turn_step must be turnable in one step",
+        )
         self._check_boxes()
         self._check_lamp()
         self.parsed_events()
         total = self.n_light_boxes + self.n_heavy_boxes + self.n_spare_boxes
-        require(self, "boxes_to_goal", 0 <= self.boxes_to_goal <= total, f"must be in [0, {total}] (0 = every box)")
+        require_together(
+            self,
+            ("boxes_to_goal", "n_light_boxes", "n_heavy_boxes", "n_spare_boxes"),
+            self.boxes_to_goal <= total,
+            f"boxes_to_goal must be in [0, {total}] (0 = every box)",
+        )
+
+    def _check_noise_levels(self) -> None:
+        """Every noise level scaled by ``noise`` holds its range (the proximity noise also stays below the range)."""
+        for key in self.NOISE_KEYS:
+            level, top = self.noise_level(key), self.READING_LIMITS[key][1]
+            require_together(self, ("noise", key), level <= top, f"noise × {key} = {level:g} must not exceed {top:g}")
+        require_ring_noise(self, self.noise_level("sensor_noise"), ("noise", "sensor_noise", "sensor_range"))
 
     def _check_boxes(self) -> None:
+        """Light and heavy as paper 004 defines them: one robot slides a light box; a heavy box needs two."""
         force = self.max_motor_force
-        for kind in ("light", "heavy"):
-            require(self, f"{kind}_box_size", 0.03 <= getattr(self, f"{kind}_box_size") <= 0.4, "must be in [0.03, 0.4] m")
-            require(self, f"{kind}_box_mass", getattr(self, f"{kind}_box_mass") > 0, "must be > 0")
         light = self.box_friction * self.light_box_mass * GRAVITY
         heavy = self.box_friction * self.heavy_box_mass * GRAVITY
-        require(self, "light_box_mass", light < 0.9 * force, f"gives friction {light:.2f} N; one robot ({force} N) must slide it")
-        require(
+        require_together(
             self,
-            "heavy_box_mass",
+            ("light_box_mass", "box_friction", "max_motor_force"),
+            light < 0.9 * force,
+            f"a light box's friction box_friction·light_box_mass·g = {light:.2f} N must be below 0.9·max_motor_force "
+            f"({0.9 * force:.2f} N): one robot must slide it",
+        )
+        require_together(
+            self,
+            ("heavy_box_mass", "box_friction", "max_motor_force"),
             force < heavy < 2 * force,
-            f"gives friction {heavy:.2f} N; it must be in ({force}, {2 * force}) N",
+            f"a heavy box's friction box_friction·heavy_box_mass·g = {heavy:.2f} N must be in ({force}, {2 * force}) N:"
+            " one robot must not move it and two must",
         )
         if self.table_friction == "joint":
             # A robot pushing a corner exerts torque F·s/2; the ground's torque limit is μmg·⅔·r_eq (objects.Box).
             r_eq = math.sqrt(self.heavy_box_size**2 / math.pi)
-            require(
+            require_together(
                 self,
-                "heavy_box_mass",
+                ("heavy_box_mass", "heavy_box_size", "box_friction", "max_motor_force"),
                 heavy * 2 / 3 * r_eq > force * self.heavy_box_size / 2,
-                "lets one robot spin the box at a corner",
+                "they let one robot spin the heavy box at a corner",
             )
         else:
             weakest = heavy * weakest_push_ratio(self.table_friction, self.support_points)
-            require(
+            require_together(
                 self,
-                "heavy_box_mass",
+                ("heavy_box_mass", "box_friction", "max_motor_force", "table_friction", "support_points"),
                 weakest > force,
-                f"lets one robot turn the box at a corner ({weakest:.2f} N of friction there, {force} N of motor force;"
-                f" table_friction={self.table_friction!r})",
+                f"they let one robot turn the heavy box at a corner ({weakest:.2f} N of friction there, {force} N of force)",
             )
 
     def _check_lamp(self) -> None:
         x, y = self.lamp
         w, h = self.table_width, self.table_height
+        keys = ("lamp", "table_width", "table_height")
         inside = 0 <= x <= w and 0 <= y <= h
-        require(self, "lamp", not inside, "must be outside the table (beside it, paper 004 section 2.1)")
-        require(self, "lamp", -1 <= x <= w + 1 and -1 <= y <= h + 1, "must be within 1 m of the table")
+        require_together(self, keys, not inside, "the lamp must be outside the table (beside it, paper 004 section 2.1)")
+        require_together(self, keys, -1 <= x <= w + 1 and -1 <= y <= h + 1, "the lamp must be within 1 m of the table")
         outside = sorted(gap for gap in (x - w, -x, y - h, -y) if gap > 0)
-        require(self, "lamp", len(outside) == 1, "must face one wall (the goal), not a corner of the table")
+        require_together(self, keys, len(outside) == 1, "the lamp must face one wall (the goal), not a corner of the table")
 
     def noise_level(self, key: str) -> float:
         """The noise level ``key`` in effect: the config's value times the ``noise`` scale."""

@@ -16,9 +16,11 @@ field          shape  meaning
 =============  =====  ============================================================
 ``proximity``  (8,)   Khepera ring distances (m), ``sensor_range`` if free; rays as
                       in the paper's Fig. 3 (0 left, 1–4 front, 5 right, 6–7 back)
-``light``      (8,)   lamp intensity per sensor direction, I₀ max(0, cos)/d², I₀ = 1
+``light``      (8,)   lamp intensity per sensor direction, I₀ max(0, cos)/d², I₀ = 1;
+                      the sensor saturates at ``LIGHT_SATURATION`` (1000)
 ``encoders``   (4,)   last step's commanded left/right and actual left/right wheel
-                      rotation (rad); actual ≪ commanded is the paper's "no-rotation"
+                      rotation (rad); actual ≪ commanded is the paper's "no-rotation";
+                      saturates at ``teamgym.envs.bounds.wheel_rotation_limit``
 ``busy``       (1,)   1 while a multi-cycle primitive runs (its choices are ignored)
 ``stall``      (1,)   only with ``observe_stall=True``: the robot's consecutive stalled
                       cycles (wheel slip > 0.9) / ``STALL_CAP``, at most 1. A memory the
@@ -61,9 +63,11 @@ from gymnasium import spaces
 from teamgym.control.primitives import PrimitiveExecutor, PrimitiveParams
 from teamgym.envs.actions import ActionType, WheelSpeedAction
 from teamgym.envs.base import EpisodeOverError, TeamEnv
+from teamgym.envs.bounds import wheel_rotation_limit
 from teamgym.envs.box_pushing.actions import PrimitiveAction
 from teamgym.envs.box_pushing.config import SITUATIONS, BoxPushingConfig, BoxPushingV1Config, Event
 from teamgym.envs.box_pushing.scene import GoalWall, Placer
+from teamgym.envs.infos import InfoKey, metrics, unknown
 from teamgym.envs.spaces import Field, ObservationLayout
 from teamgym.sim.categories import OPAQUE, Category
 from teamgym.sim.objects import Box, Lamp
@@ -80,6 +84,10 @@ _STALL_SLIP = 0.9
 #: Consecutive stalled cycles at which the ``stall`` observation reads 1 (1 s at the default Δt).
 STALL_CAP = 10
 _BRAKE_FACTOR = 3.0
+#: Where the light sensor saturates (light units, I₀ = 1 at 1 m): 2.5 times the brightest
+#: noise-free reading, 400 at the sensor's 5 cm minimum distance; reached only with the lamp
+#: beside the table and strong gains or noise (the default lamp gives at most about 80).
+LIGHT_SATURATION = 1000.0
 
 
 class BoxPushing(TeamEnv):
@@ -106,8 +114,10 @@ class BoxPushing(TeamEnv):
             blockers=blockers,
             relative_noise=level("light_noise_relative"),
             gain_spread=level("light_gain_spread"),
+            saturation=LIGHT_SATURATION,
         )
-        encoders = WheelEncoders(level("encoder_noise"), c.effective_encoder_resolution)
+        self.encoder_limit = wheel_rotation_limit(c, self.spec_robot)
+        encoders = WheelEncoders(level("encoder_noise"), c.effective_encoder_resolution, self.encoder_limit)
         self.sensors = SensorSuite({"proximity": self.ring, "light": self.light, "encoders": encoders})
         self.goal = GoalWall(c.goal_side(), c.table_width, c.table_height)
         self.object_threshold = c.object_threshold
@@ -148,8 +158,13 @@ class BoxPushing(TeamEnv):
         return PrimitiveAction()
 
     def _make_layout(self) -> ObservationLayout:
-        rays = len(KHEPERA_RING)
-        fields = [("proximity", (rays,)), ("light", (rays,)), ("encoders", (4,)), ("busy", (1,))]
+        rays, c = len(KHEPERA_RING), self.config
+        fields = [
+            Field("proximity", (rays,), 0.0, c.sensor_range),
+            Field("light", (rays,), 0.0, LIGHT_SATURATION),
+            Field("encoders", (4,), -self.encoder_limit, self.encoder_limit),
+            Field("busy", (1,), 0.0, 1.0),
+        ]
         if self.config.observe_stall:
             fields.append(Field("stall", (1,), 0.0, 1.0))
         return ObservationLayout(fields)
@@ -193,10 +208,10 @@ class BoxPushing(TeamEnv):
             self._place_box(heavy, x, y, angle)
         for x, y, heading in robots:
             self._place_robot(x, y, heading)
-        self.agents = [a for a in self.possible_agents if a in self.robots]
+        self.live_agents = [a for a in self.possible_agents if a in self.robots]
         self._joining = []
         self.world.read_states()
-        self._read_sensors(self.agents)
+        self._read_sensors(self.live_agents)
 
     def _before_physics(self) -> None:
         """Motor noise: each wheel's commanded speed is scaled by 1 + N(0, σ²), σ = ``noise`` × ``motor_noise``."""
@@ -204,8 +219,8 @@ class BoxPushing(TeamEnv):
         if noise <= 0:
             return
         base = self.spec_robot.wheel_base
-        draws = self.np_random.normal(1.0, noise, size=(len(self.agents), 2))
-        for agent, (a, b) in zip(self.agents, draws.tolist()):
+        draws = self.np_random.normal(1.0, noise, size=(len(self.live_agents), 2))
+        for agent, (a, b) in zip(self.live_agents, draws.tolist()):
             robot = self.robots[agent]
             left, right = wheel_speeds(*robot.command, base)
             robot.set_command(*body_command(left * a, right * b, base))
@@ -236,12 +251,12 @@ class BoxPushing(TeamEnv):
 
     def _sense(self) -> None:
         """Sensors of the robots that go on, including robots added by events in this step."""
-        going_on = [a for a in [*self.agents, *self._joining] if not (self._success or a in self._leaving)]
+        going_on = [a for a in [*self.live_agents, *self._joining] if not (self._success or a in self._leaving)]
         self._read_sensors(going_on)
 
     def _terminations(self) -> dict[str, bool]:
         """Every robot on success; removed and broken robots (their status is recorded)."""
-        terminations = {a: self._success or a in self._leaving for a in self.agents}
+        terminations = {a: self._success or a in self._leaving for a in self.live_agents}
         for agent, status in self._leaving.items():
             self._status[agent] = status
             self.executors[agent].cancel()
@@ -249,14 +264,19 @@ class BoxPushing(TeamEnv):
         return terminations
 
     def _observe(self, out: np.ndarray) -> None:
-        if not self.agents:
+        if not self.live_agents:
             return
         rows = self._live_rows()
         s = self.layout.slices
         out[:, : self.sensors.width] = self._readings[rows]
-        out[:, s["busy"].start] = [float(self.executors[a].busy) for a in self.agents]
+        out[:, s["busy"].start] = [float(self.executors[a].busy) for a in self.live_agents]
         if "stall" in s:
             out[:, s["stall"].start] = np.minimum(self._stall_run[rows], STALL_CAP) / STALL_CAP
+
+    def _info_keys(self) -> dict[str, InfoKey]:
+        """Counts from reset on; ``time_to_goal`` (s) NaN until the team succeeds."""
+        keys = ("boxes_delivered", "box_progress", "path_length", "collisions", "stalled_steps", "broken_down", "removed")
+        return {**metrics(*keys), **unknown("time_to_goal")}
 
     def _metrics(self, agent: str) -> dict[str, Any]:
         i = self._index[agent]
@@ -405,7 +425,7 @@ class BoxPushing(TeamEnv):
 
     # -- checks and spots -------------------------------------------------------------------
     def _require_running(self, what: str) -> None:
-        if self.world is None or not self.agents:
+        if self.world is None or not self.live_agents:
             raise EpisodeOverError(f"{what}() needs a running episode; call reset() first")
 
     def _check_spare(self) -> None:
@@ -418,8 +438,8 @@ class BoxPushing(TeamEnv):
         self._require_running(what)
         if agent not in self.possible_agents:
             raise KeyError(f"{what}: unknown agent {agent!r}; possible agents are {self.possible_agents}")
-        if agent not in self.agents or agent in self._leaving:
-            raise ValueError(f"{what}: {agent!r} is not a live agent; live agents are {self.agents}")
+        if agent not in self.live_agents or agent in self._leaving:
+            raise ValueError(f"{what}: {agent!r} is not a live agent; live agents are {self.live_agents}")
 
     def _box_slot(self, name: str) -> int:
         for slot, box in enumerate(self.boxes):
@@ -435,7 +455,7 @@ class BoxPushing(TeamEnv):
     def _robot_spot(self, position, heading) -> tuple[float, float, float]:
         r = self.spec_robot.radius
         theta = float(self.np_random.uniform(-np.pi, np.pi)) if heading is None else _finite(heading, "heading")
-        placer = Placer(self.config.table_width, self.config.table_height, self.np_random)
+        placer = Placer(self.config.table_width, self.config.table_height, self.np_random, type(self.config).__name__)
         if position is None:
             x, y = placer.sample(r, _ROBOT_WALL_GAP, self._occupied(), _ROBOT_CLEARANCE, "robot")
             return x, y, theta
@@ -451,7 +471,7 @@ class BoxPushing(TeamEnv):
             theta = _finite(angle, "angle")
         else:
             theta = float(self.np_random.uniform(0, np.pi / 2)) if self.config.box_orientation == "random" else 0.0
-        placer = Placer(c.table_width, c.table_height, self.np_random)
+        placer = Placer(c.table_width, c.table_height, self.np_random, type(c).__name__)
         radius = half * math.sqrt(2)
         if position is None:
             x, y = placer.sample(radius, c.box_margin, self._occupied(), 2 * self.spec_robot.radius, "box")
@@ -474,7 +494,7 @@ class BoxPushing(TeamEnv):
     def _sample_initial(self, rng: np.random.Generator) -> tuple[list, list]:
         """Initial boxes (not touching walls, section 4) and robots, as ``(heavy, (x, y, angle))`` and ``(x, y, θ)``."""
         c = self.config
-        placer = Placer(c.table_width, c.table_height, rng)
+        placer = Placer(c.table_width, c.table_height, rng, type(c).__name__)
         occupied: list[tuple[float, float, float]] = []
         boxes = []
         for heavy in [False] * c.n_light_boxes + [True] * c.n_heavy_boxes:

@@ -63,21 +63,23 @@ class Placer:
     ``clearance`` from each of them and its own margin from the walls.
     """
 
-    def __init__(self, width: float, height: float, rng: np.random.Generator) -> None:
+    def __init__(self, width: float, height: float, rng: np.random.Generator, owner: str = "BoxPushingConfig") -> None:
         self.width, self.height, self.rng = width, height, rng
+        #: The config class named in errors (``BoxPushingV1Config`` on v1).
+        self.owner = owner
 
     def sample(
         self, radius: float, wall_gap: float, occupied: list[tuple[float, float, float]], clearance: float, what: str
     ) -> tuple[float, float]:
         low = radius + wall_gap
         if 2 * low >= min(self.width, self.height):
-            raise ConfigError(f"BoxPushingConfig: a {what} of radius {radius:.3f} m with wall gap {wall_gap} m does not fit")
+            raise ConfigError(f"{self.owner}: a {what} of radius {radius:.3f} m with wall gap {wall_gap} m does not fit")
         for _ in range(5000):
             x = float(self.rng.uniform(low, self.width - low))
             y = float(self.rng.uniform(low, self.height - low))
             if self.is_free(x, y, radius, occupied, clearance):
                 return x, y
-        raise ConfigError(f"BoxPushingConfig: no free spot for a {what}; the table is too crowded")
+        raise ConfigError(f"{self.owner}: no free spot for a {what}; the table is too crowded")
 
     @staticmethod
     def is_free(x: float, y: float, radius: float, occupied: list[tuple[float, float, float]], clearance: float) -> bool:

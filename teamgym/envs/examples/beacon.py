@@ -31,7 +31,7 @@ Reward per step: ``progress_reward`` × (decrease of the distance to the beacon,
 − ``time_penalty`` − ``collision_penalty`` × (contacts begun in the step).
 Metrics in ``infos[agent]``: ``distance_to_beacon`` (m), ``beacon_seen`` (0/1),
 ``collisions`` (this episode) and the channel counters (``bytes_sent``, ...) from ``reset`` on.
-Reset options fix a scene: ``{"beacon": (x, y), "starts": [(x, y, θ), ...]}`` (other keys ignored).
+Reset options fix a scene: ``{"beacon": (x, y), "starts": [(x, y, θ), ...]}`` (other keys are refused).
 """
 
 from __future__ import annotations
@@ -46,7 +46,9 @@ from pettingzoo import AECEnv
 
 from teamgym.envs.actions import ActionType, VelocityAction
 from teamgym.envs.base import TeamEnv
-from teamgym.envs.config import ConfigError, EnvConfig, require
+from teamgym.envs.config import ConfigError, EnvConfig, require, require_together
+from teamgym.envs.infos import InfoKey, metrics
+from teamgym.envs.reset_input import scene_points
 from teamgym.envs.spaces import Field, ObservationLayout
 from teamgym.sim.render import Overlay
 from teamgym.sim.robot import DiffDriveRobot, RobotSpec, wrap_angle
@@ -78,19 +80,35 @@ class BeaconConfig(EnvConfig):
 
     def check(self) -> None:
         super().check()
-        r = SPEC.radius
         require(self, "n_robots", 1 <= self.n_robots <= 16, "must be in [1, 16]")
         require(self, "arena_size", 0.5 <= self.arena_size <= 20, "must be in [0.5, 20] m")
-        require(self, "sense_range", 0 < self.sense_range <= self.arena_size, "must be in (0, arena_size] m")
-        require(self, "goal_radius", 0.05 <= self.goal_radius <= self.sense_range, "must be in [0.05, sense_range] m")
-        fits = self.n_robots * (2 * r) ** 2 <= 0.25 * math.pi * self.goal_radius**2
-        require(self, "goal_radius", fits, f"is too small for {self.n_robots} robots to gather in")
+        require(self, "sense_range", 0 < self.sense_range <= 20, "must be in (0, 20] m")
+        require(self, "goal_radius", 0.05 <= self.goal_radius <= 20, "must be in [0.05, 20] m")
         require(self, "sensor_range", 0 < self.sensor_range <= 1, "must be in (0, 1] m")
         require(self, "sensor_noise", self.sensor_noise >= 0, "must be >= 0 m")
         for key in ("progress_reward", "time_penalty", "collision_penalty"):
             require(self, key, getattr(self, key) >= 0, "must be >= 0")
+
+    def check_relations(self) -> None:
+        super().check_relations()
+        r = SPEC.radius
+        require_together(
+            self, ("sense_range", "arena_size"), self.sense_range <= self.arena_size, "sense_range must not exceed arena_size"
+        )
+        require_together(
+            self, ("goal_radius", "sense_range"), self.goal_radius <= self.sense_range, "goal_radius must not exceed sense_range"
+        )
+        fits = self.n_robots * (2 * r) ** 2 <= 0.25 * math.pi * self.goal_radius**2
+        require_together(
+            self, ("goal_radius", "n_robots"), fits, f"the goal is too small for {self.n_robots} robots to gather in"
+        )
         side = self.arena_size - 2 * (r + 0.05)
-        require(self, "n_robots", self.n_robots * (4 * r) ** 2 <= 0.5 * side**2, "leaves too little room in this arena")
+        require_together(
+            self,
+            ("n_robots", "arena_size"),
+            self.n_robots * (4 * r) ** 2 <= 0.5 * side**2,
+            "they leave too little room in this arena",
+        )
 
 
 class Beacon(TeamEnv):
@@ -98,6 +116,7 @@ class Beacon(TeamEnv):
 
     metadata = {**TeamEnv.metadata, "name": "beacon_v0"}
     config_class = BeaconConfig
+    reset_option_keys = ("beacon", "starts")
     uses_channel = True  # beacon reports: channel counters in infos from reset on
     config: BeaconConfig
 
@@ -161,19 +180,13 @@ class Beacon(TeamEnv):
             else:
                 raise ConfigError(f"BeaconConfig: could not place {c.n_robots} robots in a {s} m arena")
             starts[i] = (p[0], p[1], rng.uniform(-math.pi, math.pi))
-        if "beacon" in self.reset_options:
-            beacon = self._option("beacon", (2,), 0.0)
-        if "starts" in self.reset_options:
-            starts = self._option("starts", (c.n_robots, 3), r)
-        return beacon, starts
+        return self.reset_options.get("beacon", beacon), self.reset_options.get("starts", starts)
 
-    def _option(self, key: str, shape: tuple[int, ...], margin: float) -> np.ndarray:
-        """Reset option ``key`` as a float array of ``shape`` whose points lie ``margin`` inside the arena."""
-        value = np.asarray(self.reset_options[key], dtype=float)
-        xy = value[..., :2] if value.shape == shape else np.array(np.nan)
-        if not np.all((xy >= margin) & (xy <= self.config.arena_size - margin)):  # NaN fails too
-            raise ValueError(f"reset option {key!r}={self.reset_options[key]!r} must have shape {shape}, points in the arena")
-        return value
+    def _check_reset_options(self, options: dict) -> dict:
+        """``beacon`` ``(2,)`` and ``starts`` ``(n, 3)``, points in the arena (starts a radius inside), or ValueError."""
+        c, size = self.config, (self.config.arena_size, self.config.arena_size)
+        shapes = {"beacon": ((2,), 0.0), "starts": ((c.n_robots, 3), SPEC.radius)}
+        return {key: scene_points(key, value, shapes[key][0], size, shapes[key][1]) for key, value in options.items()}
 
     # -- step phases, in the order TeamEnv.step runs them -----------------------------------
     def _read_world(self) -> None:
@@ -194,7 +207,7 @@ class Beacon(TeamEnv):
         self._success = bool(np.all(self._distance <= self.config.goal_radius))
 
     def _accumulate_rewards(self, total: np.ndarray) -> None:
-        c, live = self.config, [self._row[a] for a in self.agents]
+        c, live = self.config, [self._row[a] for a in self.live_agents]
         total[live] += c.progress_reward * self._progress[live] - c.time_penalty - c.collision_penalty * self._hits[live]
 
     def _read_sensors(self) -> None:
@@ -205,17 +218,17 @@ class Beacon(TeamEnv):
         """Sensing phase: read the sensors; robots that see the beacon broadcast it (delivered this step)."""
         self._read_sensors()
         payload = np.asarray(self.beacon, dtype=np.float32)
-        for agent in self.agents:
+        for agent in self.live_agents:
             if self._seen[self._row[agent]]:
                 self.channel.send(agent, payload, size=REPORT_BYTES, kind="beacon")
 
     def _terminations(self) -> dict[str, bool]:
-        return dict.fromkeys(self.agents, self._success)
+        return dict.fromkeys(self.live_agents, self._success)
 
     # -- outputs ------------------------------------------------------------------------------
     def _observe(self, out: np.ndarray) -> None:
         view, s = self.layout.view, self.config.arena_size
-        for obs, agent in zip(out, self.agents):
+        for obs, agent in zip(out, self.live_agents):
             i = self._row[agent]
             view(obs, "position")[:] = np.clip(self._pos[i], 0.0, s)
             view(obs, "heading")[0] = self._theta[i]
@@ -226,6 +239,10 @@ class Beacon(TeamEnv):
             packed = self.channel.inbox_array(agent, width=2, capacity=self.capacity, kind="beacon")
             view(obs, "reports")[:] = packed.payload
             view(obs, "report_mask")[:] = packed.mask
+
+    def _info_keys(self) -> dict[str, InfoKey]:
+        """Every key of ``_metrics``, known from reset on (a key a task adds later holds NaN until known: ``unknown``)."""
+        return metrics("distance_to_beacon", "beacon_seen", "collisions")
 
     def _metrics(self, agent: str) -> dict[str, Any]:
         i = self._row[agent]

@@ -64,16 +64,20 @@ from gymnasium import spaces
 from teamgym.control.watcher import TASK_REASONS, TaskWatcher, WatcherState
 from teamgym.envs.actions import ActionType, VelocityAction
 from teamgym.envs.base import EpisodeOverError, TeamEnv
+from teamgym.envs.bounds import region, speed_limits
 from teamgym.envs.config import ConfigError
 from teamgym.envs.exploration.config import ExplorationConfig, cached_map
 from teamgym.envs.exploration.operators import OperatorAction, OperatorSet, TaskFactory
-from teamgym.envs.spaces import ObservationLayout
-from teamgym.maps.build import build_world
+from teamgym.envs.infos import InfoKey, categorical, metrics, unknown
+from teamgym.envs.spaces import Field, ObservationLayout
+from teamgym.maps.build import map_entities
 from teamgym.maps.model import OfficeMap
 from teamgym.maps.topology import ClutterEstimate, TopologicalModel
 from teamgym.sim.geometry import distance_to_polygon
+from teamgym.sim.objects import Door
 from teamgym.sim.render import Overlay
 from teamgym.sim.robot import DiffDriveRobot, RobotSpec
+from teamgym.sim.scene import StaticScene
 from teamgym.sim.sensors import KHEPERA_RING, ProximityRing
 from teamgym.sim.world import World
 
@@ -102,6 +106,11 @@ class Exploration(TeamEnv):
         self._rects = np.array([[s.x_min, s.y_min, s.x_max, s.y_max] for s in office.sectors])
         self._door_centres = np.array([d.centre for d in office.doors]).reshape(-1, 2)
         self._door_radii = np.array([d.radius for d in office.doors])
+        # Walls, doors and furniture, built once and placed in every episode's world first (teamgym.sim.scene).
+        entities = map_entities(office, furniture=c.furniture)
+        self._scene = StaticScene(entities)
+        #: The doors by id (the scene's; their state is drawn at every reset).
+        self.doors: dict[str, Door] = {e.name: e for e in entities if isinstance(e, Door)}
         goals = c.goal_sectors or tuple(office.sector_ids)
         self.goal = np.array([s in goals for s in office.sector_ids])
         n, v = c.n_robots, self.n_sectors + self.n_doors
@@ -130,29 +139,35 @@ class Exploration(TeamEnv):
         return OperatorAction(self.operator_set)
 
     def _make_layout(self) -> ObservationLayout:
-        n, s, d = self.config.n_robots, len(self.map.sectors), len(self.map.doors)
+        """The fields of the module docstring; the map's walls keep robots in its workspace."""
+        c, n, s, d = self.config, self.config.n_robots, len(self.map.sectors), len(self.map.doors)
+        low, high = region(c, self.map.size, walled=True)
+        v, omega = speed_limits(c, self.spec_robot)
         return ObservationLayout(
             [
-                ("pose", (3,)),
-                ("velocity", (2,)),
-                ("sector", (s,)),
-                ("place", (s + d,)),
-                ("proximity", (len(KHEPERA_RING),)),
-                ("mates_sector", (n - 1, s)),
-                ("mates_place", (n - 1, s + d)),
-                ("visited", (s,)),
-                ("goal", (s,)),
-                ("door_belief", (d,)),
-                ("clutter", (s,)),
-                ("task_status", (len(WatcherState),)),
-                ("task", (1,)),
+                Field("pose", (3,), [*low, -math.pi], [*high, math.pi]),
+                Field("velocity", (2,), [-v, -omega], [v, omega]),
+                Field("sector", (s,), 0.0, 1.0),
+                Field("place", (s + d,), 0.0, 1.0),
+                Field("proximity", (len(KHEPERA_RING),), 0.0, c.sensor_range),
+                Field("mates_sector", (n - 1, s), 0.0, 1.0),
+                Field("mates_place", (n - 1, s + d), 0.0, 1.0),
+                Field("visited", (s,), 0.0, 1.0),
+                Field("goal", (s,), 0.0, 1.0),
+                Field("door_belief", (d,), 0.0, 1.0),
+                Field("clutter", (s,), 0.0, 1.0),
+                Field("task_status", (len(WatcherState),), 0.0, 1.0),
+                Field("task", (1,), -1.0, len(self.operators) - 1),
             ]
         )
 
     def _build(self, rng: np.random.Generator) -> None:
         c, office = self.config, self.map
         self.world = World(office.size, **c.world_options())
-        self.doors = build_world(office, self.world, self._sample_doors(rng), furniture=c.furniture)
+        self._scene.release()  # out of the last episode's world, so that doors close without a check
+        for door_id, is_open in self._sample_doors(rng).items():
+            self._apply_door(door_id, is_open)
+        self._scene.place(self.world)
         starts, headings = self._sample_starts(rng)
         self.robots = {}
         for agent, start, heading in zip(self.possible_agents, starts, headings):
@@ -211,21 +226,33 @@ class Exploration(TeamEnv):
         margin = r + office.wall_thickness / 2 + 0.01
         starts: list[tuple[float, float]] = []
         for name in names:
-            s = office.sector(name)
-            if c.start_positions == "centre" and self._free(s.centre, starts, r):
-                starts.append(s.centre)
-                continue
-            for _ in range(2000):
-                p = (
-                    float(rng.uniform(s.x_min + margin, s.x_max - margin)),
-                    float(rng.uniform(s.y_min + margin, s.y_max - margin)),
+            p = self._place_in(office.sector(name), starts, r, margin, rng)
+            if p is None and not c.start_sectors:  # a sector full of robots (more robots than sectors): try the others
+                p = next(
+                    (
+                        q
+                        for k in rng.permutation(len(ids))
+                        if (q := self._place_in(office.sector(ids[k]), starts, r, margin, rng))
+                    ),
+                    None,
                 )
-                if self._free(p, starts, r):
-                    starts.append(p)
-                    break
-            else:
-                raise RuntimeError(f"could not place a robot in sector {name!r} clear of furniture, doors and other robots")
+            if p is None:
+                raise ConfigError(
+                    f"ExplorationConfig: n_robots={n} robots do not fit clear of furniture, doors and each other "
+                    f"(sector {name!r} is full{'' if c.start_sectors else ', and so is every other'}); use fewer robots"
+                )
+            starts.append(p)
         return starts, rng.uniform(-np.pi, np.pi, size=n)
+
+    def _place_in(self, s, starts: list, r: float, margin: float, rng: np.random.Generator) -> tuple[float, float] | None:
+        """A free start in sector ``s`` (its centre if ``start_positions="centre"`` and free), or None after 2,000 tries."""
+        if self.config.start_positions == "centre" and self._free(s.centre, starts, r):
+            return s.centre
+        for _ in range(2000):
+            p = (float(rng.uniform(s.x_min + margin, s.x_max - margin)), float(rng.uniform(s.y_min + margin, s.y_max - margin)))
+            if self._free(p, starts, r):
+                return p
+        return None
 
     def _free(self, p: tuple[float, float], others: list[tuple[float, float]], r: float) -> bool:
         office = self.map
@@ -277,7 +304,7 @@ class Exploration(TeamEnv):
             sector = self.map.sector_ids[self._sector[i]]
             watcher.assign(self._tasks.make(self.operators[op], sector), time, states[i, :2], self.robot_list[i].odometer)
             self._task_sector[i] = self._sector[i]
-        self._stage_robots = [self._index[a] for a in self.agents]
+        self._stage_robots = [self._index[a] for a in self.live_agents]
         self._stage_start = self.cycles
         self._stage_ended = False
 
@@ -388,13 +415,13 @@ class Exploration(TeamEnv):
         return bool(np.all(self.visited[self.goal]))
 
     def _terminations(self) -> dict[str, bool]:
-        return dict.fromkeys(self.agents, self._all_explored())
+        return dict.fromkeys(self.live_agents, self._all_explored())
 
     # -- observations, metrics -------------------------------------------------------
     def _observe(self, out: np.ndarray) -> None:
         layout = self.layout
         states = self.world.robot_states
-        for row, agent in enumerate(self.agents):
+        for row, agent in enumerate(self.live_agents):
             i = self._index[agent]
             buffer = out[row]
             buffer[0:3] = states[i, :3]
@@ -416,6 +443,19 @@ class Exploration(TeamEnv):
             watcher = self._watchers[i]
             layout.view(buffer, "task_status")[int(watcher.state)] = 1.0
             layout.view(buffer, "task")[0] = watcher.task.key if watcher.task is not None else -1
+
+    def _info_keys(self) -> dict[str, InfoKey]:
+        """Counts from reset on, ``explore_time`` (s) NaN until every goal sector is explored; ``sector``, ``place``
+        and (operators) ``task``, ``task_status``, ``task_reason`` are categorical (``decode_info`` names them)."""
+        keys = {
+            **metrics("explored", "explored_fraction", "explored_all", "path_length", "team_path_length", "collisions"),
+            **categorical("sector", "place"),
+            **unknown("explore_time"),
+        }
+        if self.action_type.is_macro:
+            keys.update(metrics("stages", "tasks_completed", "tasks_failed"))
+            keys.update(categorical("task", "task_status", "task_reason"))
+        return keys
 
     def _metrics(self, agent: str) -> dict[str, Any]:
         return self._metrics_of([agent])[agent]

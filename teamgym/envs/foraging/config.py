@@ -6,7 +6,7 @@ import math
 from dataclasses import dataclass
 from typing import ClassVar, Literal
 
-from teamgym.envs.config import EnvConfig, require
+from teamgym.envs.config import EnvConfig, require, require_together
 from teamgym.envs.foraging.grid import GridSpec
 from teamgym.sim.robot import RobotSpec
 
@@ -38,10 +38,13 @@ class ForagingConfig(EnvConfig):
     ``rotational_certainty`` is Pe of eq. (2) (certainty kept per radian turned);
     ``odometry_rotation_noise`` is the heading error (rad) per radian turned and
     ``odometry_distance_noise`` the position error (m) per metre travelled (0 and 0: exact
-    odometry).
+    odometry). Ranges: ``vision_noise`` [0, 10] (σ_d up to 1.5 m, σ_b up to 1 rad; measured
+    distances saturate at ``camera_range`` + 1 m, bearings wrap to [−π, π]), the odometry
+    noises [0, 1].
     """
 
     body_speed_keys: ClassVar[tuple[str, ...]] = ("max_speed",)
+    cycle_limit_keys: ClassVar[tuple[str, ...]] = ("max_cycles", "time_limit", "dt")
     default_body_speed: ClassVar[float] = 0.0
 
     max_cycles: int = 1_000_000
@@ -76,16 +79,14 @@ class ForagingConfig(EnvConfig):
         require(self, "field_size", 0.5 <= width <= 50 and 0.5 <= height <= 50, "must be (width, height) in [0.5, 50] m")
         require(self, "n_robots", 1 <= self.n_robots <= 16, "must be in [1, 16]")
         require(self, "n_targets", 1 <= self.n_targets <= 32, "must be in [1, 32]")
-        if self.task == "surround":
-            require(self, "robots_per_target", 1 <= self.robots_per_target <= self.n_robots, "must be in [1, n_robots]")
-        require(self, "consume_time", 0 < self.consume_time <= self.time_limit, "must be in (0, time_limit] s")
+        require(self, "robots_per_target", 1 <= self.robots_per_target <= 16, "must be in [1, 16]")
+        require(self, "consume_time", 0 < self.consume_time <= 100_000, "must be in (0, 100000] s")
         require(self, "time_limit", 0 < self.time_limit <= 100_000, "must be in (0, 100000] s")
-        require(self, "cell_size", 0.05 <= self.cell_size <= min(width, height) / 2, "must be in [0.05 m, half the field]")
-        perimeter = 2 * (width + height)
-        require(self, "landmark_spacing", 0.1 <= self.landmark_spacing <= perimeter, "must be in [0.1 m, the perimeter]")
+        require(self, "cell_size", 0.05 <= self.cell_size <= 25, "must be in [0.05, 25] m")
+        require(self, "landmark_spacing", 0.1 <= self.landmark_spacing <= 200, "must be in [0.1, 200] m")
         require(self, "robot_radius", 0.02 <= self.robot_radius <= 0.5, "must be in [0.02, 0.5] m")
         require(self, "max_speed", 0.01 <= self.max_speed <= 5, "must be in [0.01, 5] m/s")
-        require(self, "reach_radius", self.robot_radius <= self.reach_radius <= 2.0, "must be in [robot_radius, 2] m")
+        require(self, "reach_radius", 0.02 <= self.reach_radius <= 2.0, "must be in [0.02, 2] m")
         require(self, "camera_range", 0.1 <= self.camera_range <= 100, "must be in [0.1, 100] m")
         require(self, "camera_fov", 0.05 <= self.camera_fov <= 2 * math.pi, "must be in [0.05, 2π] rad")
         require(self, "vision_noise", 0 <= self.vision_noise <= 10, "must be in [0, 10]")
@@ -94,11 +95,46 @@ class ForagingConfig(EnvConfig):
         require(self, "odometry_distance_noise", 0 <= self.odometry_distance_noise <= 1, "must be in [0, 1] m/m")
         for key in ("consume_reward", "progress_reward", "time_penalty"):
             require(self, key, getattr(self, key) >= 0, "must be >= 0")
+
+    def check_relations(self) -> None:
+        super().check_relations()
+        width, height = self.field_size
+        if self.task == "surround":
+            require_together(
+                self,
+                ("robots_per_target", "n_robots", "task"),
+                self.robots_per_target <= self.n_robots,
+                "surrounding needs robots_per_target <= n_robots",
+            )
+        require_together(
+            self, ("consume_time", "time_limit"), self.consume_time <= self.time_limit, "consume_time must not exceed time_limit"
+        )
+        require_together(
+            self,
+            ("cell_size", "field_size"),
+            self.cell_size <= min(width, height) / 2,
+            "cell_size must be at most half the field",
+        )
+        perimeter = 2 * (width + height)
+        require_together(
+            self,
+            ("landmark_spacing", "field_size"),
+            self.landmark_spacing <= perimeter,
+            f"landmark_spacing must not exceed the field's perimeter ({perimeter:g} m)",
+        )
+        require_together(
+            self, ("reach_radius", "robot_radius"), self.robot_radius <= self.reach_radius, "reach_radius must be >= robot_radius"
+        )
         # Room: robots and targets are placed apart; ask for at most a third of the free area.
         margin = self.robot_radius + 0.02
         free = max(0.0, width - 2 * margin) * max(0.0, height - 2 * margin)
         needed = (self.n_robots * (3 * self.robot_radius) ** 2) + self.n_targets * (2 * self.reach_radius) ** 2
-        require(self, "n_robots", needed <= free / 3, f"and n_targets={self.n_targets} leave too little room on this field")
+        require_together(
+            self,
+            ("n_robots", "n_targets", "field_size", "robot_radius", "reach_radius"),
+            needed <= free / 3,
+            "they leave too little room on this field (robots and targets may take a third of it)",
+        )
 
     @property
     def cycle_limit(self) -> int:

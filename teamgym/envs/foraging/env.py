@@ -69,6 +69,8 @@ from teamgym.envs.foraging.perception import (
     packet_bytes,
     visibility,
 )
+from teamgym.envs.infos import InfoKey, metrics, unknown
+from teamgym.envs.reset_input import scene_points
 from teamgym.envs.spaces import Field, ObservationLayout
 from teamgym.sim.objects import Target
 from teamgym.sim.render import Overlay
@@ -87,6 +89,7 @@ class Foraging(TeamEnv):
 
     metadata = {**TeamEnv.metadata, "name": "foraging_v0"}
     config_class = ForagingConfig
+    reset_option_keys = ("targets", "starts")
     uses_channel = True
     config: ForagingConfig
     pixels_per_metre = 160.0
@@ -134,7 +137,7 @@ class Foraging(TeamEnv):
             Field("pose_estimate", (3,), [-w, -h, -math.pi], [2 * w, 2 * h, math.pi]),
             Field("localisation_certainty", (1,), 0.0, 1.0),
             Field("detections", (d, 4), 0.0, [SENDER, top, top, 1.0]),
-            Field("detection_polar", (d, 2), [0.0, -math.pi], [c.camera_range + 1.0, math.pi]),
+            Field("detection_polar", (d, 2), [0.0, -math.pi], [self.vision.max_distance, math.pi]),
             Field("detection_mask", (d,), 0, 1, np.int8),
             Field("received", (r, 4), 0.0, [SENDER, top, top, 1.0]),
             Field("received_sender", (r,), -1, c.n_robots - 1, np.int32),
@@ -179,10 +182,8 @@ class Foraging(TeamEnv):
         if scene is None:
             raise ConfigError("ForagingConfig: the scene could not be placed (see make()'s feasibility check)")
         targets, starts = scene
-        if "targets" in self.reset_options:
-            targets = self._option("targets", (c.n_targets, 2), 0.0)
-        if "starts" in self.reset_options:
-            starts = self._option("starts", (c.n_robots, 3), self.spec.radius)
+        targets = self.reset_options.get("targets", targets)
+        starts = self.reset_options.get("starts", starts)
         self.world = World(self.grid_size, **c.world_options())
         self.world.add_boundary()
         self.robots = {
@@ -219,14 +220,11 @@ class Foraging(TeamEnv):
             self.models = {a: GridWorldModel(self.grid, n, i) for i, a in enumerate(self.possible_agents)}
         self._sense()
 
-    def _option(self, key: str, shape: tuple[int, ...], margin: float) -> np.ndarray:
-        value = np.asarray(self.reset_options[key], dtype=float)
-        xy = value[..., :2] if value.shape == shape else np.array(np.nan)
-        (w, h) = self.grid_size
-        inside = (xy[..., 0] >= margin) & (xy[..., 0] <= w - margin) & (xy[..., 1] >= margin) & (xy[..., 1] <= h - margin)
-        if not np.all(inside):  # NaN fails too
-            raise ValueError(f"reset option {key!r}={self.reset_options[key]!r} must have shape {shape}, points in the field")
-        return value
+    def _check_reset_options(self, options: dict) -> dict:
+        """``targets`` ``(n_targets, 2)`` and ``starts`` ``(n_robots, 3)``: points in the field (starts a radius inside)."""
+        c, size = self.config, self.grid_size
+        shapes = {"targets": ((c.n_targets, 2), 0.0), "starts": ((c.n_robots, 3), self.spec.radius)}
+        return {key: scene_points(key, value, shapes[key][0], size, shapes[key][1]) for key, value in options.items()}
 
     # -- step phases --------------------------------------------------------------------------
     def _read_pose(self) -> np.ndarray:
@@ -275,7 +273,7 @@ class Foraging(TeamEnv):
         """Goals phase: consume (a robot stayed ``consume_time``) or surround (enough robots at once)."""
         c, now = self.config, self.world.time
         self._finished_now = 0
-        live = np.array([a in self.agents for a in self.possible_agents])
+        live = np.array([a in self.live_agents for a in self.possible_agents])
         if c.task == "consume":
             self._timer[self._at >= 0] += c.dt
             done = np.unique(self._at[(self._at >= 0) & (self._timer >= c.consume_time - 1e-9) & live])
@@ -349,7 +347,7 @@ class Foraging(TeamEnv):
         """Landmark sightings: the nearest landmark in view re-localises a robot when its Pv ≥ Pl."""
         odometry = self.odometry
         for i in np.flatnonzero(seen.any(axis=1)).tolist():
-            if self.possible_agents[i] not in self.agents:
+            if self.possible_agents[i] not in self.live_agents:
                 continue
             visible = np.flatnonzero(seen[i])
             k = visible[np.argmin(distance[i, visible])]
@@ -369,7 +367,7 @@ class Foraging(TeamEnv):
         """Every live robot broadcasts its location tuple and detections (section 4.3)."""
         est, grid = self.odometry.estimate, self.grid
         own_cells = grid.cell_of(est[:, :2])
-        for agent in self.agents:
+        for agent in self.live_agents:
             i = self._row[agent]
             m = int(self._detection_count[i])
             payload = np.empty((1 + m, 4), dtype=np.float32)
@@ -387,13 +385,13 @@ class Foraging(TeamEnv):
         return np.concatenate(tuples)[: self.n_received], np.concatenate(senders)[: self.n_received]
 
     def _terminations(self) -> dict[str, bool]:
-        return dict.fromkeys(self.agents, self._success)
+        return dict.fromkeys(self.live_agents, self._success)
 
     # -- outputs ------------------------------------------------------------------------------
     def _observe(self, out: np.ndarray) -> None:
         view, c = self.layout.view, self.config
         (w, h) = self.grid_size
-        for obs, agent in zip(out, self.agents):
+        for obs, agent in zip(out, self.live_agents):
             i = self._row[agent]
             estimate = self.odometry.estimate[i]
             view(obs, "pose_estimate")[:] = (min(max(estimate[0], -w), 2 * w), min(max(estimate[1], -h), 2 * h), estimate[2])
@@ -427,6 +425,12 @@ class Foraging(TeamEnv):
             seen &= ~self._view.shadow(x, y, theta, self._polar[i, robots], self.spec.radius)
         return seen
 
+    def _info_keys(self) -> dict[str, InfoKey]:
+        """``TL`` (first target seen), ``TT1``..``TTn`` (k-th target done) and ``TG`` (success), in s, NaN until then;
+        ``DG``, ``targets_done``, ``localisation_certainty``, ``position_error`` from reset on."""
+        times = ("TL", *(f"TT{k}" for k in range(1, self.config.n_targets + 1)), "TG")
+        return {**unknown(*times), **metrics("DG", "targets_done", "localisation_certainty", "position_error")}
+
     def _metrics(self, agent: str) -> dict[str, Any]:
         i = self._row[agent]
         metrics: dict[str, Any] = {}
@@ -458,7 +462,7 @@ class Foraging(TeamEnv):
         for point in self.landmarks:
             overlay.points.append((tuple(point), (90, 90, 90)))
         arc = np.linspace(-0.5 * c.camera_fov, 0.5 * c.camera_fov, 9)
-        for agent in self.agents:
+        for agent in self.live_agents:
             x, y, theta = self._pose[self._row[agent]]
             edge = [(x + c.camera_range * math.cos(theta + a), y + c.camera_range * math.sin(theta + a)) for a in arc]
             overlay.paths.append(([(x, y), *edge, (x, y)], (170, 170, 220)))

@@ -67,6 +67,8 @@ PV_TABLE = np.array(
 )
 #: Measurement errors per unit of (1 − Pv) at ``vision_noise`` = 1: metres and radians.
 DISTANCE_ERROR, BEARING_ERROR = 0.3, 0.2
+#: How far beyond ``camera_range`` a measured distance can read (m): the camera saturates there.
+MEASURED_RANGE_MARGIN = 1.0
 
 
 def packet_bytes(n_tuples: int, grid: GridSpec) -> int:
@@ -147,15 +149,26 @@ class VisionModel:
         cols = np.minimum((np.abs(bearing) / (0.5 * self.camera_fov) * 3).astype(np.int64), 2)
         return PV_TABLE[rows, cols]
 
+    @property
+    def max_distance(self) -> float:
+        """The largest measured distance (m): ``camera_range + MEASURED_RANGE_MARGIN``."""
+        return self.camera_range + MEASURED_RANGE_MARGIN
+
     def measure(
         self, distance: np.ndarray, bearing: np.ndarray, pv: np.ndarray, rng: np.random.Generator
     ) -> tuple[np.ndarray, np.ndarray]:
-        """Measured ``(distance, bearing)`` with errors N(0, σ_d²), N(0, σ_b²) set by ``pv``."""
+        """Measured ``(distance, bearing)`` with errors N(0, σ_d²), N(0, σ_b²) set by ``pv``.
+
+        A measured distance lies in ``[0, max_distance]`` (the camera saturates) and a bearing
+        in ``[-π, π]`` (one that the error takes beyond is wrapped).
+        """
         if self.noise == 0.0:
             return np.asarray(distance, dtype=float), np.asarray(bearing, dtype=float)
         spread = self.noise * (1.0 - pv)
         noise = rng.standard_normal((2, *np.shape(distance)))
-        return np.maximum(0.0, distance + DISTANCE_ERROR * spread * noise[0]), bearing + BEARING_ERROR * spread * noise[1]
+        measured = np.minimum(np.maximum(0.0, distance + DISTANCE_ERROR * spread * noise[0]), self.max_distance)
+        turned = bearing + BEARING_ERROR * spread * noise[1]
+        return measured, np.where(np.abs(turned) > math.pi, (turned + math.pi) % (2 * math.pi) - math.pi, turned)
 
 
 class Odometry:

@@ -57,7 +57,7 @@ class NavigationBatch:
         self.possible_agents: list[str] = list(first.possible_agents)
         self.layout = first.layout
         self.action_space: spaces.Space = first.action_space(self.possible_agents[0])
-        self.observation_space = spaces.Box(-np.inf, np.inf, shape=(self.layout.size,), dtype=np.float32)
+        self.observation_space = self.layout.flat_space()
         self._action_type = first.action_type
         self._checker = ActionRowsChecker(self.action_space)
         self.team = TeamState(self.config, 0, first.ring.width)
@@ -115,7 +115,7 @@ class NavigationBatch:
         env = self.copies[k]
         observations, infos = env.reset(seed=seed, options=options)
         self.active[k] = [agent in observations for agent in self.possible_agents]
-        self.team.observe(env._ks, self.layout, self._observations[k : k + 1])
+        self._observe(env._ks, self._observations[k : k + 1])
         return self._observations[k].copy(), infos
 
     def episode_over(self) -> np.ndarray:
@@ -167,13 +167,18 @@ class NavigationBatch:
         self._sense(live & ~arriving)
         terminated = live & team.arrived
         truncated = live & ~terminated & (cycles >= self.config.cycle_limit)[:, None]
-        team.observe(everything, self.layout, self._observations)
+        self._observe(everything, self._observations)
         done = terminated | truncated
         if done.any():
             self._finish(done)
         for k in stepping.tolist():
             self.copies[k]._rebase_if_due()  # at the cycles a single env re-bases (TeamEnv.rebase_cycles)
         return self._observations.copy(), rewards, terminated, truncated
+
+    def _observe(self, ks: slice, out: np.ndarray) -> None:
+        """The observations of copies ``ks`` into ``out``, saturated at the layout's bounds (as a single env's)."""
+        self.team.observe(ks, self.layout, out)
+        self.layout.clip(out)
 
     def _log_actions(self, rows_k: np.ndarray, rows_i: np.ndarray, names: list[str], checked: np.ndarray) -> None:
         """Each stepping copy logs its joint action as its own ``step`` would, so a copy pickles and replays exactly."""
@@ -219,7 +224,7 @@ class NavigationBatch:
         for k in np.flatnonzero(done.any(axis=1)).tolist():
             env = self.copies[k]
             finished = {self.possible_agents[i] for i in np.flatnonzero(done[k]).tolist()}
-            env.agents = [a for a in env.agents if a not in finished]
+            env.live_agents = [a for a in env.live_agents if a not in finished]
             for agent in finished:
                 env.robots[agent].set_command(0.0, 0.0)
 
@@ -241,7 +246,7 @@ class NavigationBatch:
             env._bind(self.team, k)
             self.copies[k] = env
             if env.world is not None:
-                self.team.observe(env._ks, self.layout, self._observations[k : k + 1])
+                self._observe(env._ks, self._observations[k : k + 1])
         self.active = np.array(state["active"], dtype=bool)
 
     # -- reading ---------------------------------------------------------------------
@@ -249,4 +254,4 @@ class NavigationBatch:
         """Copy ``k``'s metrics of every robot (``possible_agents``), with ``success`` (the episode contract)."""
         env = self.copies[k]
         success = bool(env.episode_success())
-        return {agent: {**env._metrics(agent), "success": success} for agent in self.possible_agents}
+        return {agent: {**env._schema_info(env._metrics(agent)), "success": success} for agent in self.possible_agents}

@@ -5,7 +5,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import ClassVar, Literal
 
-from teamgym.envs.config import EnvConfig, require
+from teamgym.envs.bounds import PROXIMITY_LIMITS, Limit, require_limits, require_ring_noise
+from teamgym.envs.config import EnvConfig, require, require_together
 
 
 @dataclass(frozen=True)
@@ -18,7 +19,13 @@ class NavigationConfig(EnvConfig):
     ``mate_goals`` appends field ``mate_goals`` (N−1, 2): each team mate's goal relative to
     the robot (in its own frame with ``local_features``, else world axes), the information
     that paper 001's central arbiter has and a robot's own observation lacks.
+
+    ``READING_LIMITS`` (the proximity ring): ``sensor_range`` and ``sensor_noise`` in [0, 10] m,
+    and ``sensor_noise`` at most ``sensor_range`` (a larger std saturates every ray).
     """
+
+    #: Own ranges of the keys that scale a sensor reading (see the class docstring).
+    READING_LIMITS: ClassVar[dict[str, Limit]] = PROXIMITY_LIMITS
 
     body_speed_keys: ClassVar[tuple[str, ...]] = ("max_wheel_speed", "obstacle_speed")
     default_body_speed: ClassVar[float] = 0.0
@@ -62,25 +69,49 @@ class NavigationConfig(EnvConfig):
         require(self, "n_obstacles", 0 <= self.n_obstacles <= 32, "must be in [0, 32]")
         require(self, "arena_size", 0.5 <= self.arena_size <= 100, "must be in [0.5, 100] m")
         require(self, "robot_radius", 0.005 <= self.robot_radius <= 0.5, "must be in [0.005, 0.5] m")
-        require(self, "max_wheel_speed", self.max_wheel_speed > 0, "must be > 0")
-        require(self, "max_motor_force", self.max_motor_force > 0, "must be > 0")
-        require(self, "obstacle_speed", self.obstacle_speed >= 0, "must be >= 0")
-        require(self, "obstacle_radius", 0.01 <= self.obstacle_radius <= self.arena_size / 4, "must be in [0.01, arena_size/4]")
+        require(self, "max_wheel_speed", 0 < self.max_wheel_speed <= 10, "must be in (0, 10] m/s")
+        require(self, "max_motor_force", 0 < self.max_motor_force <= 1000, "must be in (0, 1000] N")
+        require(self, "obstacle_speed", 0 <= self.obstacle_speed <= 10, "must be in [0, 10] m/s")
+        require(self, "obstacle_radius", 0.01 <= self.obstacle_radius <= 25, "must be in [0.01, 25] m")
         require(self, "heading_levels", 2 <= self.heading_levels <= 64, "must be in [2, 64]")
         require(self, "heading_max_rate", self.heading_max_rate > 0, "must be > 0")
-        require(self, "v_opt", 0 < self.v_opt <= self.max_wheel_speed, "must be in (0, max_wheel_speed]")
-        require(self, "actuation_delay", 0 <= self.actuation_delay <= self.dt, "must be in [0, dt]")
+        require(self, "v_opt", 0 < self.v_opt <= 10, "must be in (0, 10] m/s")
+        require(self, "actuation_delay", 0 <= self.actuation_delay <= 10, "must be in [0, 10] s")
         require(self, "goal_tolerance", self.goal_tolerance > 0, "must be > 0")
-        require(self, "min_goal_distance", 0 <= self.min_goal_distance <= 0.8 * self.arena_size, "must be in [0, 0.8·arena_size]")
-        require(self, "spawn_margin", 0 <= self.spawn_margin < 0.4 * self.arena_size, "must be in [0, 0.4·arena_size)")
+        require(self, "min_goal_distance", self.min_goal_distance >= 0, "must be >= 0 m")
+        require(self, "spawn_margin", self.spawn_margin >= 0, "must be >= 0 m")
         require(self, "sensor_range", self.sensor_range > 0, "must be > 0")
         require(self, "sensor_noise", self.sensor_noise >= 0, "must be >= 0")
-        require(
-            self,
-            "obstacle_motion",
-            self.obstacle_motion == "bounce" or not self.walls,
-            "needs walls=False: an obstacle moving straight on would be stopped by the arena walls",
+        require_limits(self, self.READING_LIMITS)
+
+    def check_relations(self) -> None:
+        super().check_relations()
+        require_ring_noise(self, self.sensor_noise)
+        s = self.arena_size
+        require_together(
+            self, ("obstacle_radius", "arena_size"), self.obstacle_radius <= s / 4, "obstacle_radius must be at most arena_size/4"
         )
-        free = (self.arena_size - 2 * self.robot_radius) ** 2
+        require_together(
+            self, ("v_opt", "max_wheel_speed"), self.v_opt <= self.max_wheel_speed, "v_opt must not exceed max_wheel_speed"
+        )
+        require_together(self, ("actuation_delay", "dt"), self.actuation_delay <= self.dt, "actuation_delay must be in [0, dt]")
+        require_together(
+            self,
+            ("min_goal_distance", "arena_size"),
+            self.min_goal_distance <= 0.8 * s,
+            "min_goal_distance must be at most 0.8·arena_size",
+        )
+        require_together(
+            self, ("spawn_margin", "arena_size"), self.spawn_margin < 0.4 * s, "spawn_margin must be below 0.4·arena_size"
+        )
+        require_together(
+            self,
+            ("obstacle_motion", "walls"),
+            self.obstacle_motion == "bounce" or not self.walls,
+            "obstacle_motion='straight' needs walls=False: an obstacle moving straight on would be stopped by the arena walls",
+        )
+        free = (s - 2 * self.robot_radius) ** 2
         needed = self.n_robots * (4 * self.robot_radius) ** 2 * 2
-        require(self, "n_robots", needed < 0.5 * free, "leaves too little room for the robots in this arena")
+        require_together(
+            self, ("n_robots", "robot_radius", "arena_size"), needed < 0.5 * free, "they leave too little room for the robots"
+        )

@@ -69,12 +69,14 @@ from gymnasium import spaces
 from teamgym.control.heading import HeadingHeuristic, nearest_gap
 from teamgym.envs.actions import ActionType, VelocityAction, WheelSpeedAction
 from teamgym.envs.base import TeamEnv
+from teamgym.envs.bounds import ROUNDING, SATURATION, region, speed_limits
 from teamgym.envs.config import ConfigError
+from teamgym.envs.infos import InfoKey, metrics, unknown
 from teamgym.envs.navigation.actions import HeadingAction
 from teamgym.envs.navigation.config import NavigationConfig
 from teamgym.envs.navigation.scene import NavigationScene, PlacementError, scatter
 from teamgym.envs.navigation.team_state import TeamState
-from teamgym.envs.spaces import ObservationLayout
+from teamgym.envs.spaces import Field, ObservationLayout
 from teamgym.sim.categories import SOLID, Category
 from teamgym.sim.objects import MovingPolygon, regular_polygon
 from teamgym.sim.render import Overlay, robot_colour
@@ -131,25 +133,39 @@ class Navigation(TeamEnv):
         return HeadingAction(c.heading_levels, c.heading_max_rate, self.heuristic)
 
     def _make_layout(self) -> ObservationLayout:
-        n, m = self.config.n_robots, self.config.n_obstacles
-        return ObservationLayout(
-            [
-                ("pose", (3,)),
-                ("velocity", (2,)),
-                ("last_command", (2,)),
-                ("radius", (1,)),
-                ("goal_offset", (2,)),
-                ("mates", (n - 1, 5)),
-                ("obstacles", (m, 5)),
-                ("proximity", (len(KHEPERA_RING),)),
-                *self._local_fields(),
+        """The fields of the module docstring with bounds from the config (:mod:`teamgym.envs.bounds`)."""
+        c, spec = self.config, self.spec_robot
+        n, m = c.n_robots, c.n_obstacles
+        low, high = region(c, (c.arena_size, c.arena_size), c.walls, spec.max_wheel_speed)
+        span = high - low  # largest offset between two bodies, per axis
+        v, omega = speed_limits(c, spec)
+        command = (spec.max_speed * (1 + ROUNDING), spec.max_turn_rate * (1 + ROUNDING))
+        drift = SATURATION * c.body_speed()  # obstacles' speed readings
+        # Goals lie in the square [0, A]²: a goal minus a position.
+        goal_low, goal_high = -high, c.arena_size - low
+        fields = [
+            Field("pose", (3,), [*low, -math.pi], [*high, math.pi]),
+            Field("velocity", (2,), [-v, -omega], [v, omega]),
+            Field("last_command", (2,), [-command[0], -command[1]], list(command)),
+            Field("radius", (1,), c.robot_radius, c.robot_radius),
+            Field("goal_offset", (2,), goal_low, goal_high),
+            Field("mates", (n - 1, 5), [*-span, -math.pi, -v, -omega], [*span, math.pi, v, omega]),
+            Field("obstacles", (m, 5), [*-span, -drift, -drift, 0.0], [*span, drift, drift, c.obstacle_radius * (1 + ROUNDING)]),
+            Field("proximity", (len(KHEPERA_RING),), 0.0, c.sensor_range),
+        ]
+        # Rotated into the robot's frame, a vector keeps its length.
+        far, goal_far = float(np.hypot(*span)), float(np.hypot(*np.maximum(-goal_low, goal_high)))
+        turned = float(np.hypot(drift, drift))
+        if c.local_features:
+            fields += [
+                Field("goal_local", (2,), -goal_far, goal_far),
+                Field("mates_local", (n - 1, 4), [-far, -far, -v, -v], [far, far, v, v]),
+                Field("obstacles_local", (m, 4), [-far, -far, -turned, -turned], [far, far, turned, turned]),
             ]
-        )
-
-    def _local_fields(self) -> list[tuple[str, tuple[int, ...]]]:
-        n, m = self.config.n_robots, self.config.n_obstacles
-        fields = [("goal_local", (2,)), ("mates_local", (n - 1, 4)), ("obstacles_local", (m, 4))]
-        return (fields if self.config.local_features else []) + ([("mate_goals", (n - 1, 2))] if self.config.mate_goals else [])
+        if c.mate_goals:
+            local = c.local_features
+            fields.append(Field("mate_goals", (n - 1, 2), -goal_far if local else goal_low, goal_far if local else goal_high))
+        return ObservationLayout(fields)
 
     def _build(self, rng: np.random.Generator) -> None:
         c = self.config
@@ -347,7 +363,7 @@ class Navigation(TeamEnv):
 
     def _terminations(self) -> dict[str, bool]:
         """A robot that arrives terminates, stops and stays in the world."""
-        return dict(zip(self.agents, self._team.arrived[self._k, self._live_rows()].tolist()))
+        return dict(zip(self.live_agents, self._team.arrived[self._k, self._live_rows()].tolist()))
 
     def _read_proximity(self, indices: np.ndarray, free: np.ndarray | None = None) -> None:
         """Ring readings of robots ``indices``; ``free`` flags robots known to have nothing within range (no rays cast)."""
@@ -369,6 +385,11 @@ class Navigation(TeamEnv):
         every = np.empty((1, self.config.n_robots, out.shape[1]), dtype=out.dtype)
         self._team.observe(self._ks, self.layout, every)
         out[:] = every[0, rows]
+
+    def _info_keys(self) -> dict[str, InfoKey]:
+        """Counts and distances from reset on; ``time_to_goal`` (s) NaN until the robot arrives."""
+        keys = ("arrived", "distance_to_goal", "path_length", "collisions", "min_clearance", "min_center_distance", "smoothness")
+        return {**metrics(*keys), **unknown("time_to_goal")}
 
     def _metrics(self, agent: str) -> dict[str, Any]:
         return self._metrics_of([agent])[agent]
@@ -438,11 +459,11 @@ class Navigation(TeamEnv):
     def make_batch(self, n_copies: int) -> NavigationBatch | None:
         """``n_copies`` copies with this env's config, stepped together (:class:`NavigationBatch`).
 
-        ``None`` for configs the batch does not take (learned messages, dict observations).
+        ``None`` for configs the batch does not take (learned messages, dict observations, ``fixed_agents``).
         """
         from teamgym.envs.navigation.batch import NavigationBatch
 
-        if self.config.comm_dim or self.config.obs_format != "flat":
+        if self.config.comm_dim or self.config.obs_format != "flat" or self.config.fixed_agents:
             return None
         return NavigationBatch(n_copies, **self.config.as_dict())
 

@@ -68,15 +68,18 @@ from gymnasium import spaces
 from teamgym.control.way_following import WayFollower
 from teamgym.envs.actions import ActionType, VelocityAction
 from teamgym.envs.base import EpisodeOverError, TeamEnv
+from teamgym.envs.bounds import region
 from teamgym.envs.config import ConfigError
+from teamgym.envs.infos import InfoKey, categorical, metrics, unknown
 from teamgym.envs.rendezvous.actions import NextPlaceAction, WithRecords
 from teamgym.envs.rendezvous.config import RendezvousConfig
-from teamgym.envs.rendezvous.messages import Kind, decode
+from teamgym.envs.rendezvous.messages import MESSAGE_VALUE_MAX, Kind, decode
 from teamgym.envs.rendezvous.scene import blocker_vertices, corridor_walls
 from teamgym.envs.spaces import Field, ObservationLayout
 from teamgym.sim.objects import StaticPolygon, Wall
 from teamgym.sim.render import Overlay, robot_colour
 from teamgym.sim.robot import DiffDriveRobot, RobotSpec
+from teamgym.sim.scene import StaticScene
 from teamgym.sim.sensors import KHEPERA_RING, ProximityRing
 from teamgym.sim.world import World
 
@@ -125,7 +128,9 @@ class Rendezvous(TeamEnv):
         self.followers = [WayFollower(speed=v, stop_distance=0.9 * c.meet_distance) for v in speeds]
         n, w = c.n_robots, len(self.way_ends)
         self.state_space = spaces.Box(-np.inf, np.inf, shape=(5 * n + w,), dtype=np.float32)
-        self._walls = corridor_walls(self.map, c.scale, c.corridor_width, _MARGIN) if c.corridor_walls else []
+        walls = corridor_walls(self.map, c.scale, c.corridor_width, _MARGIN) if c.corridor_walls else []
+        #: The corridor walls, built once and placed in every episode's world first (see :mod:`teamgym.sim.scene`).
+        self._scene = StaticScene(Wall(f"wall_{k}", a, b, 0.01) for k, (a, b) in enumerate(walls))
 
     def _make_action_type(self) -> ActionType:
         c = self.config
@@ -136,8 +141,9 @@ class Rendezvous(TeamEnv):
 
     def _make_layout(self) -> ObservationLayout:
         c, d, n = self.config, self.max_degree, len(self.place_index)
+        low, high = region(c, self._world_size(), c.corridor_walls, self.spec_robot.max_wheel_speed)
         fields = [
-            Field("pose", (3,)),
+            Field("pose", (3,), [*low, -math.pi], [*high, math.pi]),
             Field("place", (1,), 0, n - 1),
             Field("target", (1,), -1, n - 1),
             Field("progress", (1,), 0.0, 1.0),
@@ -148,19 +154,22 @@ class Rendezvous(TeamEnv):
         if c.protocol_messages:
             k = c.n_robots - 1
             fields += [
-                Field("messages", (k, c.message_len), -1, np.iinfo(np.int32).max, np.int32),
+                Field("messages", (k, c.message_len), -1, MESSAGE_VALUE_MAX, np.int32),
                 Field("message_sender", (k,), -1, c.n_robots - 1, np.int32),
                 Field("message_mask", (k,), 0, 1, np.int8),
             ]
         return ObservationLayout(fields)
 
+    def _world_size(self) -> tuple[float, float]:
+        """The world (m): the map scaled, with ``_MARGIN`` of floor around it."""
+        width, height = self.map.size
+        return 2 * _MARGIN + width * self.config.scale, 2 * _MARGIN + height * self.config.scale
+
     # -- episodes ----------------------------------------------------------------------
     def _build(self, rng: np.random.Generator) -> None:
         c = self.config
-        width, height = self.map.size
-        self.world = World((2 * _MARGIN + width * c.scale, 2 * _MARGIN + height * c.scale), **c.world_options())
-        for k, (a, b) in enumerate(self._walls):
-            self.world.add(Wall(f"wall_{k}", a, b, 0.01))
+        self.world = World(self._world_size(), **c.world_options())
+        self._scene.place(self.world)
         n = c.n_robots
         if c.start_places:
             starts = np.array([self.place_index[p] for p in c.start_places])
@@ -346,7 +355,7 @@ class Rendezvous(TeamEnv):
                         self._known[i].add(k)
 
     def _terminations(self) -> dict[str, bool]:
-        return dict.fromkeys(self.agents, self._met)
+        return dict.fromkeys(self.live_agents, self._met)
 
     def episode_success(self) -> bool:
         """The robots met (every pair within ``meet_distance``) without a collision between robots."""
@@ -410,7 +419,7 @@ class Rendezvous(TeamEnv):
         Recorded, so copies and pickles replay it. Raises ``KeyError`` naming the way if the map
         has no such way, :class:`EpisodeOverError` outside an episode.
         """
-        if self.world is None or not self.agents:
+        if self.world is None or not self.live_agents:
             raise EpisodeOverError("block_way() needs a running episode; call reset() first")
         ends = frozenset((self.place_index.get(a, -1), self.place_index.get(b, -2)))
         if ends not in self.way_index:
@@ -441,7 +450,7 @@ class Rendezvous(TeamEnv):
     # -- state, metrics, rendering -------------------------------------------------------
     def _observe(self, out: np.ndarray) -> None:
         layout, states = self.layout, self.world.robot_states
-        for row, agent in enumerate(self.agents):
+        for row, agent in enumerate(self.live_agents):
             i, buffer = self._row[agent], out[row]
             buffer[0:3] = states[i, :3]
             buffer[2] = math.remainder(float(states[i, 2]), math.tau)
@@ -468,6 +477,13 @@ class Rendezvous(TeamEnv):
         squared = float(np.dot(b - a, b - a))
         done = float(np.dot(self.world.robot_states[i, :2] - a, b - a)) / max(squared, 1e-12)
         return float(np.clip(done, 0.0, 1.0))
+
+    def _info_keys(self) -> dict[str, InfoKey]:
+        """Counts from reset on; ``optimality`` (worst plan cost ratio) NaN until a plan exists, ``meeting_time`` (s)
+        NaN until the robots meet; ``place`` is categorical (``place_id`` names it)."""
+        counts = ("path_length", "collisions", "robot_collisions", "blocked_known", "plans", "replans", "expansions")
+        keys = {**metrics(*counts, "stale_plans", "failed_moves"), **categorical("place")}
+        return {**keys, **unknown("optimality", "meeting_time")}
 
     def _metrics(self, agent: str) -> dict[str, Any]:
         i = self._row[agent]

@@ -15,6 +15,8 @@ BLOCKED    5     a, b                                         Step 5: a blocked 
 
 The env reads the PATH records it carries to score plans (``optimality``, ``replans``,
 ``expansions``); the channel charges 4 bytes per value up to the last record (padding is free).
+The channel carries payloads as float32, which holds integers exactly up to
+:data:`MESSAGE_VALUE_MAX` (2²⁴); a received value saturates there (the ``messages`` field's bound).
 """
 
 from __future__ import annotations
@@ -23,6 +25,9 @@ from collections.abc import Iterable, Sequence
 from enum import IntEnum
 
 import numpy as np
+
+#: Largest message value a receiver observes: float32 payloads hold integers exactly up to 2**24.
+MESSAGE_VALUE_MAX = 2**24
 
 
 class Kind(IntEnum):
