@@ -87,9 +87,9 @@ def main() -> None:
     for env_id in args.envs:
         best: dict[str, float] = {}
         for _ in range(args.rounds):
-            cases = {"lone": lambda: time_lone(env_id, args.steps, clock)}
+            cases = {"lone": lambda e=env_id: time_lone(e, args.steps, clock)}
             for k in args.copies:
-                cases[f"batch {k}"] = lambda k=k: time_batch(env_id, k, max(1, args.steps // k) * 4, clock)
+                cases[f"batch {k}"] = lambda e=env_id, k=k: time_batch(e, k, max(1, args.steps // k) * 4, clock)
             for name, run in cases.items():
                 best[name] = max(best.get(name, 0.0), run())
         results[env_id] = best
@@ -98,7 +98,8 @@ def main() -> None:
         print(f"{env_id:16s} {cells}", flush=True)
     if args.json:
         with open(args.json, "w") as handle:
-            json.dump({"clock": args.clock, "steps": args.steps, "rounds": args.rounds, "agent_steps_per_s": results}, handle, indent=2)
+            record = {"clock": args.clock, "steps": args.steps, "rounds": args.rounds, "agent_steps_per_s": results}
+            json.dump(record, handle, indent=2)
 
 
 if __name__ == "__main__":
