@@ -340,10 +340,11 @@ class TeamEnv(ParallelEnv):
                 f"{type(self).__name__}.step() called after the episode ended (all agents are done); call reset()"
             )
         checked = self._check_actions(actions)
-        ((rewards, terminations, truncations),) = step_group(self._own_phases(), [0], [checked])
+        step_group(self._own_phases(), [0], [checked])
+        rewards, terminations, truncations = self._end_step()
         observations = self._collect_observations()
         infos = self._collect_infos()
-        self._close_step(terminations, truncations)
+        self._close_step([a for a in self.live_agents if terminations[a] or truncations[a]])
         if self._roster is not None:
             rewards, terminations, truncations = self._roster.step(self, rewards, terminations, truncations)
         self._rebase_if_due()
@@ -379,12 +380,13 @@ class TeamEnv(ParallelEnv):
         self._refresh_masks()
         return rewards, terminations, truncations
 
-    def _close_step(self, terminations: dict[str, bool], truncations: dict[str, bool]) -> None:
-        """Agents that ended leave ``live_agents`` and their robots stop (after observations and infos were read)."""
-        self.live_agents = [a for a in self.live_agents if not (terminations[a] or truncations[a])]
-        for agent in terminations:
-            if terminations[agent] or truncations[agent]:
-                self.robots[agent].set_command(0.0, 0.0)
+    def _close_step(self, finished: list[str]) -> None:
+        """The ``finished`` agents leave ``live_agents`` and their robots stop (after observations and infos were read)."""
+        if not finished:
+            return
+        self.live_agents = [a for a in self.live_agents if a not in finished]
+        for agent in finished:
+            self.robots[agent].set_command(0.0, 0.0)
 
     def _record_trails(self) -> None:
         points = self.world.robot_states[:, :2].tolist()

@@ -47,6 +47,7 @@ from gymnasium import spaces
 from teamgym.envs.base import EpisodeOverError, TeamEnv
 from teamgym.envs.config import ConfigError
 from teamgym.envs.spaces import ActionChecker, ActionRowsChecker
+from teamgym.envs.step_loop import step_group
 
 __all__ = ["TeamBatch"]
 
@@ -205,38 +206,30 @@ class TeamBatch:
             raise EpisodeOverError("TeamBatch.step() with no active robot: reset copies first")
         joint, rows = self._check_actions(actions, live)
         group = sorted(joint)
-        outcomes = self._step_group(group, [joint[k] for k in group], rows)
-        K, N = live.shape
-        rewards = np.zeros((K, N))
-        terminated = np.zeros((K, N), dtype=bool)
-        truncated = np.zeros((K, N), dtype=bool)
-        row_of = self.copies[0]._row
-        for k, (step_rewards, terminations, truncations) in zip(group, outcomes):
-            for agent, value in step_rewards.items():
-                rewards[k, row_of[agent]] = value
-            for agent, value in terminations.items():
-                if value:
-                    terminated[k, row_of[agent]] = True
-                elif truncations[agent]:
-                    truncated[k, row_of[agent]] = True
+        step_group(self._phases, group, [joint[k] for k in group], rows)
+        rewards = np.zeros(live.shape)
+        terminated = np.zeros(live.shape, dtype=bool)
+        truncated = np.zeros(live.shape, dtype=bool)
+        self._phases.end(group, rewards, terminated, truncated)
         self._phases.observe(group, self._flat)
         self._read_masks(group)
         observations = self._observations(slice(None))
-        for k, (_, terminations, truncations) in zip(group, outcomes):
-            env = self.copies[k]
-            env._close_step(terminations, truncations)
+        done = terminated | truncated
+        names, active, copies = self.possible_agents, self.active, self.copies
+        counts = active.sum(axis=1).tolist()
+        ended = set(np.flatnonzero(done.any(axis=1)).tolist())
+        for k in group:
+            env = copies[k]
+            if k in ended:
+                env._close_step([names[i] for i in np.flatnonzero(done[k]).tolist()])
+            if k in ended or len(env.live_agents) != counts[k]:  # robots left or joined
+                active[k] = False
+                active[k, env._live_rows()] = True
             env._rebase_if_due()
-            self.active[k] = False
-            self.active[k, env._live_rows()] = True
         self.final_observations, self.final_infos = {}, {}
         if self.auto_reset:
             self._auto_reset(group, observations)
         return observations, rewards, terminated, truncated
-
-    def _step_group(self, group: list[int], joint: list[dict], rows: Any) -> list:
-        from teamgym.envs.step_loop import step_group
-
-        return step_group(self._phases, group, joint, rows)
 
     def _auto_reset(self, group: list[int], observations: Any) -> None:
         """Copies of ``group`` whose episode ended start their next one (their own random streams)."""

@@ -10,8 +10,9 @@ whole group, phase by phase:
 2. then, while a copy's stage goes on (a macro action type: each copy keeps its own stage
    clock), over the copies still in their stage: **control** (commands), **physics** (the
    worlds step Δt), then **state, events, goals, rewards, sensing**;
-3. **end**: each copy delivers its messages, admits joining robots, decides terminations and
-   truncations and refreshes its masks (:meth:`TeamEnv._end_step`).
+3. **end** (the caller's, after ``step_group``): each copy delivers its messages, admits joining
+   robots, decides terminations and truncations and refreshes its masks: as dicts for a lone
+   env (:meth:`TeamEnv._end_step`), as arrays for a batch (:meth:`CopyPhases.end`).
 
 The phases of a control step are the methods of a :class:`CopyPhases` object. The default
 calls each copy's own hooks one copy after another; a task whose per-step state lives in
@@ -29,10 +30,12 @@ import numpy as np
 if TYPE_CHECKING:
     from teamgym.envs.base import TeamEnv
 
-__all__ = ["ActionRows", "CopyPhases", "StepOutcome", "step_group"]
+__all__ = ["ActionRows", "CopyPhases", "StepArrays", "StepOutcome", "step_group"]
 
 #: One copy's outcome of a step: rewards, terminations and truncations of the agents that were live.
 StepOutcome = tuple[dict[str, float], dict[str, bool], dict[str, bool]]
+#: The outcome of a group's step as arrays over (copy, robot row): rewards, terminated, truncated.
+StepArrays = tuple[np.ndarray, np.ndarray, np.ndarray]
 #: The checked actions of a batch step as arrays: copy index, agent row and the action of each row.
 ActionRows = tuple[np.ndarray, np.ndarray, np.ndarray]
 
@@ -77,6 +80,20 @@ class CopyPhases:
             env._accumulate_rewards(env._reward_total)
             env._sense()
 
+    def end(self, group: list[int], rewards: np.ndarray, terminated: np.ndarray, truncated: np.ndarray) -> None:
+        """End phase of each copy of ``group`` (:meth:`TeamEnv._end_step`) into rows ``[k, i]`` of the arrays."""
+        for k in group:
+            env = self.copies[k]
+            row = env._row
+            step_rewards, terminations, truncations = env._end_step()
+            for agent, value in step_rewards.items():
+                rewards[k, row[agent]] = value
+            for agent, value in terminations.items():
+                if value:
+                    terminated[k, row[agent]] = True
+                elif truncations[agent]:
+                    truncated[k, row[agent]] = True
+
     def observe(self, group: list[int], out: np.ndarray) -> None:
         """Rows ``out[k, i]`` of each copy ``k`` of ``group``: its live agents' observations, zeros elsewhere."""
         for k in group:
@@ -88,14 +105,11 @@ class CopyPhases:
                 block[rows] = env._observation_rows()
 
 
-def step_group(
-    phases: CopyPhases, group: list[int], actions: list[dict[str, Any]], rows: ActionRows | None = None
-) -> list[StepOutcome]:
-    """One ``step`` of the copies ``group`` with their checked joint ``actions``; each copy's outcome.
+def step_group(phases: CopyPhases, group: list[int], actions: list[dict[str, Any]], rows: ActionRows | None = None) -> None:
+    """Start and control steps of one ``step`` of the copies ``group`` with their checked joint ``actions``.
 
-    The caller has checked every action and that every copy has a live agent; observations,
-    infos and the agents' leaving are the caller's (they differ between a lone env's dicts and
-    a batch's arrays).
+    The caller has checked every action and that every copy has a live agent; the end phase,
+    observations, infos and the agents' leaving are the caller's (a lone env's dicts, a batch's arrays).
     """
     copies = phases.copies
     for k, joint in zip(group, actions):
@@ -113,4 +127,3 @@ def step_group(
             running = [running[i] for i in going_on]
             running_actions = [running_actions[i] for i in going_on]
             running_rows = None
-    return [copies[k]._end_step() for k in group]

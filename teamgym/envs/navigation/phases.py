@@ -108,14 +108,18 @@ class NavigationPhases(CopyPhases):
                 world.read_states()
             robots.append(world.robot_states)
             movers.append(world.mover_states)
-        team.read(ks, np.stack(robots), np.stack(movers))
+        names, dt = span[0].possible_agents, span[0].config.dt
+        if len(span) == 1:  # a lone env: no stacking
+            team.read(ks, robots[0][None], movers[0][None])
+            hits = span[0].world.contacts_per(names)[None]
+            times: np.ndarray | float = span[0].cycles * dt
+        else:
+            team.read(ks, np.stack(robots), np.stack(movers))
+            hits = np.array([env.world.contacts_per(names) for env in span])
+            times = np.array([env.cycles for env in span]) * dt
         team.update_distances(ks)
-        names = span[0].possible_agents
-        hits = np.array([env.world.contacts_per(names) for env in span])
         live = self._live
         team.after_physics(ks, live, hits)
-        dt = span[0].config.dt
-        times = np.array([env.cycles for env in span]) * dt
         arriving = team.check_goals(ks, live, times)
         rewards = team.rewards(ks, live)
         for k in group:
@@ -141,6 +145,24 @@ class NavigationPhases(CopyPhases):
         for j in np.flatnonzero(sensing.any(axis=1)).tolist():
             rows = np.flatnonzero(sensing[j])
             span[j]._read_proximity(rows, free[j, rows])
+
+    def end(self, group: list[int], rewards: np.ndarray, terminated: np.ndarray, truncated: np.ndarray) -> None:
+        """The end phase as arrays (as :meth:`TeamEnv._end_step` per copy): arrivals terminate, the cycle limit truncates."""
+        copies = self.copies
+        if copies[group[0]].action_type.has_masks or any(copies[k]._joining for k in group):
+            super().end(group, rewards, terminated, truncated)
+            return
+        team, ks = self._rows(group)
+        span = self._span(group, ks)
+        for k in group:
+            copies[k]._deliver_messages()
+        live = self._live
+        rows = slice(group[0], group[0] + len(span))
+        np.copyto(rewards[rows], np.stack([env._reward_total for env in span]), where=live)
+        arrived = team.arrived[ks] & live
+        terminated[rows] = arrived
+        limit = span[0].config.cycle_limit
+        truncated[rows] = live & ~arrived & (np.array([env.cycles for env in span]) >= limit)[:, None]
 
     def observe(self, group: list[int], out: np.ndarray) -> None:
         """Every robot row of the copies ``group`` in one pass; rows of robots not live are zeroed."""
