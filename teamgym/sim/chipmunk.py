@@ -199,6 +199,12 @@ def can_collide(a: pymunk.ShapeFilter, b: pymunk.ShapeFilter) -> bool:
     return bool(a.categories & b.mask) and bool(b.categories & a.mask)
 
 
+def shape_filter(shape: pymunk.Shape) -> pymunk.ShapeFilter:
+    """``shape.filter``, read straight from Chipmunk."""
+    f = _lib.cpShapeGetFilter(shape._shape)
+    return pymunk.ShapeFilter(f.group, f.categories, f.mask)
+
+
 def shape_distance(shape: pymunk.Shape, point: tuple[float, float]) -> float:
     """``shape.point_query(point).distance`` (negative inside) without building pymunk's result objects."""
     return _lib.cpShapePointQuery(shape._shape, point, _POINT_INFO)
@@ -229,6 +235,14 @@ class RayCaster:
         if _lib.cpSpaceSegmentQueryFirst(space._space, start, end, 0.0, shape_filter, info) == _NULL:
             return None
         return info.alpha
+
+    def cast_rays(self, space: pymunk.Space, rays: list, filters: list[pymunk.ShapeFilter]) -> list[float | None]:
+        """:meth:`cast` of every ray ``(x0, y0, x1, y1)`` with its filter, in one loop: hit fractions or ``None``."""
+        query, handle, info, null = _lib.cpSpaceSegmentQueryFirst, space._space, self._info, _NULL
+        alphas: list[float | None] = []
+        for (x0, y0, x1, y1), shape_filter in zip(rays, filters):
+            alphas.append(info.alpha if query(handle, (x0, y0), (x1, y1), 0.0, shape_filter, info) != null else None)
+        return alphas
 
     def __getstate__(self) -> dict:
         return {}
