@@ -199,12 +199,6 @@ def can_collide(a: pymunk.ShapeFilter, b: pymunk.ShapeFilter) -> bool:
     return bool(a.categories & b.mask) and bool(b.categories & a.mask)
 
 
-def shape_filter(shape: pymunk.Shape) -> pymunk.ShapeFilter:
-    """``shape.filter``, read straight from Chipmunk."""
-    f = _lib.cpShapeGetFilter(shape._shape)
-    return pymunk.ShapeFilter(f.group, f.categories, f.mask)
-
-
 def shape_distance(shape: pymunk.Shape, point: tuple[float, float]) -> float:
     """``shape.point_query(point).distance`` (negative inside) without building pymunk's result objects."""
     return _lib.cpShapePointQuery(shape._shape, point, _POINT_INFO)

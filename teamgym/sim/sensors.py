@@ -20,7 +20,7 @@ import numpy as np
 import pymunk
 
 from teamgym.sim.categories import OPAQUE, Category
-from teamgym.sim.chipmunk import RayCaster, can_collide, shape_bbs, shape_filter
+from teamgym.sim.chipmunk import RayCaster
 from teamgym.sim.entity import Entity
 from teamgym.sim.robot import DiffDriveRobot
 
@@ -28,9 +28,6 @@ if TYPE_CHECKING:
     from teamgym.sim.world import World
 
 Point = tuple[float, float]
-
-#: A proximity ring's ``read_rows`` lays out the rays of this many robots or more in one numpy pass (fewer: robot by robot).
-RING_BULK = 8
 
 #: Directions of the Khepera's eight infrared sensors relative to the heading (radians,
 #: counter-clockwise), numbered as in paper 004, Fig. 3: 0 left, 1–4 front, 5 right,
@@ -235,7 +232,6 @@ class ProximityRing(NoisyRowSensor):
         self._set_noise(noise_std, relative_noise, 0.0)
         self._cos = np.cos(self.angles).tolist()
         self._sin = np.sin(self.angles).tolist()
-        self._ray_cos, self._ray_sin = np.array(self._cos)[None, :], np.array(self._sin)[None, :]
         self._caster = RayCaster()
 
     @property
@@ -256,64 +252,6 @@ class ProximityRing(NoisyRowSensor):
     def _free_reading(self, out: np.ndarray) -> None:
         out.fill(self.max_range)
 
-    def read_rows(
-        self,
-        world: World,
-        robots: Sequence[DiffDriveRobot],
-        poses: np.ndarray,
-        rng: np.random.Generator | None,
-        out: np.ndarray,
-        free: Sequence[bool] | None = None,
-    ) -> None:
-        """:meth:`NoisyRowSensor.read_rows` in one pass: the robots with something within reach cast their rays together.
-
-        Each robot not flagged ``free`` makes the one nearest-shape query of :meth:`_read_one`;
-        the rays of those that pass are laid out in one numpy pass (the same operations as
-        :meth:`_read_one`, so the same bits) and cast one after another straight into Chipmunk.
-        """
-        space = world.space
-        rows = _check_rows(self, robots, poses, out)
-        out.fill(self.max_range)
-        reach, caster = self.max_range, self._caster
-        near = [
-            j
-            for j, (robot, (x, y, _)) in enumerate(zip(robots, rows))
-            if not (free is not None and free[j])
-            and caster.anything_within(space, (x, y), robot.spec.radius + reach, robot.sensor_filter)
-        ]
-        if len(near) >= RING_BULK:
-            self._cast_rings(space, [robots[j] for j in near], [rows[j] for j in near], out, near)
-        else:
-            for j in near:
-                x, y, theta = rows[j]
-                self._cast_one(robots[j], space, x, y, theta, out[j])
-        self._add_noise(rng, out, robots)
-
-    def _cast_rings(
-        self, space: pymunk.Space, robots: list[DiffDriveRobot], rows: list[list[float]], out: np.ndarray, at: list[int]
-    ) -> None:
-        """Cast the rays of ``robots`` (poses ``rows``) that can hit something; hit distances go into rows ``at`` of ``out``.
-
-        The rays are laid out in one numpy pass (the operations of :meth:`_cast_one`, so the
-        same bits); rays that :func:`ray_candidates` rules out are not cast.
-        """
-        pose = np.array(rows, dtype=float).reshape(-1, 3)
-        angles = pose[:, 2].tolist()
-        c = np.array(list(map(math.cos, angles)))[:, None]
-        s = np.array(list(map(math.sin, angles)))[:, None]
-        ca, sa = self._ray_cos, self._ray_sin
-        dx, dy = c * ca - s * sa, s * ca + c * sa
-        r = np.array([robot.spec.radius for robot in robots])[:, None]
-        span = self.max_range
-        start_x, start_y = pose[:, :1] + r * dx, pose[:, 1:2] + r * dy
-        rays = np.stack([start_x, start_y, start_x + span * dx, start_y + span * dy], axis=-1)  # (robots, rays, 4)
-        ring_of, ray_of = np.nonzero(ray_candidates(space, rays, [robot.sensor_filter for robot in robots]))
-        filters = [robots[j].sensor_filter for j in ring_of.tolist()]
-        alphas = self._caster.cast_rays(space, rays[ring_of, ray_of].tolist(), filters)
-        for j, i, alpha in zip(np.asarray(at)[ring_of].tolist(), ray_of.tolist(), alphas):
-            if alpha is not None:
-                out[j, i] = alpha * span
-
     def _read_one(self, robot: DiffDriveRobot, space: pymunk.Space, x: float, y: float, theta: float, out: np.ndarray) -> None:
         """Noise-free distances of one robot into ``out``."""
         out.fill(self.max_range)
@@ -332,53 +270,6 @@ class ProximityRing(NoisyRowSensor):
         for i, alpha in enumerate(self._caster.cast_rays(space, rays, [robot.sensor_filter] * len(rays))):
             if alpha is not None:
                 out[i] = alpha * span
-
-
-#: Margin (m) by which :func:`ray_candidates` grows every bounding box (far above rounding).
-RAY_BOX_MARGIN = 1e-7
-
-
-def ray_candidates(space: pymunk.Space, rays: np.ndarray, filters: Sequence[pymunk.ShapeFilter]) -> np.ndarray:
-    """``(k, m)`` flags: which rays ``rays[j, i] = (x0, y0, x1, y1)`` may hit a shape passing ``filters[j]``.
-
-    ``False`` is certain: the ray's segment meets the bounding box of no such shape of
-    ``space`` (the boxes Chipmunk last computed, which hold the cached geometry its segment
-    queries test, grown by :data:`RAY_BOX_MARGIN`), so a segment query would find nothing.
-    Shapes are first matched to ring ``j`` by the box around its rays, then each ray of the
-    ring is tested against the matched boxes: the boxes overlap, and the box has corners on
-    both sides of the ray's line (or on it).
-    """
-    k, m = rays.shape[:2]
-    shapes = list(space.shapes)
-    if not shapes or k == 0:
-        return np.zeros((k, m), dtype=bool)
-    boxes = shape_bbs(shapes)
-    boxes[:, :2] -= RAY_BOX_MARGIN
-    boxes[:, 2:] += RAY_BOX_MARGIN
-    xs, ys = rays[..., 0::2], rays[..., 1::2]  # (k, m, 2): both ends
-    low_x, high_x, low_y, high_y = xs.min(axis=2), xs.max(axis=2), ys.min(axis=2), ys.max(axis=2)
-    ring = np.stack([low_x.min(axis=1), low_y.min(axis=1), high_x.max(axis=1), high_y.max(axis=1)], axis=1)
-    pair_ring, pair_shape = np.nonzero(_boxes_meet(ring[:, None, :], boxes[None, :, :]))
-    passes = np.array(
-        [can_collide(filters[j], shape_filter(shapes[i])) for j, i in zip(pair_ring.tolist(), pair_shape.tolist())], dtype=bool
-    )
-    pair_ring, pair_shape = pair_ring[passes], pair_shape[passes]
-    if len(pair_ring) == 0:
-        return np.zeros((k, m), dtype=bool)
-    box = boxes[pair_shape][:, None, :]  # (pairs, 1, 4), against the matched ring's m rays
-    bounds = np.stack([low_x[pair_ring], low_y[pair_ring], high_x[pair_ring], high_y[pair_ring]], axis=-1)
-    x0, y0, x1, y1 = (rays[pair_ring][..., q] for q in range(4))
-    ux, uy = x1 - x0, y1 - y0
-    sides = np.stack([(box[..., cx] - x0) * uy - (box[..., cy] - y0) * ux for cx, cy in ((0, 1), (2, 1), (2, 3), (0, 3))])
-    crosses = ~((sides > 0).all(axis=0) | (sides < 0).all(axis=0))
-    hits = np.zeros((k, m), dtype=np.int64)
-    np.add.at(hits, pair_ring, (_boxes_meet(bounds, box) & crosses).astype(np.int64))
-    return hits > 0
-
-
-def _boxes_meet(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Whether boxes ``(left, bottom, right, top)`` along the last axes of ``a`` and ``b`` overlap (broadcast)."""
-    return (a[..., 0] <= b[..., 2]) & (b[..., 0] <= a[..., 2]) & (a[..., 1] <= b[..., 3]) & (b[..., 1] <= a[..., 3])
 
 
 class LightSensor(NoisyRowSensor):
