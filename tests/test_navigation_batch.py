@@ -107,7 +107,7 @@ def test_reset_copy_and_growth_keep_other_copies():
     assert np.array_equal(rows[1], expected["robot_1"]) and set(infos) == {"robot_0", "robot_1"}
     assert np.array_equal(batch.copies[0].state(), before)
     batch.truncate(1)
-    assert batch.n_copies == 1 and batch.copies[0]._team.n_copies == 1 and batch.active.shape == (1, 2)
+    assert batch.n_copies == 1 and batch.copies[0]._arrays.n_copies == 1 and batch.active.shape == (1, 2)
     assert np.array_equal(batch.copies[0].state(), before)
 
 
@@ -166,7 +166,7 @@ def test_free_rings_read_what_the_rays_read():
     checked = {True: 0, False: 0}
     for _ in range(150):
         observations, *_ = batch.step(steer(batch, observations, rng))
-        free = batch.copies[0]._team.sensing_free(slice(None))
+        free = batch.copies[0]._arrays.sensing_free(slice(None))
         for e, env in enumerate(batch.copies):
             for i, robot in enumerate(env.robot_list):
                 reading = env.ring.read(robot, env.world.space, pose=tuple(env.world.robot_states[i, :3]))

@@ -76,7 +76,7 @@ from teamgym.envs.navigation.actions import HeadingAction
 from teamgym.envs.navigation.config import NavigationConfig
 from teamgym.envs.navigation.phases import NavigationPhases
 from teamgym.envs.navigation.scene import NavigationScene, PlacementError, scatter
-from teamgym.envs.navigation.team_state import TeamState
+from teamgym.envs.navigation.state import NavigationArrays
 from teamgym.envs.spaces import Field, ObservationLayout
 from teamgym.sim.categories import SOLID, Category
 from teamgym.sim.objects import MovingPolygon, regular_polygon
@@ -95,7 +95,7 @@ class Navigation(TeamEnv):
     rebase_cycles = 400  # replaying 400 control cycles takes about 0.1-0.2 s (TeamEnv: copying and pickling)
     config_class = NavigationConfig
     config: NavigationConfig
-    phases_class = NavigationPhases  # the step's phases over TeamState rows, one numpy pass for a batch's copies
+    phases_class = NavigationPhases  # the step's phases over NavigationArrays rows, one numpy pass for a batch's copies
 
     def _setup(self) -> None:
         c = self.config
@@ -109,7 +109,7 @@ class Navigation(TeamEnv):
         self.ring = ProximityRing(KHEPERA_RING, c.sensor_range, c.sensor_noise)
         n, m = c.n_robots, c.n_obstacles
         self.state_space = spaces.Box(-np.inf, np.inf, shape=(7 * n + 4 * m,), dtype=np.float32)
-        self._bind(TeamState(c, 1, self.ring.width), 0)
+        self._use_rows(NavigationArrays(c, 1, self.ring.width), 0)
 
     def _check_feasible(self) -> None:
         """Refuse at ``make()`` a config whose scenes cannot be sampled (tried on 32 seeds)."""
@@ -190,8 +190,8 @@ class Navigation(TeamEnv):
         ]
         radii = np.array([o.bounding_radius for o in self.obstacles], dtype=float)
         self._index = {a: i for i, a in enumerate(self.possible_agents)}
-        team, ks = self._team, self._ks
-        team.start(self._k, goals, radii, [o.shape for o in self.obstacles])
+        team, ks = self._arrays, self._copy_rows
+        team.start(self._copy, goals, radii, [o.shape for o in self.obstacles])
         self.world.read_states()
         self._read_state()
         offset = team.goals[ks] - team.pos[ks]
@@ -269,26 +269,26 @@ class Navigation(TeamEnv):
             obstacles.append((vertices, (float(centre[0]), float(centre[1])), velocity))
         return obstacles
 
-    # -- per-step state (this copy's rows of ``self._team``) ----------------------------
-    def _bind(self, team: TeamState, k: int) -> None:
-        """Keep this env's per-step arrays in row ``k`` of ``team`` (a batch's; see :class:`TeamState`)."""
-        self._team, self._k, self._ks = team, k, slice(k, k + 1)
+    # -- per-step state (this copy's rows of ``self._arrays``) ----------------------------
+    def _use_rows(self, team: NavigationArrays, k: int) -> None:
+        """Keep this env's per-step arrays in copy row ``k`` of ``team`` (a batch's; see :class:`NavigationArrays`)."""
+        self._arrays, self._copy, self._copy_rows = team, k, slice(k, k + 1)
 
     def _episode_state(self) -> dict[str, Any]:
-        """The base's, with this copy's rows of ``_team`` in place of the team (a batch's team holds every copy)."""
+        """The base's, with this copy's rows of ``_arrays`` in place of the arrays (a batch's hold every copy)."""
         state = super()._episode_state()
-        team, k = state.pop("_team"), state.pop("_k")
-        del state["_ks"]
+        team, k = state.pop("_arrays"), state.pop("_copy")
+        del state["_copy_rows"]
         rows = {name: getattr(team, name)[k].copy() for name in team._allocate(0)}
-        state["_team_rows"] = (rows, list(team.obstacle_shapes[k]))
+        state["_team_rows"] = (rows, list(team.obstacle_shapes[k]))  # the key earlier releases' snapshots hold
         return state
 
     def _adopt_episode_state(self, state: dict[str, Any]) -> None:
         rows, shapes = state.pop("_team_rows")
         super()._adopt_episode_state(state)
         for name, row in rows.items():
-            getattr(self._team, name)[self._k] = row
-        self._team.obstacle_shapes[self._k] = shapes
+            getattr(self._arrays, name)[self._copy] = row
+        self._arrays.obstacle_shapes[self._copy] = shapes
 
     def _live_mask(self) -> np.ndarray:
         """``(1, N)``: which robots are in ``agents`` (shared and read-only, rebuilt when ``agents`` changes)."""
@@ -305,16 +305,16 @@ class Navigation(TeamEnv):
         robots, movers = self.world.robot_states, self.world.mover_states
         if len(robots) != len(self.robot_list):
             robots, movers = self.world.read_states()
-        self._team.read(self._ks, robots[None], movers[None])
+        self._arrays.read(self._copy_rows, robots[None], movers[None])
 
     def speed_inputs(self, agent: str) -> tuple[float, float]:
         """Inputs of the speed rule, eqs. (12)–(13): distance to the goal and L_min (m)."""
         i = self._index[agent]
-        return float(self._team.goal_distance[self._k, i]), self._nearest_for_speed(i)
+        return float(self._arrays.goal_distance[self._copy, i]), self._nearest_for_speed(i)
 
     def _nearest_for_speed(self, i: int) -> float:
         """L_min,i of eq. (12), by :func:`teamgym.control.heading.nearest_gap` (``speed_rule``)."""
-        c, team, k = self.config, self._team, self._k
+        c, team, k = self.config, self._arrays, self._copy
         return nearest_gap(
             team.object_offsets[k, i],
             team.object_gaps[k, i],
@@ -334,7 +334,7 @@ class Navigation(TeamEnv):
 
     def _terminations(self) -> dict[str, bool]:
         """A robot that arrives terminates, stops and stays in the world."""
-        return dict(zip(self.live_agents, self._team.arrived[self._k, self._live_rows()].tolist()))
+        return dict(zip(self.live_agents, self._arrays.arrived[self._copy, self._live_rows()].tolist()))
 
     def _read_proximity(self, indices: np.ndarray, free: np.ndarray | None = None) -> None:
         """Ring readings of robots ``indices``; ``free`` flags robots known to have nothing within range (no rays cast)."""
@@ -344,17 +344,17 @@ class Navigation(TeamEnv):
         block = np.empty((len(indices), self.ring.width), dtype=np.float32)
         flags = None if free is None else free.tolist()
         self.ring.read_rows(self.world, robots, self.world.robot_states[indices], self.np_random, block, flags)
-        self._team.proximity[self._k, indices] = block
+        self._arrays.proximity[self._copy, indices] = block
 
     def _observe(self, out: np.ndarray) -> None:
         rows = self._live_rows()
         if len(rows) == 0:
             return
         if len(rows) == self.config.n_robots:  # everyone live: rows in order, straight into ``out``
-            self._team.observe(self._ks, self.layout, out[None])
+            self._arrays.observe(self._copy_rows, self.layout, out[None])
             return
         every = np.empty((1, self.config.n_robots, out.shape[1]), dtype=out.dtype)
-        self._team.observe(self._ks, self.layout, every)
+        self._arrays.observe(self._copy_rows, self.layout, every)
         out[:] = every[0, rows]
 
     def _info_keys(self) -> dict[str, InfoKey]:
@@ -367,7 +367,7 @@ class Navigation(TeamEnv):
 
     def _metrics_of(self, agents: list[str]) -> dict[str, dict[str, Any]]:
         """Every agent's metrics from this copy's rows, read once per step."""
-        team, k = self._team, self._k
+        team, k = self._arrays, self._copy
         arrived, distance = team.arrived[k].tolist(), team.goal_distance[k].tolist()
         collisions, clearance, centre = team.collisions[k].tolist(), team.min_clearance[k].tolist(), team.min_center[k].tolist()
         smooth_sum, smooth_steps = team.smooth_sum[k].tolist(), team.smooth_steps[k].tolist()
@@ -391,38 +391,38 @@ class Navigation(TeamEnv):
 
     def episode_success(self) -> bool:
         """Every robot has reached its goal (collisions are counted in the metrics, not here)."""
-        return self.world is not None and bool(self._team.arrived[self._k].all())
+        return self.world is not None and bool(self._arrays.arrived[self._copy].all())
 
     # -- read-only views of the simulation, for analysis (copies; rows follow possible_agents) --
     @property
     def robot_positions(self) -> np.ndarray:
         """``(N, 2)`` robot centres (m) after the last step."""
-        return self._team.pos[self._k].copy()
+        return self._arrays.pos[self._copy].copy()
 
     @property
     def robot_headings(self) -> np.ndarray:
         """``(N,)`` robot headings θ (rad, in (−π, π])."""
-        return self._team.theta[self._k].copy()
+        return self._arrays.theta[self._copy].copy()
 
     @property
     def obstacle_positions(self) -> np.ndarray:
         """``(M, 2)`` obstacle centres (m)."""
-        return self._team.obs_pos[self._k].copy()
+        return self._arrays.obs_pos[self._copy].copy()
 
     @property
     def obstacle_velocities(self) -> np.ndarray:
         """``(M, 2)`` obstacle velocities (m/s)."""
-        return self._team.obs_vel[self._k].copy()
+        return self._arrays.obs_vel[self._copy].copy()
 
     @property
     def goal_distances(self) -> np.ndarray:
         """``(N,)`` distances from each robot to its goal (m)."""
-        return np.linalg.norm(self.goals - self._team.pos[self._k], axis=1)
+        return np.linalg.norm(self.goals - self._arrays.pos[self._copy], axis=1)
 
     def state(self) -> np.ndarray:
         if self.world is None:
             raise RuntimeError("state() called before reset()")
-        team, k = self._team, self._k
+        team, k = self._arrays, self._copy
         robots = np.column_stack([team.pos[k], team.theta[k], team.vel[k], self.goals]).ravel()
         obstacles = np.column_stack([team.obs_pos[k], team.obs_vel[k]]).ravel() if self.obstacles else np.zeros(0)
         return np.concatenate([robots, obstacles]).astype(np.float32)

@@ -1,8 +1,8 @@
-"""Navigation's control-step phases over copies whose per-step arrays share one :class:`TeamState`.
+"""Navigation's control-step phases over copies whose per-step arrays share one :class:`NavigationArrays`.
 
 A lone :class:`~teamgym.envs.navigation.env.Navigation` env runs them over its own row; a
 :class:`~teamgym.envs.batch.TeamBatch` of Navigation copies binds every copy to one row of a
-shared ``TeamState`` (:meth:`NavigationPhases.regroup`) and runs each phase once for all of
+shared ``NavigationArrays`` (:meth:`NavigationPhases.regroup`) and runs each phase once for all of
 them: commands, poses, distances, contacts, progress, arrivals, rewards, sensing and
 observations are one numpy pass over the copies; the worlds step one after the other.
 """
@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from teamgym.envs.navigation.team_state import TeamState
+from teamgym.envs.navigation.state import NavigationArrays
 from teamgym.envs.step_loop import ActionRows, CopyPhases
 
 if TYPE_CHECKING:
@@ -23,38 +23,38 @@ __all__ = ["NavigationPhases"]
 
 
 class NavigationPhases(CopyPhases):
-    """The phases of :class:`~teamgym.envs.step_loop.CopyPhases` for Navigation copies, over their ``TeamState`` rows."""
+    """The phases of :class:`~teamgym.envs.step_loop.CopyPhases` for Navigation copies, over their ``NavigationArrays`` rows."""
 
     copies: list[Navigation]
 
     def __init__(self, copies: list[Navigation]) -> None:
         super().__init__(copies)
-        self._shared: TeamState | None = None  # a batch's (made by regroup)
+        self._shared: NavigationArrays | None = None  # a batch's (made by regroup)
         self._live = np.zeros((0, 0), dtype=bool)
         self._arriving = np.zeros((0, 0), dtype=bool)
 
     def regroup(self) -> None:
-        """Bind copy ``k`` to row ``k`` of one shared ``TeamState`` (its rows so far are copied in)."""
+        """Bind copy ``k`` to row ``k`` of one shared ``NavigationArrays`` (its rows so far are copied in)."""
         copies = self.copies
         first = copies[0]
         if self._shared is None:
-            self._shared = TeamState(first.config, 0, first.ring.width)
+            self._shared = NavigationArrays(first.config, 0, first.ring.width)
         team = self._shared
         team.shrink(len(copies))
         team.grow(len(copies))
         names = list(team._allocate(0))
         for k, env in enumerate(copies):
-            if env._team is team and env._k == k:
+            if env._arrays is team and env._copy == k:
                 continue
             for name in names:
-                getattr(team, name)[k] = getattr(env._team, name)[env._k]
-            team.obstacle_shapes[k] = list(env._team.obstacle_shapes[env._k])
-            env._bind(team, k)
+                getattr(team, name)[k] = getattr(env._arrays, name)[env._copy]
+            team.obstacle_shapes[k] = list(env._arrays.obstacle_shapes[env._copy])
+            env._use_rows(team, k)
 
-    def _rows(self, group: list[int]) -> tuple[TeamState, slice]:
+    def _rows(self, group: list[int]) -> tuple[NavigationArrays, slice]:
         """The team and the slice of its rows that covers ``group`` (copies bind to consecutive rows)."""
         copies = self.copies
-        return copies[group[0]]._team, slice(copies[group[0]]._k, copies[group[-1]]._k + 1)
+        return copies[group[0]]._arrays, slice(copies[group[0]]._copy, copies[group[-1]]._copy + 1)
 
     def _live_mask(self, group: list[int], ks: slice) -> np.ndarray:
         """``(len(ks), N)``: the live robots of the copies of ``group`` (rows of other copies False)."""
@@ -130,7 +130,7 @@ class NavigationPhases(CopyPhases):
         """The copies bound to rows ``ks`` (``group`` and the copies between its first and last)."""
         return self.copies[group[0] : group[0] + ks.stop - ks.start]
 
-    def _sense(self, group: list[int], team: TeamState, ks: slice, span: list[Navigation], sensing: np.ndarray) -> None:
+    def _sense(self, group: list[int], team: NavigationArrays, ks: slice, span: list[Navigation], sensing: np.ndarray) -> None:
         """Proximity rings of the ``sensing`` robots: rays only where something is within range.
 
         A noiseless ring with nothing near reads ``sensor_range`` in one numpy step; the other

@@ -1,8 +1,9 @@
-"""``TeamState``: Navigation's per-step arrays for K env copies, computed in one numpy pass.
+"""``NavigationArrays``: Navigation's per-step arrays for K env copies, computed in one numpy pass.
 
 Every array has a leading copy axis ``k`` (then robot ``i``, then object ``j``); a single
-:class:`~teamgym.envs.navigation.env.Navigation` env is the case K = 1, and
-:class:`~teamgym.envs.navigation.batch.NavigationBatch` steps K copies with one call of
+:class:`~teamgym.envs.navigation.env.Navigation` env is the case K = 1, and a
+:class:`~teamgym.envs.batch.TeamBatch` of Navigation copies
+(:class:`~teamgym.envs.navigation.phases.NavigationPhases`) steps K copies with one call of
 each method below instead of K. Methods take ``ks``, a ``slice`` of copies (views, so
 writes land in the shared arrays), and ``live``, a ``(k, N)`` mask of the robots still in
 their episode. Rows of arrived robots are computed too and masked where it matters, so a
@@ -24,7 +25,7 @@ if TYPE_CHECKING:
     from teamgym.envs.navigation.config import NavigationConfig
     from teamgym.envs.spaces import ObservationLayout
 
-__all__ = ["TeamState"]
+__all__ = ["NavigationArrays"]
 
 #: Margin (m) beyond the sensor range under which a ring is not known to be free (rounding).
 FREE_MARGIN = 1e-6
@@ -33,7 +34,7 @@ FREE_MARGIN = 1e-6
 EXACT_GAP_BELOW = 0.1
 
 
-class TeamState:
+class NavigationArrays:
     """Robot and obstacle states, distances, metrics and rewards of ``n_copies`` Navigation copies."""
 
     def __init__(self, config: NavigationConfig, n_copies: int, ring_width: int) -> None:
