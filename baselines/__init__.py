@@ -12,7 +12,8 @@
   sector), ``random-admissible`` (a random admissible operator);
 * BoxPushing-v0 (paper 004, :mod:`baselines.box_pushing`): ``sbs`` (situated behaviour
   sets with a per-robot situation recognizer), ``sbs1`` (SBS-1 in every situation),
-  ``sbs-oracle`` (diagnostic: other robots recognized from the simulator's state);
+  ``sbs-oracle`` (diagnostic: other robots recognized from the simulator's state),
+  ``sbs-literal`` (footnote 1 and B-17–B-19 read literally, X-robot within 20 mm);
 * Rendezvous-v0 (paper 003, :mod:`baselines.rendezvous`): ``bidir-astar``, ``bidir-astar-opt``,
   ``astar-protocol`` (the paper's protocol with three planners), ``centralized`` (reference);
 * Foraging-v0 (paper 002, :mod:`baselines.foraging`, go-to-cell actions): ``dmaps`` (grid world

@@ -17,6 +17,7 @@ _POLICIES: dict[str, tuple[str, dict[str, Any]]] = {
     "sbs": ("baselines.box_pushing.sbs:SituatedBehaviourSets", {}),
     "sbs1": ("baselines.box_pushing.sbs:SituatedBehaviourSets", {"fixed_sbs": 1}),
     "sbs-oracle": ("baselines.box_pushing.sbs:SituatedBehaviourSets", {"recognition": "oracle"}),
+    "sbs-literal": ("baselines.box_pushing.sbs:SituatedBehaviourSets", {"reading": "literal"}),
     "cooperative-push": ("baselines.box_pushing.cooperative:CooperativePush", {}),
     "nash-explore": ("baselines.exploration.nash_explore:NashExplore", {}),
     "greedy": ("baselines.exploration.policies:GreedyExplore", {}),

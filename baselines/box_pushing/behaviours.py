@@ -1,27 +1,42 @@
 """Behaviours B-1..B-19 and the situated behaviour sets SBS-1..SBS-4 of paper 004 (section 3).
 
 A behaviour is "if a state then an action": a conjunction of sensed states (negated with
-``¬``; B-10's disjunction is written as its own ``any`` clause) and a primitive action. The
-table below is the paper's text verbatim. When several behaviours of the active set apply,
-footnote 1 decides: (1) the more specific behaviour, the one with more conditions, then
-(2) the one with the younger (smaller) number.
+``¬``; B-10's disjunction is written as its own ``any`` clause) and a primitive action. When
+several behaviours of the active set apply, footnote 1 decides: (1) the more specific
+behaviour, the one with more conditions, then (2) the one with the younger (smaller) number.
+
+Two readings of the rules (:data:`READINGS`, ``docs/box_pushing.md``, readings 5, 6 and 11):
+
+* ``"shipped"`` (``sbs``, the default): footnote 1 counts *positive* conditions only (a
+  disjunction counts one), and B-17–B-19 carry an extra ``forward-object`` (:data:`BEHAVIOURS`).
+* ``"literal"`` (``sbs-literal``): footnote 1 counts every printed literal, negations and each
+  disjunct included, and B-17–B-19 are as printed (:data:`BEHAVIOURS_AS_PRINTED`); it goes with
+  the recognizer's ``robot_facts="touching"`` (X-robot only where the 20 mm X-object holds).
+
+B-10 is flagged in both (``Behaviour.lost``): its printed condition "left-robot ∨ right-robot ∨"
+ends in a dangling ``∨``, a third disjunct lost in the text; both readings use the two printed ones.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from teamgym.control.primitives import Primitive
 
 
 @dataclass(frozen=True)
 class Behaviour:
-    """Behaviour ``number``: if every literal of ``all_of`` holds (and one of ``any_of``, if given) then ``action``."""
+    """Behaviour ``number``: if every literal of ``all_of`` holds (and one of ``any_of``, if given) then ``action``.
+
+    ``lost`` counts literals of the printed rule that are lost in the text (B-10: 1); they are
+    neither checked nor counted.
+    """
 
     number: int
     all_of: tuple[str, ...]
     action: str
     any_of: tuple[str, ...] = ()
+    lost: int = 0
 
     @property
     def specificity(self) -> int:
@@ -31,6 +46,11 @@ class Behaviour:
         behaviour more specific; see docs/box_pushing.md for why.
         """
         return sum(not literal.startswith("¬") for literal in self.all_of) + (1 if self.any_of else 0)
+
+    @property
+    def conditions(self) -> int:
+        """Number of printed literals: negations and each disjunct count (footnote 1 read literally)."""
+        return len(self.all_of) + len(self.any_of)
 
     def applies(self, facts: frozenset[str]) -> bool:
         for literal in self.all_of:
@@ -43,7 +63,7 @@ class Behaviour:
 
 
 B = Behaviour
-#: B-1..B-19 as written in sections 3.2–3.4.
+#: B-1..B-19 of sections 3.2–3.4, the shipped reading: B-17–B-19 with ``forward-object`` added (reading 6).
 BEHAVIOURS: dict[int, Behaviour] = {
     b.number: b
     for b in (
@@ -56,7 +76,7 @@ BEHAVIOURS: dict[int, Behaviour] = {
         B(7, ("forward-object", "back-object"), "stop"),
         B(8, ("forward-light", "forward-object", "left-object"), "turn-right"),
         B(9, ("forward-light", "forward-object", "right-object"), "turn-left"),
-        B(10, (), "following", ("left-robot", "right-robot")),
+        B(10, (), "following", ("left-robot", "right-robot"), lost=1),
         B(11, ("¬forward-robot", "back-robot"), "go-ahead"),
         B(12, ("¬forward-robot", "back-robot-leaving"), "stop"),
         B(13, ("forward-robot-leaving",), "following"),
@@ -67,6 +87,11 @@ BEHAVIOURS: dict[int, Behaviour] = {
         B(18, ("forward-robot", "forward-object", "¬forward-light"), "direction-change"),
         B(19, ("forward-robot", "forward-object", "forward-light"), "side&push"),
     )
+}
+
+#: B-1..B-19 exactly as printed: B-17–B-19 without the added ``forward-object``.
+BEHAVIOURS_AS_PRINTED: dict[int, Behaviour] = BEHAVIOURS | {
+    n: replace(BEHAVIOURS[n], all_of=tuple(x for x in BEHAVIOURS[n].all_of if x != "forward-object")) for n in (17, 18, 19)
 }
 
 #: The behaviour numbers of each situated behaviour set (sections 3.2–3.5).
@@ -96,13 +121,43 @@ _FOLLOW = {
 }
 
 
-def select(sbs: int, facts: frozenset[str]) -> Behaviour | None:
-    """The behaviour of SBS-``sbs`` that fires on ``facts`` (footnote 1), or None if none applies."""
+@dataclass(frozen=True)
+class Reading:
+    """A reading of the rule table: its behaviours and footnote 1's count of conditions."""
+
+    name: str
+    behaviours: dict[int, Behaviour]
+    every_literal: bool  # footnote 1 counts every literal (else the positive conditions only)
+    robot_facts: str  # the recognizer's ``RecognizerParams.robot_facts`` that goes with it
+
+    def specificity(self, behaviour: Behaviour) -> int:
+        """Footnote 1's count of ``behaviour``'s conditions under this reading."""
+        return behaviour.conditions if self.every_literal else behaviour.specificity
+
+
+READINGS: dict[str, Reading] = {
+    "shipped": Reading("shipped", BEHAVIOURS, every_literal=False, robot_facts="marks"),
+    "literal": Reading("literal", BEHAVIOURS_AS_PRINTED, every_literal=True, robot_facts="touching"),
+}
+
+
+def reading(name: str) -> Reading:
+    """The rule-table reading ``name`` (``"shipped"`` or ``"literal"``)."""
+    if name not in READINGS:
+        raise ValueError(f"reading must be one of {sorted(READINGS)}, got {name!r}")
+    return READINGS[name]
+
+
+def select(sbs: int, facts: frozenset[str], rules: Reading = READINGS["shipped"]) -> Behaviour | None:
+    """The behaviour of SBS-``sbs`` that fires on ``facts`` under ``rules`` (footnote 1), or None if none applies."""
     best: Behaviour | None = None
+    best_count = -1
     for number in SBS[sbs]:
-        behaviour = BEHAVIOURS[number]
-        if behaviour.applies(facts) and (best is None or behaviour.specificity > best.specificity):
-            best = behaviour
+        behaviour = rules.behaviours[number]
+        if behaviour.applies(facts):
+            count = rules.specificity(behaviour)
+            if count > best_count:
+                best, best_count = behaviour, count
     return best
 
 

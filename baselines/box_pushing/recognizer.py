@@ -33,6 +33,12 @@ rotation (odometry) and moved to the nearest ray within ``mark_width`` that stil
 something; when none does, the robot has left. A mark that shows no change for ``mark_patience`` still steps is forgotten (that
 robot stopped; nothing tells it from a box any more), so two robots that stop facing each
 other (B-14) do not wait for ever.
+
+``robot_facts="touching"`` (the literal reading, ``sbs-literal``) reads "sensed" in
+``X-robot`` as in ``X-object`` (section 3.1, within 20 mm): ``X-robot`` holds only where a
+mark lies in group X *and* ``X-object`` holds there, and ``X-robot-leaving`` holds for
+``leaving_time`` s after ``X-robot`` stopped holding (the robot "becomes not to be sensed").
+The M check, the marks and M are the same in both readings.
 """
 
 from __future__ import annotations
@@ -61,7 +67,11 @@ def group_of_bearing(bearing: float) -> str:
 
 @dataclass(frozen=True)
 class RecognizerParams:
-    """Thresholds and time constants of the recognizer (SI units; ``tt`` is a count)."""
+    """Thresholds and time constants of the recognizer (SI units; ``tt`` is a count).
+
+    ``robot_facts``: ``"marks"`` (X-robot wherever a mark is, within sensor range) or
+    ``"touching"`` (X-robot only where X-object holds too; the literal reading).
+    """
 
     dt: float = 0.1
     object_threshold: float = 0.02
@@ -79,9 +89,14 @@ class RecognizerParams:
     leaving_time: float = 3.0
     mark_width: float = math.radians(60.0)
     mark_patience: int = 20
+    robot_facts: str = "marks"
     wheel_radius: float = 0.008
     wheel_base: float = 0.053
     ray_angles: tuple[float, ...] = ()
+
+    def __post_init__(self) -> None:
+        if self.robot_facts not in ("marks", "touching"):
+            raise ValueError(f"robot_facts must be 'marks' or 'touching', got {self.robot_facts!r}")
 
 
 @dataclass
@@ -110,6 +125,8 @@ class SituationRecognizer:
         #: Recognized robots: [bearing in the robot's frame (rad), still steps without a change there].
         self.marks: list[list] = []
         self._leaving: dict[str, float] = {}
+        self._touching: set[str] = set()  # robot_facts="touching": groups with X-robot last step
+        self._touch_left: dict[str, float] = {}  # ... and when X-robot last stopped holding there
         self._previous: np.ndarray | None = None
         self._stall = 0
         self._push = 0
@@ -164,11 +181,14 @@ class SituationRecognizer:
             facts.add("no-rotation")
             self._latched_stall = bool(self._look)
         robot_groups = {group_of_bearing(b) for b, _ in self.marks}
+        leaving = self._leaving
+        if p.robot_facts == "touching":
+            robot_groups = {g for g in robot_groups if objects[g]}
+            self._touch_left.update(dict.fromkeys(self._touching - robot_groups, self.time))
+            self._touching, leaving = robot_groups, self._touch_left
         facts |= {f"{g}-robot" for g in robot_groups}
         facts |= {
-            f"{g}-robot-leaving"
-            for g, when in self._leaving.items()
-            if g not in robot_groups and self.time - when <= p.leaving_time
+            f"{g}-robot-leaving" for g, when in leaving.items() if g not in robot_groups and self.time - when <= p.leaving_time
         }
         self.facts = frozenset(facts)
         if self.situation != before:

@@ -9,6 +9,9 @@ direction-change: B-1 (go-ahead) explicitly excludes objects ahead or at the sid
 the paper gives no rule for, e.g., an object only at a side or an object ahead with the
 light behind (in SBS-1); direction-change is its one avoiding action. ``sbs1`` is the ablation that uses SBS-1 in every
 situation (the paper's motivation for SBS-2: harmful interactions, section 3.3).
+``sbs-literal`` is ``sbs`` with ``reading="literal"``: footnote 1 counting every literal,
+B-17–B-19 as printed and X-robot only within the 20 mm of X-object
+(:data:`~baselines.box_pushing.behaviours.READINGS`; ``docs/box_pushing.md``, reading 11).
 
 Statistics for the experiments: ``activations`` (how often each behaviour fired, by
 number; 0 counts cycles in which none applied), ``situation_steps`` (robot-steps spent in
@@ -23,6 +26,7 @@ from dataclasses import fields, replace
 from typing import Any
 
 from baselines.box_pushing.behaviours import primitive_for, select
+from baselines.box_pushing.behaviours import reading as rule_reading
 from baselines.box_pushing.oracle import TrueRobotBearings
 from baselines.box_pushing.recognizer import RecognizerParams, SituationRecognizer
 from baselines.policy import Policy
@@ -48,6 +52,11 @@ class SituatedBehaviourSets(Policy):
         no other robot to notice, it only drops the 1-3-cycle stops, and it is the teacher of
         the ``boxpushing-s1-ppo`` clone (a memoryless clone cannot tell a look's ``stop`` from
         the readings; ``docs/training.md``).
+    reading:
+        The rule table's reading: ``"shipped"`` (positive conditions counted, B-17–B-19 with
+        ``forward-object``, robot marks to sensor range) or ``"literal"`` (every literal counted,
+        B-17–B-19 as printed, ``robot_facts="touching"``; the ``sbs-literal`` policy). An explicit
+        ``robot_facts`` override wins over the reading's.
     """
 
     name = "sbs"
@@ -55,7 +64,9 @@ class SituatedBehaviourSets(Policy):
     observation_fields = ("proximity", "light", "encoders", "busy")
     required_config = {"action_type": "primitives"}
 
-    def __init__(self, env, fixed_sbs: int | None = None, recognition: str = "sensors", **recognizer: Any) -> None:
+    def __init__(
+        self, env, fixed_sbs: int | None = None, recognition: str = "sensors", reading: str = "shipped", **recognizer: Any
+    ) -> None:
         super().__init__(env)
         if not isinstance(getattr(env, "action_type", None), PrimitiveAction):
             raise TypeError(f"{type(self).__name__} needs BoxPushing-v0 or -v1 with action_type='primitives'")
@@ -63,6 +74,7 @@ class SituatedBehaviourSets(Policy):
             raise ValueError(f"fixed_sbs must be None or 1..4, got {fixed_sbs!r}")
         if recognition not in ("sensors", "oracle"):
             raise ValueError(f"recognition must be 'sensors' or 'oracle', got {recognition!r}")
+        self.rules = rule_reading(reading)
         known = {f.name for f in fields(RecognizerParams)}
         unknown = sorted(set(recognizer) - known)
         if unknown:
@@ -80,6 +92,7 @@ class SituatedBehaviourSets(Policy):
             wheel_radius=env.spec_robot.wheel_radius,
             wheel_base=env.spec_robot.wheel_base,
             ray_angles=tuple(env.ring.angles.tolist()),
+            robot_facts=self.rules.robot_facts,
         )
         self.params = replace(base, **recognizer)
         self.fixed_sbs = fixed_sbs
@@ -119,7 +132,7 @@ class SituatedBehaviourSets(Policy):
                 actions[agent] = int(Primitive.STOP)
                 self.looks += 1
                 continue
-            behaviour = select(self.fixed_sbs or int(situation[1]), facts)
+            behaviour = select(self.fixed_sbs or int(situation[1]), facts, self.rules)
             number = behaviour.number if behaviour is not None else 0
             self.activations[number] += 1
             self.last_behaviour[agent] = number
