@@ -3,6 +3,8 @@
     python experiments/paper004_box_pushing.py all --out results/paper004 --figures docs/figures/paper004 \\
         [--seeds 30] [--workers 2] [--env BoxPushing-v1] [--set noise=0] [--policies sbs,sbs1]
 
+``--policies sbs,sbs-literal`` runs both readings of the rule table side by side (``sbs``: the
+shipped reading; ``sbs-literal``: footnote 1, B-17–B-19 and X-robot read literally, issue 26).
 ``--env`` picks the env id (default ``BoxPushing-v0``, the paper's reading; ``BoxPushing-v1``
 has the coupled table friction and Khepera-like noise) and ``--set key=value`` (repeatable)
 overrides its config for every run, e.g. ``--set noise=0`` for v1 without noise.

@@ -73,3 +73,11 @@ def test_report_puts_runs_side_by_side(paper004, tmp_path):
     assert "every box (v1, noise on, {'max_cycles': 40})" in header
     assert "every box (v1, noise off, {'max_cycles': 40})" in header
     assert text.count("| S3 | random |") == 1 and "dynamic_policies" not in text
+
+
+def test_static_runs_both_readings_of_sbs_on_the_same_seeds(paper004, tmp_path):
+    env = ("BoxPushing-v0", {"max_cycles": 20})
+    rows = paper004.experiment_static(tmp_path, None, 1, 1, env, ("sbs", "sbs-literal"), first_seed=31000, tag="_r")
+    assert [(r["situation"], r["policy"]) for r in rows] == [(s, p) for s in paper004.SITUATIONS for p in ("sbs", "sbs-literal")]
+    saved = json.loads((tmp_path / "static_r.json").read_text())
+    assert {(e["policy"], e["seed"]) for e in saved["episodes"]} == {("sbs", 31000), ("sbs-literal", 31000)}
