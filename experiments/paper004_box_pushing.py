@@ -119,13 +119,14 @@ def experiment_static(
     policies: tuple[str, ...] = POLICIES,
     first_seed: int = 0,
     tag: str = "",
+    situations: tuple[str, ...] = SITUATIONS,
 ) -> list[dict]:
-    """Section 4.1 for every policy on seeds ``first_seed`` … ``first_seed + seeds - 1``; files ``static{tag}.*``."""
+    """Section 4.1 for every policy in ``situations`` on seeds ``first_seed`` …, ``seeds`` of them; files ``static{tag}.*``."""
     seed_range = range(first_seed, first_seed + seeds)
-    jobs = [(s, p, seed, env) for s in SITUATIONS for p in policies for seed in seed_range]
+    jobs = [(s, p, seed, env) for s in situations for p in policies for seed in seed_range]
     results = _pool_map(run_static, jobs, workers)
     rows, activation_rows = [], []
-    for situation in SITUATIONS:
+    for situation in situations:
         for policy in policies:
             runs = [r for r in results if r["situation"] == situation and r["policy"] == policy]
             steps = Counter()
@@ -546,6 +547,9 @@ def main(argv: Sequence[str] | None = None) -> None:
     )
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="env config override (repeatable)")
     parser.add_argument("--policies", default=",".join(POLICIES), help="policies of `static` and `dynamic`, comma-separated")
+    parser.add_argument(
+        "--situations", default=",".join(SITUATIONS), help="situations of `static`, comma-separated (default S1,S2,S3,S4)"
+    )
     parser.add_argument("--no-recognition", action="store_true", help="`dynamic`: skip sbs's recognizer-triggered runs")
     parser.add_argument("--tag", default="", help="suffix of the output files (e.g. _v1_noise0); `report`: comma-separated")
     args = parser.parse_args(argv)
@@ -564,6 +568,9 @@ def main(argv: Sequence[str] | None = None) -> None:
     policies = tuple(p for p in args.policies.split(",") if p)
     if not policies:
         parser.error(f"argument --policies: expected comma-separated policy names, got {args.policies!r}")
+    situations = tuple(s for s in args.situations.split(",") if s)
+    if not situations or set(situations) - set(SITUATIONS):
+        parser.error(f"argument --situations: expected some of {','.join(SITUATIONS)}, got {args.situations!r}")
     try:
         make_env(env)  # an unknown id or a bad override fails here, before any run
         for policy in policies:
@@ -576,7 +583,7 @@ def main(argv: Sequence[str] | None = None) -> None:
         return
     first = args.first_seed or 0
     if args.experiment in ("static", "all"):
-        rows = experiment_static(args.out, args.figures, args.seeds, args.workers, env, policies, first, args.tag)
+        rows = experiment_static(args.out, args.figures, args.seeds, args.workers, env, policies, first, args.tag, situations)
         print(markdown_table(rows))
     if args.experiment in ("dynamic", "all"):
         print(markdown_table(experiment_dynamic_policies(args.out, args.seeds, args.workers, env, policies, first, args.tag)))
