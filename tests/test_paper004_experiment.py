@@ -58,7 +58,7 @@ def test_dynamic_changes_happen_at_the_fixed_time_for_any_policy(paper004, scena
 
 
 def test_cli_rejects_unknown_policies_and_bad_overrides_in_one_line():
-    for args in (["--policies", "nope"], ["--set", "noise=-1"], ["--seeds", "0"]):
+    for args in (["--policies", "nope"], ["--set", "noise=-1"], ["--seeds", "0"], ["--situations", "S3,S5"]):
         run = subprocess.run([sys.executable, str(SCRIPT), "static", *args], capture_output=True, text=True, cwd=ROOT)
         assert run.returncode == 2 and "Traceback" not in run.stderr
         assert run.stderr.strip().splitlines()[-1].startswith("paper004_box_pushing.py: error:")
@@ -77,7 +77,8 @@ def test_report_puts_runs_side_by_side(paper004, tmp_path):
 
 def test_static_runs_both_readings_of_sbs_on_the_same_seeds(paper004, tmp_path):
     env = ("BoxPushing-v0", {"max_cycles": 20})
-    rows = paper004.experiment_static(tmp_path, None, 1, 1, env, ("sbs", "sbs-literal"), first_seed=31000, tag="_r")
-    assert [(r["situation"], r["policy"]) for r in rows] == [(s, p) for s in paper004.SITUATIONS for p in ("sbs", "sbs-literal")]
+    policies = ("sbs", "sbs-literal")
+    rows = paper004.experiment_static(tmp_path, None, 1, 1, env, policies, 31000, "_r", situations=("S2", "S3"))
+    assert [(r["situation"], r["policy"]) for r in rows] == [(s, p) for s in ("S2", "S3") for p in policies]
     saved = json.loads((tmp_path / "static_r.json").read_text())
     assert {(e["policy"], e["seed"]) for e in saved["episodes"]} == {("sbs", 31000), ("sbs-literal", 31000)}
