@@ -28,6 +28,9 @@ Subcommands (each writes JSON and a Markdown table into ``--out``; figures also 
   and both together. Reports success, seconds with two or more robots touching the heavy
   box, and the share of robot-steps stopped by the line-keeping rules B-12/B-14.
   ``--first-seed`` picks the seeds (held-out seeds 100+ by default).
+* ``pool`` (no runs): one static table over every ``static{prefix}*.json`` in ``--out`` for the
+  comma-separated ``--tag`` prefixes, e.g. the runs of ``static --situations S3`` and of
+  ``static --situations S2 --seeds 10 --first-seed 31010`` pooled; an episode run twice is an error.
 """
 
 from __future__ import annotations
@@ -125,19 +128,47 @@ def experiment_static(
     seed_range = range(first_seed, first_seed + seeds)
     jobs = [(s, p, seed, env) for s in situations for p in policies for seed in seed_range]
     results = _pool_map(run_static, jobs, workers)
+    rows, activation_rows = static_rows(results, situations, policies)
+    name = f"static{tag}"
+    _write(
+        out,
+        name,
+        {
+            "env": env[0],
+            "config": env[1],
+            "first_seed": first_seed,
+            "rows": rows,
+            "activations": activation_rows,
+            "episodes": _strip(results),
+        },
+    )
+    header = f"{env[0]} {env[1] or ''}, seeds {first_seed}–{first_seed + seeds - 1}\n\n"
+    (out / f"{name}.md").write_text(header + markdown_table(rows) + _activations_text(activation_rows) + "\n")
+    for policy in policies:
+        s3 = [r for r in results if r["situation"] == "S3" and r["policy"] == policy]
+        _plot_typical(s3, out, figures, f"s3_{policy}{tag}")
+    return rows
+
+
+def static_rows(results: list[dict], situations: Sequence[str], policies: Sequence[str]) -> tuple[list[dict], list[dict]]:
+    """The static table's rows (rates with Wilson 95 % intervals) and mean activations per episode, by situation and policy."""
     rows, activation_rows = [], []
     for situation in situations:
         for policy in policies:
             runs = [r for r in results if r["situation"] == situation and r["policy"] == policy]
+            if not runs:
+                continue
             steps = Counter()
             for r in runs:
                 steps.update(r["situation_steps"])
             total = sum(steps.values())
+            seeds = sorted(r["seed"] for r in runs)
             rows.append(
                 {
                     "situation": situation,
                     "policy": policy,
                     "episodes": len(runs),
+                    "seeds": f"{seeds[0]}–{seeds[-1]}",
                     "every box": rate_text(sum(r["success"] for r in runs), len(runs)),
                     "a box touches the goal": rate_text(sum(r["first_box_s"] is not None for r in runs), len(runs)),
                     "time, every box (s)": mean_text([r["time_to_goal"] for r in runs if r["success"]]),
@@ -153,26 +184,35 @@ def experiment_static(
                     {"situation": situation, "policy": policy}
                     | {f"B-{k}" if k else "none": round(counts[k] / len(runs)) for k in range(20)}
                 )
-    name = f"static{tag}"
-    _write(
-        out,
-        name,
-        {
-            "env": env[0],
-            "config": env[1],
-            "first_seed": first_seed,
-            "rows": rows,
-            "activations": activation_rows,
-            "episodes": _strip(results),
-        },
-    )
-    header = f"{env[0]} {env[1] or ''}, seeds {first_seed}–{first_seed + seeds - 1}\n\n"
-    activations = "\n\nBehaviour activations per episode (mean):\n\n" + markdown_table(activation_rows) if activation_rows else ""
-    (out / f"{name}.md").write_text(header + markdown_table(rows) + activations + "\n")
-    for policy in policies:
-        s3 = [r for r in results if r["situation"] == "S3" and r["policy"] == policy]
-        _plot_typical(s3, out, figures, f"s3_{policy}{tag}")
-    return rows
+    return rows, activation_rows
+
+
+def pool(out: Path, prefixes: Sequence[str]) -> str:
+    """One static table over the episodes of every ``static{prefix}*.json`` in ``out`` (runs split by situation or seeds).
+
+    Raises ``ValueError`` if no file matches or an episode (situation, policy, seed) appears twice.
+    """
+    episodes: list[dict] = []
+    files = sorted({f for prefix in prefixes for f in out.glob(f"static{prefix}*.json")})
+    if not files:
+        raise ValueError(f"no static{{prefix}}*.json in {out} for prefixes {list(prefixes)}")
+    envs = set()
+    for path in files:
+        data = json.loads(path.read_text())
+        envs.add((data["env"], json.dumps(data["config"], sort_keys=True)))
+        episodes += data["episodes"]
+    keys = [(e["situation"], e["policy"], e["seed"]) for e in episodes]
+    twice = sorted({k for k in keys if keys.count(k) > 1})
+    if twice:
+        raise ValueError(f"episodes run twice in {out}: {twice[:3]}")
+    policies = tuple(dict.fromkeys(e["policy"] for e in episodes))
+    rows, activation_rows = static_rows(episodes, SITUATIONS, policies)
+    header = f"{', '.join(f'{env} {config}' for env, config in sorted(envs))}; files: {', '.join(f.name for f in files)}\n\n"
+    return header + markdown_table(rows) + _activations_text(activation_rows) + "\n"
+
+
+def _activations_text(activation_rows: list[dict]) -> str:
+    return "\n\nBehaviour activations per episode (mean):\n\n" + markdown_table(activation_rows) if activation_rows else ""
 
 
 def _plot_typical(runs: list[dict], out: Path, figures: Path | None, stem: str) -> None:
@@ -536,7 +576,7 @@ def _run_label(data: dict[str, Any]) -> str:
 def main(argv: Sequence[str] | None = None) -> None:
     """The command line: a bad one (an empty ``--env`` or ``--policies`` included) exits 2 with one line, before any run."""
     parser = _Parser(description=__doc__.splitlines()[0], named=True)
-    parser.add_argument("experiment", choices=["static", "dynamic", "all", "diagnose", "report"])
+    parser.add_argument("experiment", choices=["static", "dynamic", "all", "diagnose", "report", "pool"])
     parser.add_argument("--out", type=Path, default=Path("results/paper004"))
     parser.add_argument("--figures", type=Path, default=None)
     parser.add_argument("--seeds", type=int, default=30)
@@ -551,10 +591,18 @@ def main(argv: Sequence[str] | None = None) -> None:
         "--situations", default=",".join(SITUATIONS), help="situations of `static`, comma-separated (default S1,S2,S3,S4)"
     )
     parser.add_argument("--no-recognition", action="store_true", help="`dynamic`: skip sbs's recognizer-triggered runs")
-    parser.add_argument("--tag", default="", help="suffix of the output files (e.g. _v1_noise0); `report`: comma-separated")
+    parser.add_argument(
+        "--tag", default="", help="suffix of the output files (e.g. _v1_noise0); `report`, `pool`: comma-separated"
+    )
     args = parser.parse_args(argv)
     if args.experiment == "report":
         print(report(args.out, args.tag.split(",")))
+        return
+    if args.experiment == "pool":
+        try:
+            print(pool(args.out, args.tag.split(",")))
+        except ValueError as error:
+            parser.error(str(error))
         return
     if args.seeds < 1 or args.workers < 1 or (args.first_seed is not None and args.first_seed < 0):
         parser.error("--seeds and --workers must be >= 1 and --first-seed >= 0")

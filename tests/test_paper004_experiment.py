@@ -82,3 +82,16 @@ def test_static_runs_both_readings_of_sbs_on_the_same_seeds(paper004, tmp_path):
     assert [(r["situation"], r["policy"]) for r in rows] == [(s, p) for s in ("S2", "S3") for p in policies]
     saved = json.loads((tmp_path / "static_r.json").read_text())
     assert {(e["policy"], e["seed"]) for e in saved["episodes"]} == {("sbs", 31000), ("sbs-literal", 31000)}
+
+
+def test_pool_merges_runs_split_by_situation_and_seeds(paper004, tmp_path):
+    env = ("BoxPushing-v0", {"max_cycles": 20})
+    paper004.experiment_static(tmp_path, None, 1, 1, env, ("random",), 5, "_a_S3", situations=("S3",))
+    paper004.experiment_static(tmp_path, None, 2, 1, env, ("random",), 6, "_a_S1_6", situations=("S1",))
+    text = paper004.pool(tmp_path, ["_a"])
+    assert "| S1 | random | 2 | 6–7 | 0 % [0, 66] |" in text and "| S3 | random | 1 | 5–5 |" in text
+    paper004.experiment_static(tmp_path, None, 1, 1, env, ("random",), 7, "_a_S1_7", situations=("S1",))
+    with pytest.raises(ValueError, match="run twice"):
+        paper004.pool(tmp_path, ["_a"])
+    with pytest.raises(ValueError, match="no static"):
+        paper004.pool(tmp_path, ["_b"])
