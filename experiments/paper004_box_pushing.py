@@ -1,7 +1,7 @@
 """Reproduce the experiments of paper 004 (section 4) with the ``sbs`` baseline and the ``sbs1`` ablation.
 
     python experiments/paper004_box_pushing.py all --out results/paper004 --figures docs/figures/paper004 \\
-        [--seeds 30] [--workers 2] [--env BoxPushing-v1] [--set noise=0] [--policies sbs,sbs1]
+        [--seeds 30] [--workers 2] [--env BoxPushing-v1] [--set noise=0] [--policies sbs,sbs1] [--situations S3]
 
 ``--policies sbs,sbs-literal`` runs both readings of the rule table side by side (``sbs``: the
 shipped reading; ``sbs-literal``: footnote 1, B-17–B-19 and X-robot read literally, issue 26).
