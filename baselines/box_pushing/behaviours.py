@@ -138,11 +138,13 @@ class Reading:
 READINGS: dict[str, Reading] = {
     "shipped": Reading("shipped", BEHAVIOURS, every_literal=False, robot_facts="marks"),
     "literal": Reading("literal", BEHAVIOURS_AS_PRINTED, every_literal=True, robot_facts="touching"),
+    # Diagnostic (issue 26's probe): the literal count and X-robot, B-17–B-19 as shipped.
+    "literal-count": Reading("literal-count", BEHAVIOURS, every_literal=True, robot_facts="touching"),
 }
 
 
 def reading(name: str) -> Reading:
-    """The rule-table reading ``name`` (``"shipped"`` or ``"literal"``)."""
+    """The rule-table reading ``name`` (``"shipped"``, ``"literal"`` or the diagnostic ``"literal-count"``)."""
     if name not in READINGS:
         raise ValueError(f"reading must be one of {sorted(READINGS)}, got {name!r}")
     return READINGS[name]
