@@ -132,6 +132,9 @@ def test_policy_readings_and_bad_values():
     with pytest.raises(ValueError, match="robot_facts must be"):
         make_policy("sbs", env, robot_facts="near")
     assert reading("literal") is LITERAL
+    # The diagnostic literal-count: the literal count with the shipped B-19 (three conditions) beats B-4.
+    ahead = frozenset({"forward-robot", "forward-object", "forward-light"})
+    assert select(3, ahead, reading("literal-count")).number == 19 and select(3, ahead, LITERAL).number == 4
 
 
 def test_literal_reading_leaves_b14_b17_b19_unreachable_in_sbs3():
