@@ -193,7 +193,7 @@ def pool(out: Path, prefixes: Sequence[str]) -> str:
     Raises ``ValueError`` if no file matches or an episode (situation, policy, seed) appears twice.
     """
     episodes: list[dict] = []
-    files = sorted({f for prefix in prefixes for f in out.glob(f"static{prefix}*.json")})
+    files = list(dict.fromkeys(f for prefix in prefixes for f in sorted(out.glob(f"static{prefix}*.json"))))
     if not files:
         raise ValueError(f"no static{{prefix}}*.json in {out} for prefixes {list(prefixes)}")
     envs = set()
@@ -207,7 +207,8 @@ def pool(out: Path, prefixes: Sequence[str]) -> str:
         raise ValueError(f"episodes run twice in {out}: {twice[:3]}")
     policies = tuple(dict.fromkeys(e["policy"] for e in episodes))
     rows, activation_rows = static_rows(episodes, SITUATIONS, policies)
-    header = f"{', '.join(f'{env} {config}' for env, config in sorted(envs))}; files: {', '.join(f.name for f in files)}\n\n"
+    names = ", ".join(f"static{prefix}*.json" for prefix in prefixes)
+    header = f"{', '.join(f'{env} {config}' for env, config in sorted(envs))}; {len(files)} files {names}\n\n"
     return header + markdown_table(rows) + _activations_text(activation_rows) + "\n"
 
 
