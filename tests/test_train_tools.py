@@ -20,12 +20,13 @@ import pytest
 pytest.importorskip("stable_baselines3")
 
 import teamgym  # noqa: E402
-from baselines.evaluate import evaluate, summarise  # noqa: E402
+from baselines.evaluate import evaluate  # noqa: E402
 from baselines.evaluate import main as evaluate_main  # noqa: E402
 from baselines.rl import plot_curves  # noqa: E402
 from baselines.rl.callbacks import EvalLog, is_better  # noqa: E402
 from baselines.rl.sb3_policy import SB3Policy  # noqa: E402
 from baselines.rl.train import Training, continued_path, train  # noqa: E402
+from baselines.summary import summarise  # noqa: E402
 from baselines.train import main as train_main  # noqa: E402
 
 ENV_ARGS = ["--set", "n_robots=2", "--max-cycles", "10", "--n-envs", "1"]

@@ -201,27 +201,28 @@ def compare(
 
 def build_parser() -> argparse.ArgumentParser:
     """The ``python -m baselines.rl.compare`` argument parser (a bad command line exits 2 with a one-line error)."""
-    from baselines.evaluate import MAX_EPISODES, _at_least, _nonblank, _Parser
+    from baselines.cli import Parser, at_least, nonblank
+    from baselines.evaluate import MAX_EPISODES
 
-    parser = _Parser(prog="python -m baselines.rl.compare", description=__doc__.splitlines()[0])
-    parser.add_argument("--env", type=_nonblank("an env id"), default="Navigation-v0", help="env id (default: Navigation-v0)")
+    parser = Parser(prog="python -m baselines.rl.compare", description=__doc__.splitlines()[0])
+    parser.add_argument("--env", type=nonblank("an env id"), default="Navigation-v0", help="env id (default: Navigation-v0)")
     parser.add_argument(
         "--agent",
-        type=_nonblank("a shipped agent name or a model path"),
+        type=nonblank("a shipped agent name or a model path"),
         default=None,
         help="a shipped agent name or a model path (sb3); none: scripted only",
     )
     parser.add_argument(
         "--episodes",
-        type=_at_least(1, MAX_EPISODES),
+        type=at_least(1, MAX_EPISODES),
         default=100,
         help=f"held-out episodes per policy, 1 to {MAX_EPISODES} (default: 100)",
     )
-    parser.add_argument("--seed", type=_at_least(0), default=20_000, help="first held-out seed, >= 0 (default: 20000)")
-    parser.add_argument("--workers", type=_at_least(1), default=1, help="worker processes, >= 1 (default: 1)")
+    parser.add_argument("--seed", type=at_least(0), default=20_000, help="first held-out seed, >= 0 (default: 20000)")
+    parser.add_argument("--workers", type=at_least(1), default=1, help="worker processes, >= 1 (default: 1)")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="task config for every policy")
     parser.add_argument(
-        "--out", type=_nonblank("a directory"), default=None, help="directory for comparison.md/.json (and curve.png)"
+        "--out", type=nonblank("a directory"), default=None, help="directory for comparison.md/.json (and curve.png)"
     )
     parser.add_argument("--curve", action="store_true", help="draw the agent's learning curve (needs its _eval.csv)")
     parser.add_argument(
@@ -265,27 +266,25 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run the comparison CLI: exit 2 with one line for bad arguments (``--out`` included) before any
     episode, 1 for a failure while playing."""
     import teamgym
-    from baselines.evaluate import _check_out, _message, guarded
+    from baselines.cli import check_out, guarded, message, parse_args, parse_pairs
     from baselines.rl.sb3_policy import resolve_model
-    from baselines.rl.train import _pairs
 
-    try:
-        args = build_parser().parse_args(argv)
-    except SystemExit as done:  # --help, or a usage error already reported in one line
-        return 0 if done.code is None else done.code if isinstance(done.code, int) else 2
+    args = parse_args(build_parser(), argv)
+    if isinstance(args, int):  # --help, or a usage error already reported in one line
+        return args
     try:
         if args.curve and (args.agent is None or args.out is None):
             raise ValueError("--curve needs --agent and --out")
         if args.out is not None:
-            _check_out(Path(args.out))
-        task = _pairs(args.set, "--set")
+            check_out(Path(args.out))
+        task = parse_pairs(args.set, "--set")
         teamgym.make(args.env, **task).close()  # a bad env id or task config fails here, before any episode
         if args.agent is not None:
             resolve_model(args.agent)
         if args.curve:
             _curve_csv(args.agent)
     except (ValueError, KeyError, FileNotFoundError) as error:
-        print(f"error: {_message(error)}", file=sys.stderr)
+        print(f"error: {message(error)}", file=sys.stderr)
         return 2
     return guarded(lambda: _report(args, compare(args.env, args.agent, args.episodes, args.seed, args.workers, task)))
 
