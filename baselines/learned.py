@@ -81,7 +81,7 @@ def sidecar_path(engine: str, path: str | Path) -> Path:
 
 
 def _field_error(path: Path, field: str, expected: str, value: Any) -> ValueError:
-    return ValueError(f"the sidecar {str(path)!r}: field {field!r} must be {expected}, got {value!r}")
+    return ValueError(f"the model's sidecar {str(path)!r}: field {field!r} must be {expected}, got {value!r}")
 
 
 def check_sidecar(data: Any, engine: str, path: str | Path) -> dict[str, Any]:
@@ -92,7 +92,7 @@ def check_sidecar(data: Any, engine: str, path: str | Path) -> dict[str, Any]:
     """
     path = Path(path)
     if not isinstance(data, dict):
-        raise ValueError(f"the sidecar {str(path)!r} is not a JSON object")
+        raise ValueError(f"the model's sidecar {str(path)!r} is not a JSON object")
     data = dict(data)
     version = data.get("format")
     if version is None:
@@ -131,7 +131,7 @@ def read_sidecar_file(path: str | Path, engine: str) -> dict[str, Any] | None:
     try:
         data = json.loads(path.read_text())
     except (OSError, ValueError) as error:
-        raise ValueError(f"cannot read the sidecar {str(path)!r}: {' '.join(str(error).split())}") from None
+        raise ValueError(f"cannot read the model's sidecar {str(path)!r}: {' '.join(str(error).split())}") from None
     return check_sidecar(data, engine, path)
 
 

@@ -360,7 +360,7 @@ def test_stochastic_evaluation(run, tmp_path, capsys):
     assert summary["deterministic"] is False
     assert summary["mean_return"] == pytest.approx(summarise(first)["mean_return"])
     assert evaluate_main(["--policy", "goto", "--stochastic", "--out", str(tmp_path / "g"), "--quiet"]) == 2
-    one_line_error(capsys.readouterr().err, "--stochastic applies to sb3:PATH policies only")
+    one_line_error(capsys.readouterr().err, "--stochastic applies to learned policies (sb3:PATH, rllib:PATH) only")
 
 
 # -- several seeds -------------------------------------------------------------------------
