@@ -119,3 +119,25 @@ def test_an_rllib_policy_without_ray_is_one_line_before_any_episode(tmp_path, ca
     assert evaluate_module.main(["--policy", f"rllib:{tmp_path}", "--out", str(tmp_path / "out"), "--quiet"]) == 2
     (line,) = capsys.readouterr().err.splitlines()
     assert line.startswith("error: the RLlib path needs the ray package") and not (tmp_path / "out").exists()
+
+
+def test_compare_plays_an_rllib_checkpoint_on_its_sidecars_overrides(tmp_path, monkeypatch):
+    from baselines.episode import EpisodeResult
+    from baselines.rl.compare import compare
+
+    (tmp_path / "module_state.pkl").write_bytes(b"not read")  # what module_path looks for
+    (tmp_path / "teamgym.json").write_text(json.dumps(OLD_RLLIB))
+    seen = {}
+
+    def spy(env_id, policy, episodes, seed, config, workers):
+        seen[policy] = dict(config)
+        return [EpisodeResult(seed, 5, False, {"robot_0": 0.0}, {"robot_0": {}})]
+
+    monkeypatch.setattr(evaluate_module, "evaluate", spy)
+    rows = compare("Foraging-v0", f"rllib:{tmp_path}", episodes=1, task={"max_cycles": 30}, policies=[])
+    assert seen == {f"rllib:{tmp_path}": {"max_cycles": 30, "n_robots": "2"}}  # --set wins over the sidecar
+    assert [row["label"] for row in rows] == [f"trained: rllib:{tmp_path}"]
+    with pytest.raises(ValueError, match="was trained on Foraging-v0, not Navigation-v0"):
+        compare("Navigation-v0", f"rllib:{tmp_path}", episodes=1, policies=[])
+    with pytest.raises(FileNotFoundError, match="no RLlib checkpoint"):
+        compare("Foraging-v0", f"rllib:{tmp_path / 'none'}", episodes=1, policies=[])
