@@ -40,8 +40,8 @@ import numpy as np
 
 import teamgym
 from baselines.episode import Step, run_episode
-from baselines.evaluate import markdown_table
 from baselines.registry import make_policy, required_config
+from baselines.summary import markdown_table
 
 DELAY_FRACTIONS = (0.0, 0.3, 0.6, 0.9)
 DECISION_SETS = (3, 5, 9, 17)

@@ -29,13 +29,14 @@ from hypothesis import strategies as st  # noqa: E402
 
 import teamgym  # noqa: E402
 from baselines import evaluate as evaluate_module  # noqa: E402
-from baselines.evaluate import MAX_EPISODES, _chunks, _Episodes  # noqa: E402
+from baselines.evaluate import MAX_EPISODES  # noqa: E402
 from baselines.evaluate import main as evaluate_main  # noqa: E402
 from baselines.rl import compare as compare_module  # noqa: E402
 from baselines.rl import presets as presets_module  # noqa: E402
 from baselines.rl import train as train_module  # noqa: E402
 from baselines.rl.hyperparameters import check_hyperparameters, check_rollout, policy_rules, rules  # noqa: E402
 from baselines.rl.sb3_policy import ALGORITHMS  # noqa: E402
+from baselines.runners import Episodes, chunks  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 SMALL = ["--set", "n_robots=2", "--max-cycles", "10", "--n-envs", "1", "--verbose", "0"]
@@ -394,20 +395,20 @@ def test_the_python_api_bounds_episodes_too():
 @given(st.integers(0, 2**40), st.integers(1, 300), st.booleans(), st.integers(1, 8))
 def test_streamed_seeds_are_the_listed_ones(seed, episodes, keep_all, workers):
     listed = [(seed + i, keep_all or i == 0) for i in range(episodes)]  # what evaluate() built before
-    items = _Episodes(seed, keep_all, range(episodes))
+    items = Episodes(seed, keep_all, range(episodes))
     assert len(items) == episodes and list(items) == listed
     assert [items[i] for i in range(-episodes, episodes)] == listed + listed
-    chunks = _chunks(items, workers)
-    assert [pair for chunk in chunks for pair in chunk] == listed
-    assert chunks == [] or len(chunks) <= 4 * workers and all(len(c) for c in chunks)
+    parts = chunks(items, workers)
+    assert [pair for chunk in parts for pair in chunk] == listed
+    assert parts == [] or len(parts) <= 4 * workers and all(len(c) for c in parts)
 
 
 def test_seeds_of_a_huge_run_are_not_listed():
-    items = _Episodes(7, False, range(10**12))
-    chunks = _chunks(items, 2)
-    assert len(chunks) == 8 and sum(len(c) for c in chunks) == 10**12
-    assert chunks[0][0] == (7, True) and chunks[-1][-1] == (7 + 10**12 - 1, False)
-    assert all(isinstance(c, _Episodes) for c in chunks)  # slices, not lists
+    items = Episodes(7, False, range(10**12))
+    parts = chunks(items, 2)
+    assert len(parts) == 8 and sum(len(c) for c in parts) == 10**12
+    assert parts[0][0] == (7, True) and parts[-1][-1] == (7 + 10**12 - 1, False)
+    assert all(isinstance(c, Episodes) for c in parts)  # slices, not lists
 
 
 def test_evaluate_plays_the_same_seeds_as_before():

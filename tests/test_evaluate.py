@@ -16,7 +16,8 @@ import pytest
 import teamgym
 from baselines import make_policy
 from baselines.episode import Step, success_of
-from baselines.evaluate import EpisodeResult, evaluate, main, run_episode, summarise, summary_table
+from baselines.evaluate import EpisodeResult, evaluate, main, run_episode
+from baselines.summary import summarise, summary_table
 
 REPO = Path(__file__).resolve().parents[1]
 SHORT = ["--set", "max_cycles=30"]
@@ -108,7 +109,7 @@ def no_episodes(monkeypatch):
         raise AssertionError("an episode ran although the command line is invalid")
 
     monkeypatch.setattr("baselines.evaluate.evaluate", refuse)
-    monkeypatch.setattr("baselines.evaluate.run_episode", refuse)
+    monkeypatch.setattr("baselines.runners.run_episode", refuse)
 
 
 def assert_one_line_error(err: str, needle: str) -> None:
@@ -373,10 +374,10 @@ def test_object_trails_follow_obstacles_and_boxes(tmp_path):
 
 
 def test_chunks_cover_every_seed_in_order():
-    from baselines.evaluate import _chunks
+    from baselines.runners import chunks as split
 
     for n, workers in [(1, 2), (7, 2), (20, 2), (101, 4)]:
-        chunks = _chunks(list(range(n)), workers)
+        chunks = split(list(range(n)), workers)
         assert [x for c in chunks for x in c] == list(range(n))
         assert len(chunks) <= 4 * workers and all(chunks)
 
@@ -390,7 +391,8 @@ def test_importing_baselines_loads_no_numpy_until_used():
 
 
 def test_summary_keeps_mean_success_equal_to_the_success_rate():
-    from baselines.evaluate import evaluate, summarise
+    from baselines.evaluate import evaluate
+    from baselines.summary import summarise
 
     summary = summarise(evaluate("Navigation-v0", "goto", episodes=3, seed=0, config={"max_cycles": 60}))
     assert summary["mean_success"] == summary["success_rate"] and summary["metrics"]["success"]["count"] == 3

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 import teamgym
-from baselines.evaluate import evaluate, summarise, write_episodes_csv
+from baselines.evaluate import evaluate
+from baselines.summary import summarise, write_episodes_csv
 from tests.regression import _random_value, cases, obs_cases
 
 DISCRETE = {"heading", "primitives", "operator", "next_place", "goto_cell"}

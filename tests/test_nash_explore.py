@@ -7,11 +7,12 @@ import numpy as np
 import pytest
 
 import teamgym
-from baselines.evaluate import evaluate, summarise
+from baselines.evaluate import evaluate
 from baselines.exploration.nash_explore import UNREACHABLE, NashExplore, assignment_cost
 from baselines.exploration.planning import TeamView, team_view
 from baselines.exploration.policies import GreedyExplore, RandomAdmissible
 from baselines.registry import make_policy, required_config
+from baselines.summary import summarise
 from teamgym.maps.topology import TopologicalModel
 
 

@@ -15,6 +15,7 @@ from gymnasium import spaces
 
 import teamgym
 from baselines import evaluate as evaluation
+from baselines.summary import summarise
 from tests.rllib_support import HAVE_RAY, HAVE_RLLIB, TINY, needs_rllib
 
 
@@ -245,7 +246,9 @@ def test_cli_trains_saves_and_evaluates_a_checkpoint(ray_session, tmp_path, caps
     printed = capsys.readouterr().out
     assert "iteration 1:" in printed and f"saved {out}" in printed
     sidecar = json.loads((out / "teamgym.json").read_text())
-    assert sidecar["env"] == "Navigation-v0" and sidecar["config"] == {"max_cycles": "50"}
+    assert sidecar["format"] == 1 and sidecar["engine"] == "rllib" and sidecar["algo"] == "ppo"
+    assert sidecar["env"] == "Navigation-v0" and sidecar["overrides"] == {"max_cycles": "50"}
+    assert sidecar["config"]["max_cycles"] == 50 and sidecar["config"]["n_robots"] == 3  # the resolved config
     assert sidecar["training"]["lr"] == rl.TESTED_SETTINGS["lr"] and sidecar["training"]["num_epochs"] == 2
     assert sidecar["model"]["fcnet_hiddens"] == [64, 64] and sidecar["model"]["vf_share_layers"] is False
     (row,) = sidecar["history"]
@@ -263,7 +266,15 @@ def test_cli_trains_saves_and_evaluates_a_checkpoint(ray_session, tmp_path, caps
     for agent, action in first.items():
         assert space.contains(action) and np.array_equal(action, again[agent])
     results = rl.evaluate_checkpoint(out, "Navigation-v0", {"max_cycles": 50}, episodes=2, seed=100)
-    assert evaluation.summarise(results)["mean_return"] == pytest.approx(sidecar["eval"]["mean_return"])
+    assert summarise(results)["mean_return"] == pytest.approx(sidecar["eval"]["mean_return"])
+
+    # the evaluation CLI plays the checkpoint as rllib:PATH, env and config from its sidecar
+    cli = ["--policy", f"rllib:{out}", "--episodes", "2", "--seed", "100", "--out", str(tmp_path / "ev"), "--quiet"]
+    assert evaluation.main([*cli, "--no-plot"]) == 0
+    written = json.loads((tmp_path / "ev" / "summary.json").read_text())
+    assert written["env"] == "Navigation-v0" and written["overrides"] == {"max_cycles": "50"}
+    assert written["sidecar"] == str(out / "teamgym.json") and written["deterministic"] is True
+    assert written["mean_return"] == pytest.approx(sidecar["eval"]["mean_return"])
 
     # a bad setting is one line, before anything trains
     assert rl.main([*argv, "--hp", "lrr=1"]) == 2

@@ -20,12 +20,13 @@ import pytest
 pytest.importorskip("stable_baselines3")
 
 import teamgym  # noqa: E402
-from baselines.evaluate import evaluate, summarise  # noqa: E402
+from baselines.evaluate import evaluate  # noqa: E402
 from baselines.evaluate import main as evaluate_main  # noqa: E402
 from baselines.rl import plot_curves  # noqa: E402
 from baselines.rl.callbacks import EvalLog, is_better  # noqa: E402
 from baselines.rl.sb3_policy import SB3Policy  # noqa: E402
 from baselines.rl.train import Training, continued_path, train  # noqa: E402
+from baselines.summary import summarise  # noqa: E402
 from baselines.train import main as train_main  # noqa: E402
 
 ENV_ARGS = ["--set", "n_robots=2", "--max-cycles", "10", "--n-envs", "1"]
@@ -359,7 +360,7 @@ def test_stochastic_evaluation(run, tmp_path, capsys):
     assert summary["deterministic"] is False
     assert summary["mean_return"] == pytest.approx(summarise(first)["mean_return"])
     assert evaluate_main(["--policy", "goto", "--stochastic", "--out", str(tmp_path / "g"), "--quiet"]) == 2
-    one_line_error(capsys.readouterr().err, "--stochastic applies to sb3:PATH policies only")
+    one_line_error(capsys.readouterr().err, "--stochastic applies to learned policies (sb3:PATH, rllib:PATH) only")
 
 
 # -- several seeds -------------------------------------------------------------------------
