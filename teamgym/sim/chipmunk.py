@@ -159,7 +159,7 @@ class BodyReader:
         return values[self._rows]
 
     def _read_direct(self) -> np.ndarray:
-        """The chosen bodies' rows through Chipmunk's getters (the same doubles a batch pass copies); :attr:`every` stays empty."""
+        """The chosen bodies' rows through Chipmunk's getters (the doubles a batch pass copies); :attr:`every` stays empty."""
         rows = []
         for body in self.bodies:
             handle = body._body
