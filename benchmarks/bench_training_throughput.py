@@ -222,6 +222,7 @@ def main(argv: Sequence[str] | None = None) -> None:
         print(json.dumps(measure(Case(**json.loads(args.case)), args.n_envs, args.workers[0], args.timesteps)))
         return
     cases = build_cases(args)
+    commits = {c.checkout: commit(c.checkout) for c in cases}  # before the run: what was measured
     runs: dict[tuple[str, str, int], list[dict[str, Any]]] = {}
     for _ in range(args.rounds):
         for env in dict.fromkeys(c.env for c in cases):
@@ -244,7 +245,7 @@ def main(argv: Sequence[str] | None = None) -> None:
                     "padding_share": top["padding_share"],
                     "batched": top["batched"],
                     "checkout": case.checkout,
-                    "commit": commit(case.checkout),
+                    "commit": commits[case.checkout],
                 }
             )
     machine = f"{platform.machine()}, {os.cpu_count()} cores"
@@ -252,7 +253,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     for variant in VARIANTS:
         checkout = next((r["checkout"] for r in rows if r["variant"] == variant), None)
         if checkout:
-            print(f"  {variant}: {checkout} ({commit(checkout)})" + (", batched=False" if variant == "per copy" else ""))
+            print(f"  {variant}: {checkout} ({commits[checkout]})" + (", batched=False" if variant == "per copy" else ""))
     report(rows, args)
     if args.json:
         setting = {key: getattr(args, key) for key in ("timesteps", "rounds", "n_envs", "workers", "agents")}
