@@ -76,6 +76,7 @@ from teamgym.envs.rendezvous.config import RendezvousConfig
 from teamgym.envs.rendezvous.messages import MESSAGE_VALUE_MAX, Kind, decode
 from teamgym.envs.rendezvous.scene import blocker_vertices, corridor_walls
 from teamgym.envs.spaces import Field, ObservationLayout
+from teamgym.maps.walls import JoinedWalls
 from teamgym.sim.objects import StaticPolygon, Wall
 from teamgym.sim.render import Overlay, robot_colour
 from teamgym.sim.robot import DiffDriveRobot, RobotSpec
@@ -129,8 +130,11 @@ class Rendezvous(TeamEnv):
         n, w = c.n_robots, len(self.way_ends)
         self.state_space = spaces.Box(-np.inf, np.inf, shape=(5 * n + w,), dtype=np.float32)
         walls = corridor_walls(self.map, c.scale, c.corridor_width, _MARGIN) if c.corridor_walls else []
-        #: The corridor walls, built once and placed in every episode's world first (see :mod:`teamgym.sim.scene`).
-        self._scene = StaticScene(Wall(f"wall_{k}", a, b, 0.01) for k, (a, b) in enumerate(walls))
+        #: The corridor walls as one entity (:mod:`teamgym.maps.walls`), built once and placed in every
+        #: episode's world first (see :mod:`teamgym.sim.scene`).
+        self._scene = StaticScene(
+            [JoinedWalls("walls", [Wall(f"wall_{k}", a, b, 0.01) for k, (a, b) in enumerate(walls)])] if walls else []
+        )
 
     def _make_action_type(self) -> ActionType:
         c = self.config
