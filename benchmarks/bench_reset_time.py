@@ -14,65 +14,35 @@ over the baseline), and the range of the per-round ratios.
 from __future__ import annotations
 
 import argparse
-import json
-import os
 import statistics
-import subprocess
-import sys
 import time
 from pathlib import Path
+
+from ab_workers import in_turn, serve, start_workers
 
 ENV_IDS = ("Navigation-v0", "Exploration-v0", "Rendezvous-v0", "Foraging-v0", "BoxPushing-v0", "BoxPushing-v1")
 ROOT = Path(__file__).resolve().parents[1]
 CLOCKS = {"wall": time.perf_counter, "cpu": time.process_time}
 
 
-def serve(clock: str) -> None:
-    """Worker loop: each stdin line ``{"env", "seeds", "warmup"}`` is answered with the reset times (s), one JSON line."""
+_ENVS: dict = {}
+
+
+def resets(request: dict) -> list[float]:
+    """Worker job: reset ``env`` (made once, then ``warmup`` untimed resets) with each of ``seeds``; times in s."""
     import teamgym
 
-    tick, envs = CLOCKS[clock], {}
-    print(json.dumps({"teamgym": teamgym.__file__}), flush=True)
-    for line in sys.stdin:
-        request = json.loads(line)
-        env_id = request["env"]
-        if env_id not in envs:
-            envs[env_id] = teamgym.make(env_id)
-            for seed in range(request["warmup"]):
-                envs[env_id].reset(seed=10**6 + seed)
-        env, times = envs[env_id], []
-        for seed in request["seeds"]:
-            began = tick()
-            env.reset(seed=seed)
-            times.append(tick() - began)
-        print(json.dumps(times), flush=True)
-
-
-class Worker:
-    """A worker process importing the teamgym package of ``checkout``."""
-
-    def __init__(self, checkout: Path, clock: str) -> None:
-        path = os.pathsep.join([str(checkout), os.environ.get("PYTHONPATH", "")]).rstrip(os.pathsep)
-        environment = {**os.environ, "PYTHONPATH": path}
-        environment.setdefault("SDL_VIDEODRIVER", "dummy")
-        command = [sys.executable, __file__, "--worker", "--clock", clock]
-        self.process = subprocess.Popen(command, env=environment, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
-        self.package = Path(json.loads(self._read())["teamgym"]).parents[1]
-
-    def _read(self) -> str:
-        line = self.process.stdout.readline()
-        if not line:
-            raise RuntimeError(f"worker for {self.package if hasattr(self, 'package') else 'a checkout'} exited")
-        return line
-
-    def resets(self, env_id: str, seeds: list[int], warmup: int) -> list[float]:
-        self.process.stdin.write(json.dumps({"env": env_id, "seeds": seeds, "warmup": warmup}) + "\n")
-        self.process.stdin.flush()
-        return json.loads(self._read())
-
-    def close(self) -> None:
-        self.process.stdin.close()
-        self.process.wait()
+    env_id, tick = request["env"], CLOCKS[request["clock"]]
+    if env_id not in _ENVS:
+        _ENVS[env_id] = teamgym.make(env_id)
+        for seed in range(request["warmup"]):
+            _ENVS[env_id].reset(seed=10**6 + seed)
+    env, times = _ENVS[env_id], []
+    for seed in request["seeds"]:
+        began = tick()
+        env.reset(seed=seed)
+        times.append(tick() - began)
+    return times
 
 
 def main() -> None:
@@ -86,26 +56,25 @@ def main() -> None:
     parser.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.worker:
-        serve(args.clock)
+        serve(resets)
         return
     unknown = sorted(set(args.env) - set(ENV_IDS))
     if unknown:
         parser.error(f"unknown env id(s) {unknown}; choose from {list(ENV_IDS)}")
     if args.rounds < 1 or args.block < 1 or args.warmup < 0:
         parser.error(f"need --rounds >= 1, --block >= 1, --warmup >= 0, got {args.rounds}, {args.block}, {args.warmup}")
-    if args.baseline is not None and not (args.baseline / "teamgym" / "__init__.py").is_file():
-        parser.error(f"--baseline {args.baseline} holds no teamgym package")
-    workers = [Worker(ROOT, args.clock)]
-    if args.baseline is not None:
-        workers.append(Worker(args.baseline.resolve(), args.clock))
+    try:
+        workers = start_workers(__file__, ROOT, args.baseline, [])
+    except ValueError as error:
+        parser.error(str(error))
     times = {(w, e): [] for w in range(len(workers)) for e in args.env}
     ratios: dict[str, list[float]] = {e: [] for e in args.env}
     try:
         for r in range(args.rounds):
             seeds = list(range(r * args.block, (r + 1) * args.block))
             for env_id in args.env:
-                order = range(len(workers)) if r % 2 == 0 else reversed(range(len(workers)))
-                block = {w: workers[w].resets(env_id, seeds, args.warmup) for w in order}
+                request = {"env": env_id, "seeds": seeds, "warmup": args.warmup, "clock": args.clock}
+                block = in_turn(workers, r, request)
                 for w, values in block.items():
                     times[w, env_id] += values
                 if len(workers) == 2:
