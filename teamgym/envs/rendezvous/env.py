@@ -122,6 +122,7 @@ class Rendezvous(TeamEnv):
             for p, row in enumerate(self.neighbour_table.tolist())
         ]
         self._places = [tuple(xy) for xy in self.places_xy.tolist()]
+        self._places_x, self._places_y = self.places_xy[:, 0].copy(), self.places_xy[:, 1].copy()
         self.way_ends = [(self.place_index[w.a], self.place_index[w.b]) for w in self.map.ways]
         #: The map as a graph over place indices (map units): node ``pos``, edge ``length`` and ``way`` index.
         self.graph = nx.Graph()
@@ -444,7 +445,8 @@ class Rendezvous(TeamEnv):
         x, y = pose[0], pose[1]
         seen = self._nearest_seen[i]
         if not seen or seen[0] != x or seen[1] != y:  # a robot standing still is not looked up again
-            d = np.linalg.norm(self.places_xy - np.array((x, y)), axis=1)
+            dx, dy = self._places_x - x, self._places_y - y
+            d = np.sqrt(dx * dx + dy * dy)  # np.linalg.norm(places_xy - (x, y), axis=1), value for value
             k = int(np.argmin(d))
             seen = self._nearest_seen[i] = (x, y, k, bool(d[k] <= self.config.corridor_width / 2))
         return seen[2] if seen[3] else int(self._place[i])
@@ -502,21 +504,20 @@ class Rendezvous(TeamEnv):
 
     # -- state, metrics, rendering -------------------------------------------------------
     def _observe(self, out: np.ndarray) -> None:
-        layout, states = self.layout, self.world.robot_states
+        layout, poses, fields = self.layout, self._poses(), self.layout.slices
+        place_at, target_at, progress_at = fields["place"], fields["target"], fields["progress"]
+        neighbours_at, blocked_at, proximity_at = fields["neighbours"], fields["blocked"], fields["proximity"]
         for row, agent in enumerate(self.live_agents):
             i, buffer = self._row[agent], out[row]
-            buffer[0:3] = states[i, :3]
-            buffer[2] = math.remainder(float(states[i, 2]), math.tau)
-            place = int(self._place[i])
-            layout.view(buffer, "place")[0] = place
-            layout.view(buffer, "target")[0] = self._target[i]
-            layout.view(buffer, "progress")[0] = self._progress(i)
-            neighbours = self.neighbour_table[place]
-            layout.view(buffer, "neighbours")[:] = neighbours
-            layout.view(buffer, "blocked")[:] = [
-                q >= 0 and self.way_index[frozenset((place, int(q)))] in self._known[i] for q in neighbours
-            ]
-            layout.view(buffer, "proximity")[:] = self._proximity[i]
+            x, y, theta = poses[i]
+            buffer[0:3] = (x, y, math.remainder(theta, math.tau))
+            place, known = int(self._place[i]), self._known[i]
+            buffer[place_at] = place
+            buffer[target_at] = int(self._target[i])
+            buffer[progress_at] = self._progress(i)
+            buffer[neighbours_at] = self.neighbour_table[place]
+            buffer[blocked_at] = [way >= 0 and way in known for way in self._slot_ways[place]]
+            buffer[proximity_at] = self._proximity[i]
             if self.config.protocol_messages:
                 packed = self.channel.inbox_array(agent, self.config.message_len, self.config.n_robots - 1, kind="protocol")
                 layout.view(buffer, "messages")[:] = packed.payload
