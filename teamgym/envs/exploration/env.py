@@ -61,6 +61,7 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
+from teamgym.control.poses import PoseRows
 from teamgym.control.watcher import TASK_REASONS, TaskWatcher, WatcherState
 from teamgym.envs.actions import ActionType, VelocityAction
 from teamgym.envs.base import EpisodeOverError, TeamEnv
@@ -106,6 +107,10 @@ class Exploration(TeamEnv):
         self._rects = np.array([[s.x_min, s.y_min, s.x_max, s.y_max] for s in office.sectors])
         self._door_centres = np.array([d.centre for d in office.doors]).reshape(-1, 2)
         self._door_radii = np.array([d.radius for d in office.doors])
+        eps = 1e-3  # m: a robot on a sector's border is in neither sector
+        #: Per sector ``(x_min + ε, x_max − ε, y_min + ε, y_max − ε)``; per door ``(x, y, radius)``; as floats.
+        self._sector_bounds = [(x0 + eps, x1 - eps, y0 + eps, y1 - eps) for x0, y0, x1, y1 in self._rects.tolist()]
+        self._door_discs = [(x, y, r) for (x, y), r in zip(self._door_centres.tolist(), self._door_radii.tolist())]
         # Walls, doors and furniture, built once and placed in every episode's world first (teamgym.sim.scene).
         entities = map_entities(office, furniture=c.furniture)
         self._scene = StaticScene(entities)
@@ -113,6 +118,7 @@ class Exploration(TeamEnv):
         self.doors: dict[str, Door] = {e.name: e for e in entities if isinstance(e, Door)}
         goals = c.goal_sectors or tuple(office.sector_ids)
         self.goal = np.array([s in goals for s in office.sector_ids])
+        self._goal_list = self.goal.tolist()
         n, v = c.n_robots, self.n_sectors + self.n_doors
         size = 4 * n + 2 * self.n_sectors + 2 * self.n_doors
         self.state_space = spaces.Box(-np.inf, np.inf, shape=(size,), dtype=np.float32)
@@ -177,6 +183,9 @@ class Exploration(TeamEnv):
         self.model = TopologicalModel(office)
         self.clutter_estimate = ClutterEstimate(self.model.clutter, c.clutter_prior_weight)
         self.visited = np.zeros(self.n_sectors, dtype=bool)
+        self._explored_all = bool(np.all(self.visited[self.goal]))
+        self._pose_rows = PoseRows()
+        self._any_hits = False
         self._sector = np.zeros(n, dtype=int)
         self._place = np.zeros(n, dtype=int)
         self._collisions = np.zeros(n, dtype=int)
@@ -311,7 +320,7 @@ class Exploration(TeamEnv):
     def operator_command(self, agent: str) -> tuple[float, float]:
         """The behaviour-based controller's command for ``agent``'s current task."""
         i = self._index[agent]
-        pose = tuple(self.world.robot_states[i, :3].tolist())
+        pose = self._pose_rows(self.world.robot_states)[i]
         return self._watchers[i].control(pose, self._proximity[i], bool(self._collided[i]))
 
     def stage_over(self) -> bool:
@@ -344,9 +353,8 @@ class Exploration(TeamEnv):
         watcher = self._watchers[i]
         if not watcher.executing:
             return False
-        state = watcher.after_step(
-            self.world.time, self.world.robot_states[i, :2], self.robot_list[i].odometer, bool(self._collided[i])
-        )
+        position = self._pose_rows(self.world.robot_states)[i][:2]
+        state = watcher.after_step(self.world.time, position, self.robot_list[i].odometer, bool(self._collided[i]))
         if state == WatcherState.COMPLETED:
             self._completed[i] += 1
             report = watcher.report
@@ -361,39 +369,59 @@ class Exploration(TeamEnv):
         return False
 
     def _update_state(self) -> None:
-        """After a control step: sectors, places, door sightings, the explored set and contacts."""
-        states = self.world.robot_states
-        pos = states[:, :2]
-        eps = 1e-3
-        r = self._rects
-        inside = (
-            (pos[:, None, 0] > r[None, :, 0] + eps)
-            & (pos[:, None, 0] < r[None, :, 2] - eps)
-            & (pos[:, None, 1] > r[None, :, 1] + eps)
-            & (pos[:, None, 1] < r[None, :, 3] - eps)
-        )
-        found = inside.any(axis=1)
-        self._sector[found] = inside[found].argmax(axis=1)
-        beliefs = self.model.door_open
+        """After a control step: sectors, places, door sightings, the explored set and contacts.
+
+        A robot is in the first sector whose rectangle, shrunk by 1 mm, holds its centre (else it
+        keeps its sector); it sees the doors whose disc holds its centre (their belief becomes
+        their state) and is at the nearest of those it believes open, else at its sector.
+        Distances are ``sqrt(dx² + dy²)``, as ``np.linalg.norm`` computes them.
+        """
+        poses = self._pose_rows(self.world.robot_states)
+        sectors = self._sector.tolist()
+        for i, (x, y, _) in enumerate(poses):
+            for s, (x0, x1, y0, y1) in enumerate(self._sector_bounds):
+                if x > x0 and x < x1 and y > y0 and y < y1:
+                    sectors[i] = s
+                    break
+        self._sector[:] = sectors
+        places = sectors
         if self.n_doors:
-            distance = np.linalg.norm(pos[:, None, :] - self._door_centres[None, :, :], axis=2)
-            near = distance < self._door_radii[None, :]
-            for j in np.flatnonzero(near.any(axis=0)).tolist():
+            near = [self._doors_near(x, y) for x, y, _ in poses]
+            beliefs = self.model.door_open
+            for j in sorted({j for seen in near for j, _ in seen}):
                 beliefs[j] = 1.0 if self.doors[self.map.doors[j].id].is_open else 0.0
-            usable = near & (beliefs[None, :] > 0)
-            masked = np.where(usable, distance, np.inf)
-            at_door = usable.any(axis=1)
-            self._place = np.where(at_door, self.n_sectors + masked.argmin(axis=1), self._sector)
-        else:
-            self._place = self._sector.copy()
-        newly = np.zeros(self.n_sectors, dtype=bool)
-        newly[self._place[self._place < self.n_sectors]] = True
-        newly &= ~self.visited
-        self.visited |= newly
-        self._newly_explored = int(np.count_nonzero(newly & self.goal))
-        self._hits = self.world.contacts_per(self.possible_agents)
-        self._collisions += self._hits
-        self._collided[:] = self._hits > 0
+            places = list(sectors)
+            for i, seen in enumerate(near):
+                best, door = math.inf, -1
+                for j, d in seen:
+                    if d < best and beliefs[j] > 0:
+                        best, door = d, j
+                if door >= 0:
+                    places[i] = self.n_sectors + door
+        self._place = np.array(places, dtype=self._sector.dtype)
+        visited, fresh = self.visited, [p for p in sorted(set(places)) if p < self.n_sectors and not self.visited[p]]
+        if fresh:
+            visited[fresh] = True
+            self._explored_all = bool(np.all(visited[self.goal]))
+        self._newly_explored = sum(self._goal_list[p] for p in fresh)
+        if self.world.contacts:
+            self._hits = self.world.contacts_per(self.possible_agents)
+            self._collisions += self._hits
+            self._collided[:] = self._hits > 0
+            self._any_hits = True
+        elif self._any_hits:  # no contact this step: every count 0
+            self._hits = np.zeros_like(self._hits)
+            self._collided[:] = False
+            self._any_hits = False
+
+    def _doors_near(self, x: float, y: float) -> list[tuple[int, float]]:
+        """``(door index, distance)`` of the doors whose disc holds ``(x, y)``, in door order."""
+        near = []
+        for j, (cx, cy, r) in enumerate(self._door_discs):
+            d = math.sqrt((x - cx) * (x - cx) + (y - cy) * (y - cy))
+            if d < r:
+                near.append((j, d))
+        return near
 
     def _check_goals(self) -> None:
         if self._newly_explored and self._all_explored() and math.isnan(self._explore_time):
@@ -403,6 +431,8 @@ class Exploration(TeamEnv):
         """``explore_reward`` per newly explored goal sector − ``time_penalty``, shared; − ``collision_penalty`` per contact."""
         c = self.config
         total += c.explore_reward * self._newly_explored - c.time_penalty
+        if not self._any_hits:
+            return
         for i in np.flatnonzero(self._hits).tolist():
             for _ in range(int(self._hits[i])):  # once per contact, as a running sum
                 total[i] -= c.collision_penalty
@@ -412,7 +442,8 @@ class Exploration(TeamEnv):
         self.ring.read_rows(self.world, self.robot_list, self.world.robot_states, self.np_random, self._proximity)
 
     def _all_explored(self) -> bool:
-        return bool(np.all(self.visited[self.goal]))
+        """Every goal sector explored (kept up to date by :meth:`_update_state`)."""
+        return self._explored_all
 
     def _terminations(self) -> dict[str, bool]:
         return dict.fromkeys(self.live_agents, self._all_explored())

@@ -65,6 +65,7 @@ import networkx as nx
 import numpy as np
 from gymnasium import spaces
 
+from teamgym.control.poses import PoseRows
 from teamgym.control.way_following import WayFollower
 from teamgym.envs.actions import ActionType, VelocityAction
 from teamgym.envs.base import EpisodeOverError, TeamEnv
@@ -213,8 +214,7 @@ class Rendezvous(TeamEnv):
         self._stale_plans = 0
         self._expansions = 0
         self._proximity = np.full((n, self.ring.width), c.sensor_range, dtype=np.float32)
-        self._pose_source: np.ndarray | None = None  # the robot_states array _pose_list was read from
-        self._pose_list: list[tuple[float, float, float]] = []
+        self._pose_rows = PoseRows()
         self._distances: tuple[np.ndarray | None, list[float], float] = (None, [], 0.0)
         self._nearest_seen: list[tuple] = [()] * n  # per robot: (x, y, nearest place, within reach) last computed
         self._timeouts: dict[tuple[int, int, int], float] = {}
@@ -389,10 +389,7 @@ class Rendezvous(TeamEnv):
     # -- helpers -------------------------------------------------------------------------
     def _poses(self) -> list[tuple[float, float, float]]:
         """``(x, y, θ)`` of every robot as Python floats, read once per reading of ``world.robot_states``."""
-        states = self.world.robot_states
-        if self._pose_source is not states:
-            self._pose_source, self._pose_list = states, [tuple(row) for row in states[:, :3].tolist()]
-        return self._pose_list
+        return self._pose_rows(self.world.robot_states)
 
     def _pair_distances(self) -> tuple[np.ndarray | None, list[float], float]:
         """Centre distances of all ordered robot pairs (row-major, n × n) and their mean over pairs i ≠ j.
