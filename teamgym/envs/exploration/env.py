@@ -415,12 +415,18 @@ class Exploration(TeamEnv):
             self._any_hits = False
 
     def _doors_near(self, x: float, y: float) -> list[tuple[int, float]]:
-        """``(door index, distance)`` of the doors whose disc holds ``(x, y)``, in door order."""
+        """``(door index, distance)`` of the doors whose disc holds ``(x, y)``, in door order.
+
+        A door with ``|dx| >= r`` or ``|dy| >= r`` is skipped unmeasured: its distance is at least
+        that (a rounded square's root gives back ``|dx|``, and adding ``dy²`` cannot lower it).
+        """
         near = []
         for j, (cx, cy, r) in enumerate(self._door_discs):
-            d = math.sqrt((x - cx) * (x - cx) + (y - cy) * (y - cy))
-            if d < r:
-                near.append((j, d))
+            dx, dy = x - cx, y - cy
+            if -r < dx < r and -r < dy < r:
+                d = math.sqrt(dx * dx + dy * dy)
+                if d < r:
+                    near.append((j, d))
         return near
 
     def _check_goals(self) -> None:
@@ -450,30 +456,38 @@ class Exploration(TeamEnv):
 
     # -- observations, metrics -------------------------------------------------------
     def _observe(self, out: np.ndarray) -> None:
-        layout = self.layout
-        states = self.world.robot_states
+        fields = self.layout.slices
+        at = {name: fields[name].start for name in ("velocity", "sector", "place", "mates_sector", "mates_place")}
+        at.update(task_status=fields["task_status"].start, task=fields["task"].start)
+        s, v = self.n_sectors, self.n_sectors + self.n_doors
+        shared = [(fields[name], value) for name, value in self._shared_fields()]
+        sectors, places = self._sector.tolist(), self._place.tolist()
         for row, agent in enumerate(self.live_agents):
             i = self._index[agent]
             buffer = out[row]
-            buffer[0:3] = states[i, :3]
-            buffer[2] = math.remainder(float(states[i, 2]), 2 * math.pi)
-            theta = float(states[i, 2])
-            layout.view(buffer, "velocity")[:] = (states[i, 3] * math.cos(theta) + states[i, 4] * math.sin(theta), states[i, 5])
-            layout.view(buffer, "sector")[self._sector[i]] = 1.0
-            layout.view(buffer, "place")[self._place[i]] = 1.0
-            layout.view(buffer, "proximity")[:] = self._proximity[i]
-            mates_sector = layout.view(buffer, "mates_sector")
-            mates = layout.view(buffer, "mates_place")
+            x, y, theta, vx, vy, omega = self.world.robot_states[i].tolist()
+            buffer[0:3] = (x, y, math.remainder(theta, 2 * math.pi))
+            buffer[at["velocity"] : at["velocity"] + 2] = (vx * math.cos(theta) + vy * math.sin(theta), omega)
+            buffer[at["sector"] + sectors[i]] = 1.0
+            buffer[at["place"] + places[i]] = 1.0
+            buffer[fields["proximity"]] = self._proximity[i]
             for row_m, j in enumerate(self._others[i].tolist()):
-                mates_sector[row_m, self._sector[j]] = 1.0
-                mates[row_m, self._place[j]] = 1.0
-            layout.view(buffer, "visited")[:] = self.visited
-            layout.view(buffer, "goal")[:] = self.goal
-            layout.view(buffer, "door_belief")[:] = self.model.door_open
-            layout.view(buffer, "clutter")[:] = self.model.clutter
+                buffer[at["mates_sector"] + row_m * s + sectors[j]] = 1.0
+                buffer[at["mates_place"] + row_m * v + places[j]] = 1.0
+            for where, value in shared:
+                buffer[where] = value
             watcher = self._watchers[i]
-            layout.view(buffer, "task_status")[int(watcher.state)] = 1.0
-            layout.view(buffer, "task")[0] = watcher.task.key if watcher.task is not None else -1
+            buffer[at["task_status"] + int(watcher.state)] = 1.0
+            buffer[at["task"]] = watcher.task.key if watcher.task is not None else -1
+
+    def _shared_fields(self) -> list[tuple[str, np.ndarray]]:
+        """The fields every robot observes alike: explored sectors, goals, door beliefs, clutter."""
+        return [
+            ("visited", self.visited),
+            ("goal", self.goal),
+            ("door_belief", self.model.door_open),
+            ("clutter", self.model.clutter),
+        ]
 
     def _info_keys(self) -> dict[str, InfoKey]:
         """Counts from reset on, ``explore_time`` (s) NaN until every goal sector is explored; ``sector``, ``place``
