@@ -123,7 +123,6 @@ class Rendezvous(TeamEnv):
             for p, row in enumerate(self.neighbour_table.tolist())
         ]
         self._places = [tuple(xy) for xy in self.places_xy.tolist()]
-        self._places_x, self._places_y = self.places_xy[:, 0].copy(), self.places_xy[:, 1].copy()
         self.way_ends = [(self.place_index[w.a], self.place_index[w.b]) for w in self.map.ways]
         #: The map as a graph over place indices (map units): node ``pos``, edge ``length`` and ``way`` index.
         self.graph = nx.Graph()
@@ -438,14 +437,23 @@ class Rendezvous(TeamEnv):
         self._arrived_now[i] = True
 
     def _nearest_place(self, i: int, pose: tuple[float, float, float]) -> int:
-        """The place within half a corridor width of robot ``i`` at ``pose`` (the nearest), else its place."""
+        """The nearest place if it is within half a corridor width of robot ``i`` at ``pose``, else its place.
+
+        Only places with ``|dx|, |dy| <= w / 2`` are measured: a distance ``sqrt(dx² + dy²)`` is
+        at least ``|dx|`` and ``|dy|``, so the others are farther than ``w / 2`` (and than any
+        place within it). A robot standing still is not looked up again.
+        """
         x, y = pose[0], pose[1]
         seen = self._nearest_seen[i]
-        if not seen or seen[0] != x or seen[1] != y:  # a robot standing still is not looked up again
-            dx, dy = self._places_x - x, self._places_y - y
-            d = np.sqrt(dx * dx + dy * dy)  # np.linalg.norm(places_xy - (x, y), axis=1), value for value
-            k = int(np.argmin(d))
-            seen = self._nearest_seen[i] = (x, y, k, bool(d[k] <= self.config.corridor_width / 2))
+        if not seen or seen[0] != x or seen[1] != y:
+            half, best, k = self.config.corridor_width / 2, math.inf, -1
+            for j, (px, py) in enumerate(self._places):
+                dx = px - x
+                if -half <= dx <= half:
+                    dy = py - y
+                    if -half <= dy <= half and (d := math.sqrt(dx * dx + dy * dy)) < best:
+                        best, k = d, j
+            seen = self._nearest_seen[i] = (x, y, k, best <= half)
         return seen[2] if seen[3] else int(self._place[i])
 
     def _nearest_ahead(self, i: int, poses: list[tuple[float, float, float]]) -> float:
