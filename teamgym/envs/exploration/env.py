@@ -112,10 +112,14 @@ class Exploration(TeamEnv):
         self._sector_bounds = [(x0 + eps, x1 - eps, y0 + eps, y1 - eps) for x0, y0, x1, y1 in self._rects.tolist()]
         self._door_discs = [(x, y, r) for (x, y), r in zip(self._door_centres.tolist(), self._door_radii.tolist())]
         # Walls, doors and furniture, built once and placed in every episode's world first (teamgym.sim.scene).
-        entities = map_entities(office, furniture=c.furniture)
+        entities = map_entities(office, furniture=c.furniture, join_walls=True)
         self._scene = StaticScene(entities)
         #: The doors by id (the scene's; their state is drawn at every reset).
         self.doors: dict[str, Door] = {e.name: e for e in entities if isinstance(e, Door)}
+        #: Bounding boxes ``(x_min, y_min, x_max, y_max)`` of the furniture, for the start checks.
+        self._furniture_boxes = [
+            (*np.min(f.vertices, axis=0).tolist(), *np.max(f.vertices, axis=0).tolist()) for f in office.furniture
+        ]
         goals = c.goal_sectors or tuple(office.sector_ids)
         self.goal = np.array([s in goals for s in office.sector_ids])
         self._goal_list = self.goal.tolist()
@@ -269,7 +273,15 @@ class Exploration(TeamEnv):
             return False
         if any(math.dist(p, d.centre) < d.radius + r for d in office.doors):
             return False
-        return all(distance_to_polygon(f.vertices, p) > r + 0.01 for f in office.furniture)
+        reach = r + 0.01
+        x, y = p
+        for f, (x0, y0, x1, y1) in zip(office.furniture, self._furniture_boxes):
+            # Far outside the bounding box (by more than rounding could blur) is clear without measuring.
+            if x0 - x > reach + 1e-9 or x - x1 > reach + 1e-9 or y0 - y > reach + 1e-9 or y - y1 > reach + 1e-9:
+                continue
+            if not distance_to_polygon(f.vertices, p) > reach:
+                return False
+        return True
 
     # -- run-time events ---------------------------------------------------------------
     def set_door(self, door_id: str, is_open: bool) -> bool:
