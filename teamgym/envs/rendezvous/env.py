@@ -370,8 +370,16 @@ class Rendezvous(TeamEnv):
             total += reward - c.collision_penalty * 0.0
 
     def _sense(self) -> None:
-        """Proximity rings; a robot standing at a place detects that place's blocked ways."""
-        self.ring.read_rows(self.world, self.robot_list, self.world.robot_states, self.np_random, self._proximity)
+        """Proximity rings; a robot standing at a place detects that place's blocked ways.
+
+        Only observations read the rings, so rings that draw no noise are read when the step
+        observes (:meth:`_read_rings`), once per macro step instead of every control step: no
+        body moves in between, so the readings are the same.
+        """
+        if self.ring.noiseless:
+            self._rings_due = True
+        else:
+            self._read_rings()
         if not self._blocked:
             return
         for i, (place, target) in enumerate(zip(self._place.tolist(), self._target.tolist())):
@@ -508,7 +516,13 @@ class Rendezvous(TeamEnv):
             self._block(k)
 
     # -- state, metrics, rendering -------------------------------------------------------
+    def _read_rings(self) -> None:
+        self.ring.read_rows(self.world, self.robot_list, self.world.robot_states, self.np_random, self._proximity)
+        self._rings_due = False
+
     def _observe(self, out: np.ndarray) -> None:
+        if self._rings_due:
+            self._read_rings()
         layout, poses, fields = self.layout, self._poses(), self.layout.slices
         place_at, target_at, progress_at = fields["place"], fields["target"], fields["progress"]
         neighbours_at, blocked_at, proximity_at = fields["neighbours"], fields["blocked"], fields["proximity"]
