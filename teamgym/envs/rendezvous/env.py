@@ -319,24 +319,26 @@ class Rendezvous(TeamEnv):
         """Arrivals at places, contacts; obstacles waiting for a way to clear are put in place."""
         poses, time, places = self._poses(), self.world.time, self._places
         self._arrived_now[:] = False
-        for i, (follower, target) in enumerate(zip(self.followers, self._target.tolist())):
-            if target >= 0 and follower.arrived(poses[i], places[target]):
+        moves = zip(self.followers, self._target.tolist(), self._move_start.tolist())
+        for i, (follower, target, start) in enumerate(moves):
+            if target < 0:
+                self._place[i] = self._nearest_place(i, poses[i])
+            elif follower.arrived(poses[i], places[target]):
                 self._place[i], self._target[i] = target, -1
                 self._arrived_now[i] = True
                 self._on_arrival(target)
-            elif target >= 0 and time - float(self._move_start[i]) > self._move_timeout(i):
+            elif time - start > self._move_timeout(i):
                 self._abandon_move(i)
-            elif target < 0:
-                self._place[i] = self._nearest_place(i, poses[i])
         contacts = self.world.contacts
-        self._any_contact = bool(contacts)
         if contacts:
             hits = self.world.contacts_per(self.possible_agents)
             self._collisions += hits
             self._new_contacts = hits
             self._robot_collisions += sum(1 for ct in contacts if ct.a in self._row and ct.b in self._row)
-        elif self._new_contacts.any():
+            self._any_contact = True
+        elif self._any_contact:  # the counts of the last step with contacts: 0 now
             self._new_contacts = np.zeros_like(self._new_contacts)
+            self._any_contact = False
         if self._blocked:
             for k in [k for k in self._blocked if k not in self._blockers and not self._on_way(k)]:
                 self._place_blocker(k)
@@ -408,10 +410,12 @@ class Rendezvous(TeamEnv):
         states = self.world.robot_states
         if self._distances[0] is not states:
             points = [(x, y) for x, y, _ in self._poses()]
-            d = [math.sqrt((xi - xj) * (xi - xj) + (yi - yj) * (yi - yj)) for xi, yi in points for xj, yj in points]
             n = len(points)
-            mean = d[1] if n == 2 else float(np.array(d).reshape(n, n).sum() / (n * (n - 1)))
-            self._distances = (states, d, mean)
+            d = [math.sqrt((xi - xj) * (xi - xj) + (yi - yj) * (yi - yj)) for xi, yi in points for xj, yj in points]
+            if n == 2 and d[0] == 0.0 and d[3] == 0.0:  # the sum 0 + d + d + 0, halved, is d
+                self._distances = (states, d, d[1])
+            else:
+                self._distances = (states, d, float(np.array(d).reshape(n, n).sum() / (n * (n - 1))))
         return self._distances
 
     def _mean_distance(self) -> float:
