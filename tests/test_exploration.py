@@ -592,10 +592,14 @@ def test_more_robots_than_sectors_always_find_a_start():
         assert gaps.min() >= 2 * RobotSpec.radius + 0.02 - 1e-9  # the start rule of _free
 
 
-def test_sectors_places_and_door_sightings_follow_the_array_rules():
-    """``_update_state`` on floats gives what the rectangle and disc tests over arrays give."""
+@pytest.mark.parametrize("search_all", [False, True])
+def test_sectors_places_and_door_sightings_follow_the_array_rules(search_all):
+    """``_update_state`` on floats gives what the rectangle and disc tests over arrays give (with and
+    without the shortcut for a robot still in its sector, which office12's disjoint sectors allow)."""
     env = teamgym.make("Exploration-v0").unwrapped
     env.reset(seed=0)
+    assert env._sectors_disjoint
+    env._sectors_disjoint = not search_all
     rng = np.random.default_rng(2)
     centres, radii = env._door_centres, env._door_radii
     at_doors = 0
@@ -623,5 +627,6 @@ def test_sectors_places_and_door_sightings_follow_the_array_rules():
         assert np.array_equal(env._sector, sector) and np.array_equal(env._place, place)
         assert np.array_equal(env.model.door_open, beliefs)
         assert env._all_explored() == bool(np.all(env.visited[env.goal]))
+        assert env._explored_goals == int(np.count_nonzero(env.visited & env.goal))
         at_doors += int((place >= env.n_sectors).sum())
     assert at_doors > 50  # the door rule was exercised

@@ -110,6 +110,13 @@ class Exploration(TeamEnv):
         eps = 1e-3  # m: a robot on a sector's border is in neither sector
         #: Per sector ``(x_min + ε, x_max − ε, y_min + ε, y_max − ε)``; per door ``(x, y, radius)``; as floats.
         self._sector_bounds = [(x0 + eps, x1 - eps, y0 + eps, y1 - eps) for x0, y0, x1, y1 in self._rects.tolist()]
+        bounds = self._sector_bounds
+        #: No point lies in two (shrunk) sectors, so a robot still in its sector needs no search.
+        self._sectors_disjoint = not any(
+            max(a[0], b[0]) < min(a[1], b[1]) and max(a[2], b[2]) < min(a[3], b[3])
+            for k, a in enumerate(bounds)
+            for b in bounds[k + 1 :]
+        )
         self._door_discs = [(x, y, r) for (x, y), r in zip(self._door_centres.tolist(), self._door_radii.tolist())]
         # Walls, doors and furniture, built once and placed in every episode's world first (teamgym.sim.scene).
         entities = map_entities(office, furniture=c.furniture, join_walls=True)
@@ -123,6 +130,7 @@ class Exploration(TeamEnv):
         goals = c.goal_sectors or tuple(office.sector_ids)
         self.goal = np.array([s in goals for s in office.sector_ids])
         self._goal_list = self.goal.tolist()
+        self._n_goals = int(np.count_nonzero(self.goal))
         n, v = c.n_robots, self.n_sectors + self.n_doors
         size = 4 * n + 2 * self.n_sectors + 2 * self.n_doors
         self.state_space = spaces.Box(-np.inf, np.inf, shape=(size,), dtype=np.float32)
@@ -188,6 +196,7 @@ class Exploration(TeamEnv):
         self.clutter_estimate = ClutterEstimate(self.model.clutter, c.clutter_prior_weight)
         self.visited = np.zeros(self.n_sectors, dtype=bool)
         self._explored_all = bool(np.all(self.visited[self.goal]))
+        self._explored_goals = 0  # goal sectors in visited
         self._pose_rows = PoseRows()
         self._any_hits = False
         self._sector = np.zeros(n, dtype=int)
@@ -389,9 +398,12 @@ class Exploration(TeamEnv):
         Distances are ``sqrt(dx² + dy²)``, as ``np.linalg.norm`` computes them.
         """
         poses = self._pose_rows(self.world.robot_states)
-        sectors = self._sector.tolist()
+        sectors, bounds = self._sector.tolist(), self._sector_bounds
         for i, (x, y, _) in enumerate(poses):
-            for s, (x0, x1, y0, y1) in enumerate(self._sector_bounds):
+            x0, x1, y0, y1 = bounds[sectors[i]]
+            if self._sectors_disjoint and x > x0 and x < x1 and y > y0 and y < y1:
+                continue  # still in its sector, which no other sector overlaps
+            for s, (x0, x1, y0, y1) in enumerate(bounds):
                 if x > x0 and x < x1 and y > y0 and y < y1:
                     sectors[i] = s
                     break
@@ -416,6 +428,7 @@ class Exploration(TeamEnv):
             visited[fresh] = True
             self._explored_all = bool(np.all(visited[self.goal]))
         self._newly_explored = sum(self._goal_list[p] for p in fresh)
+        self._explored_goals += self._newly_explored
         if self.world.contacts:
             self._hits = self.world.contacts_per(self.possible_agents)
             self._collisions += self._hits
@@ -519,10 +532,10 @@ class Exploration(TeamEnv):
 
     def _metrics_of(self, agents: list[str]) -> dict[str, dict[str, Any]]:
         """Per-robot metrics; the team-wide ones (explored set, team path, explore time) computed once."""
-        explored = int(np.count_nonzero(self.visited & self.goal))
+        explored = self._explored_goals  # np.count_nonzero(self.visited & self.goal), kept by _update_state
         team: dict[str, Any] = {
             "explored": explored,
-            "explored_fraction": explored / int(np.count_nonzero(self.goal)),
+            "explored_fraction": explored / self._n_goals,
             "explored_all": self._all_explored(),
         }
         team_path = float(sum(r.odometer for r in self.robot_list))
