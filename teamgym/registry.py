@@ -3,9 +3,12 @@
 from __future__ import annotations
 
 import importlib
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from teamgym.envs.base import TeamEnv
+
+if TYPE_CHECKING:
+    from teamgym.envs.batch import TeamBatch
 
 #: env id -> "module:Class"
 _REGISTRY: dict[str, str] = {}
@@ -43,23 +46,23 @@ def make(env_id: str, render_mode: str | None = None, **config: Any) -> TeamEnv:
     return env_class(env_id)(render_mode=render_mode, **config)
 
 
-def make_batch(env_id: str, n_copies: int, **config: Any) -> Any:
-    """``n_copies`` copies of ``env_id`` stepped together with arrays, e.g. ``make_batch("Navigation-v0", 16)``.
+def make_batch(
+    env_id: str,
+    n_copies: int,
+    *,
+    auto_reset: bool = False,
+    render_mode: str | None = None,
+    trails: bool = False,
+    **config: Any,
+) -> TeamBatch:
+    """``n_copies`` copies of ``env_id`` stepped together with arrays, e.g. ``make_batch("Foraging-v0", 16)``.
 
-    Raises ``ValueError`` for an env without a batch form (see ``TeamEnv.make_batch``).
+    Every id, action type and observation format has one (:class:`~teamgym.envs.batch.TeamBatch`);
+    ``auto_reset``, ``render_mode`` and ``trails`` are the batch's options, the rest the env's config.
     """
-    env = make(env_id, **config)
-    try:
-        batch = env.make_batch(n_copies)
-    finally:
-        env.close()
-    if batch is None:
-        batched = [e for e in envs() if env_class(e).make_batch is not TeamEnv.make_batch]
-        raise ValueError(
-            f"{env_id} has no batch form for this config; envs with one (flat observations, no comm_dim, "
-            f"fixed_agents=False): {batched}"
-        )
-    return batch
+    from teamgym.envs.batch import TeamBatch
+
+    return TeamBatch(env_class(env_id), n_copies, config, auto_reset=auto_reset, render_mode=render_mode, trails=trails)
 
 
 def make_aec(env_id: str, render_mode: str | None = None, **config: Any):

@@ -243,9 +243,11 @@ def test_copies_of_an_env_with_absent_robots_continue_identically(how):
             assert a[4][agent]["present"] == b[4][agent]["present"]
 
 
-def test_navigation_has_no_batch_form_with_fixed_agents():
-    assert teamgym.make("Navigation-v0", fixed_agents=True).make_batch(2) is None
-    with pytest.raises(ValueError, match="fixed_agents=False"):
+def test_a_batch_refuses_fixed_agents_naming_the_key():
+    """A batch has fixed rows and ``active`` already; ``fixed_agents`` is the PettingZoo face's option."""
+    with pytest.raises(teamgym.ConfigError, match="fixed_agents"):
+        teamgym.make("Navigation-v0", fixed_agents=True).make_batch(2)
+    with pytest.raises(teamgym.ConfigError, match="fixed_agents"):
         teamgym.make_batch("Navigation-v0", 2, fixed_agents=True)
 
 

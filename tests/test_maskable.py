@@ -21,6 +21,7 @@ from baselines.evaluate import main as evaluate_main  # noqa: E402
 from baselines.rl.sb3_policy import SB3Policy, algorithm_class, check_action_space, detect_algorithm  # noqa: E402
 from baselines.rl.train import Training, train  # noqa: E402
 from baselines.train import main as train_main  # noqa: E402
+from teamgym.envs.batch import TeamBatch  # noqa: E402
 from teamgym.envs.exploration import Exploration  # noqa: E402
 
 ENV = "Exploration-v0"
@@ -33,9 +34,10 @@ def _one_torch_thread(single_thread_torch):
 
 
 def count_masked(monkeypatch: pytest.MonkeyPatch) -> dict[str, int]:
-    """Wrap ``Exploration.step``: count the operators given and those the masks forbid (before the env sees them)."""
+    """Wrap ``Exploration.step`` and ``TeamBatch.step`` (the SB3 adapter steps a batch): count the operators
+    given and those the masks forbid (before the env sees them)."""
     counts = {"actions": 0, "masked": 0}
-    step = Exploration.step
+    step, batch_step = Exploration.step, TeamBatch.step
 
     def checking_step(self: Exploration, actions: dict[str, Any]) -> Any:
         masks = self.action_masks()
@@ -44,7 +46,15 @@ def count_masked(monkeypatch: pytest.MonkeyPatch) -> dict[str, int]:
             counts["masked"] += int(not masks[agent][int(action)])
         return step(self, actions)
 
+    def checking_batch_step(self: TeamBatch, actions: Any) -> Any:
+        masks, active = self.action_masks(), self.active
+        for k, i in zip(*np.nonzero(active)):
+            counts["actions"] += 1
+            counts["masked"] += int(not masks[k, i, int(actions[k, i])])
+        return batch_step(self, actions)
+
     monkeypatch.setattr(Exploration, "step", checking_step)
+    monkeypatch.setattr(TeamBatch, "step", checking_batch_step)
     return counts
 
 

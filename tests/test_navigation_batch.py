@@ -107,7 +107,7 @@ def test_reset_copy_and_growth_keep_other_copies():
     assert np.array_equal(rows[1], expected["robot_1"]) and set(infos) == {"robot_0", "robot_1"}
     assert np.array_equal(batch.copies[0].state(), before)
     batch.truncate(1)
-    assert batch.n_copies == 1 and batch.team.n_copies == 1 and batch.active.shape == (1, 2)
+    assert batch.n_copies == 1 and batch.copies[0]._team.n_copies == 1 and batch.active.shape == (1, 2)
     assert np.array_equal(batch.copies[0].state(), before)
 
 
@@ -149,8 +149,7 @@ def test_actions_of_finished_robots_are_ignored():
     "kwargs, error",
     [
         ({"n_copies": 0}, ValueError),
-        ({"n_copies": 2, "comm_dim": 2}, ConfigError),
-        ({"n_copies": 2, "obs_format": "dict"}, ConfigError),
+        ({"n_copies": 2, "fixed_agents": True}, ConfigError),
         ({"n_copies": 1, "n_robots": 0}, ConfigError),
     ],
 )
@@ -167,7 +166,7 @@ def test_free_rings_read_what_the_rays_read():
     checked = {True: 0, False: 0}
     for _ in range(150):
         observations, *_ = batch.step(steer(batch, observations, rng))
-        free = batch.team.sensing_free(slice(None))
+        free = batch.copies[0]._team.sensing_free(slice(None))
         for e, env in enumerate(batch.copies):
             for i, robot in enumerate(env.robot_list):
                 reading = env.ring.read(robot, env.world.space, pose=tuple(env.world.robot_states[i, :3]))
@@ -177,14 +176,11 @@ def test_free_rings_read_what_the_rays_read():
     assert checked[True] > 0 and checked[False] > 0
 
 
-def test_make_batch_only_where_a_task_has_one():
-    assert isinstance(teamgym.make("Navigation-v0").make_batch(2), NavigationBatch)
-    assert teamgym.make("Exploration-v0").make_batch(2) is None
-    assert teamgym.make("Navigation-v0", obs_format="dict").make_batch(2) is None  # the adapter then steps copies one by one
+def test_the_old_name_is_the_batch_of_navigation_copies():
+    assert isinstance(teamgym.make("Navigation-v0").make_batch(2), NavigationBatch.__mro__[1])
     batch = teamgym.make_batch("Navigation-v0", 2, n_robots=4)
-    assert batch.reset(seed=0).shape == (2, 4, batch.layout.size) and batch.config.n_robots == 4
-    with pytest.raises(ValueError, match="Exploration-v0 has no batch form"):
-        teamgym.make_batch("Exploration-v0", 2)
+    old = NavigationBatch(2, n_robots=4)
+    assert np.array_equal(batch.reset(seed=0), old.reset(seed=0)) and batch.config == old.config
     with pytest.raises(ValueError, match="n_copies"):
         teamgym.make_batch("Navigation-v0", 0)
 

@@ -1,4 +1,4 @@
-"""The SB3 adapter over Navigation's batch form gives what it gives over the PettingZoo copies."""
+"""The SB3 adapter over an env's batch (``make_batch``) gives what it gives over the PettingZoo copies, on every env."""
 
 from __future__ import annotations
 
@@ -60,10 +60,45 @@ def test_batched_and_pettingzoo_copies_agree(n_envs):
     assert len(batched.envs) == len(plain.envs) == n_envs
 
 
-def test_batched_refused_for_envs_without_a_batch_form():
-    with pytest.raises(ValueError, match="no batch form"):
-        TeamVecEnv(lambda: teamgym.make("Exploration-v0"), n_envs=1, batched=True)
-    assert not TeamVecEnv(lambda: teamgym.make("Exploration-v0"), n_envs=1).batched
+@pytest.mark.parametrize("env_id", teamgym.envs())
+def test_every_env_steps_the_same_batched_and_one_by_one(env_id):
+    """Random (admissible) actions through both paths: same observations, rewards, dones and finishing infos."""
+    make = lambda: teamgym.make(env_id, max_cycles=12)  # noqa: E731
+    batched, plain = TeamVecEnv(make, n_envs=2), TeamVecEnv(make, n_envs=2, batched=False)
+    assert batched.batched and not plain.batched
+    batched.seed(5)
+    plain.seed(5)
+    assert np.array_equal(batched.reset(), plain.reset())
+    rng = np.random.default_rng(0)
+    space = batched.action_space
+    finished = 0
+    for _ in range(30):
+        if hasattr(space, "n"):
+            masks = batched.action_masks()
+            assert np.array_equal(masks, plain.action_masks())
+            actions = np.array([rng.choice(np.flatnonzero(m)) for m in masks])
+        else:
+            actions = rng.uniform(space.low, space.high, size=(batched.num_envs, *space.shape)).astype(space.dtype)
+        batched.step_async(actions)
+        plain.step_async(actions)
+        observations, rewards, dones, infos = batched.step_wait()
+        plain_obs, plain_rewards, plain_dones, plain_infos = plain.step_wait()
+        assert np.array_equal(observations, plain_obs) and np.array_equal(rewards, plain_rewards)
+        assert np.array_equal(dones, plain_dones)
+        for info, plain_info in zip(infos, plain_infos):
+            assert ("episode" in info) == ("episode" in plain_info)
+            assert info.get("is_success") == plain_info.get("is_success")
+            if "episode" in info:
+                assert info["episode"]["r"] == plain_info["episode"]["r"] and info["success"] == plain_info["success"]
+                assert np.array_equal(info["terminal_observation"], plain_info["terminal_observation"])
+        finished += int(dones.sum())
+    assert finished > 0
+
+
+def test_batched_refused_where_copies_cannot_be_one_batch():
+    with pytest.raises(ValueError, match="obs_format='dict'"):
+        TeamVecEnv(lambda: teamgym.make("Exploration-v0", obs_format="dict"), n_envs=1, batched=True)
+    assert TeamVecEnv(lambda: teamgym.make("Exploration-v0"), n_envs=1).batched
 
 
 def test_wrapped_envs_are_stepped_one_by_one():
@@ -77,7 +112,7 @@ def test_wrapped_envs_are_stepped_one_by_one():
     venv.step_async(np.zeros((venv.num_envs, 2), np.float32))
     _, _, _, infos = venv.step_wait()
     assert all("expert_action" in info for info in infos)
-    with pytest.raises(ValueError, match="no batch form"):
+    with pytest.raises(ValueError, match="not a bare teamgym env"):
         TeamVecEnv(lambda: ExpertActions(teamgym.make("Navigation-v0", n_robots=2), "goto"), n_envs=1, batched=True)
 
 

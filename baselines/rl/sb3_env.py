@@ -47,14 +47,14 @@ robot that finishes then (the first in ``possible_agents`` order), so SB3's
 Copies stepped as one batch
 ---------------------------
 
-When ``env_fn()`` returns a bare :class:`~teamgym.envs.base.TeamEnv` with a batch form
-(:meth:`~teamgym.envs.base.TeamEnv.make_batch`: Navigation-v0 with flat observations), the
-copies are stepped together (``batched=None``, the default; ``True`` insists, ``False``
-refuses): one array of actions for all copies, one numpy pass for their observations and
-rewards. Slots, refills, seeding and what a finishing robot's ``info`` holds are exactly the
-PettingZoo path's (tests/test_sb3_batched.py); a slot whose robot goes on gets an empty
-``info`` instead of the robot's per-step metrics. Wrapped envs and other tasks are stepped
-one by one through the PettingZoo API.
+When ``env_fn()`` returns a bare :class:`~teamgym.envs.base.TeamEnv` (any id, flat
+observations, no render mode, ``fixed_agents=False``), its copies are one
+:class:`~teamgym.envs.batch.TeamBatch` (:meth:`~teamgym.envs.base.TeamEnv.make_batch`) and
+are stepped together (``batched=None``, the default; ``True`` insists, ``False`` refuses):
+one array of actions for all copies. Slots, refills, seeding and what a finishing robot's
+``info`` holds are exactly the PettingZoo path's (tests/test_sb3_batched.py, on every env);
+a slot whose robot goes on gets an empty ``info`` instead of the robot's per-step metrics.
+Wrapped envs (and dict observations) are stepped one by one through the PettingZoo API.
 
 Box actions are clipped to the action space before they reach the env. For ``Discrete`` and
 ``MultiDiscrete`` actions with masks (Exploration's operator actions),
@@ -140,15 +140,26 @@ class TeamVecEnv(VecEnv):
 
     @staticmethod
     def _make_batch(first: TeamEnv, n_envs: int, batched: bool | None) -> Any | None:
-        """The env's batch form (``make_batch``) for ``batched`` = True or None (when it has one); None for False."""
+        """The env's batch (``make_batch``) for ``batched`` = True or None (when the copies can be one); None for False.
+
+        A batch takes a bare TeamEnv (a wrapper, say one that labels expert actions, must see every
+        step) with flat observations, no render mode and ``fixed_agents=False`` (the batch has fixed rows).
+        """
         if batched is False:
             return None
-        # Only a bare TeamEnv: a wrapper (say, one that labels expert actions) must see every step.
         plain = isinstance(first, TeamEnv) and first.render_mode is None
-        batch = first.make_batch(n_envs) if plain else None
-        if batch is None and batched:
-            raise ValueError(f"{type(first).__name__} has no batch form (make_batch); use batched=False or None")
-        return batch
+        why = None
+        if not plain:
+            why = f"{type(first).__name__} is not a bare teamgym env without a render mode"
+        elif first.config.fixed_agents:
+            why = "fixed_agents=True (a batch has fixed rows of its own)"
+        elif not isinstance(first.observation_space(first.possible_agents[0]), spaces.Box):
+            why = f"obs_format={first.config.obs_format!r} (the adapter stacks flat observations)"
+        if why is None:
+            return first.make_batch(n_envs)
+        if batched:
+            raise ValueError(f"these copies cannot be stepped as one batch: {why}; use batched=False or None")
+        return None
 
     @property
     def batched(self) -> bool:

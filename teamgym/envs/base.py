@@ -39,7 +39,7 @@ holds every possible agent until the team's episode ends.
 from __future__ import annotations
 
 import copy
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 from gymnasium import spaces
@@ -51,12 +51,16 @@ from teamgym.envs.fixed_agents import PRESENT, PRESENT_INFO, FixedRoster
 from teamgym.envs.infos import COUNT, InfoKey, metrics
 from teamgym.envs.reset_input import check_option_keys, check_seed
 from teamgym.envs.spaces import ActionChecker, Field, ObservationLayout
+from teamgym.envs.step_loop import CopyPhases, StepOutcome, step_group
 from teamgym.envs.trails import TrailArchive
 from teamgym.sim import snapshot
 from teamgym.sim.channel import Channel, ChannelConfig
 from teamgym.sim.render import Overlay, Renderer, robot_colour
 from teamgym.sim.robot import DiffDriveRobot
 from teamgym.sim.world import FixedRecord, World
+
+if TYPE_CHECKING:
+    from teamgym.envs.batch import TeamBatch
 
 #: Outcome of ``_check_feasible`` per (env class, config): None or the error message.
 _FEASIBILITY: dict[tuple[type, EnvConfig], str | None] = {}
@@ -84,6 +88,9 @@ class TeamEnv(ParallelEnv):
     pixels_per_metre: ClassVar[float] = 200.0
     #: Keys ``reset(options=...)`` accepts (checked by ``_check_reset_options``); others are refused.
     reset_option_keys: ClassVar[tuple[str, ...]] = ()
+    #: The control-step phases over a group of copies (:mod:`teamgym.envs.step_loop`); a task
+    #: whose per-step state is in arrays over copies gives its own, one numpy pass per group.
+    phases_class: ClassVar[type[CopyPhases]] = CopyPhases
 
     def __init__(self, render_mode: str | None = None, **config: Any) -> None:
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
@@ -138,6 +145,8 @@ class TeamEnv(ParallelEnv):
         self._trails: dict[str, list[tuple[float, float]]] = {}
         self._object_trails: dict[str, list[tuple[float, float]]] = {}
         self._log: list[tuple] = []
+        #: Whether steps append to ``trajectories()`` (a batch's copies may skip it).
+        self.records_trails = True
 
     # -- hooks for subclasses --------------------------------------------------------
     def _setup(self) -> None:
@@ -235,13 +244,14 @@ class TeamEnv(ParallelEnv):
     def _overlay(self) -> Overlay:
         return Overlay()
 
-    def make_batch(self, n_copies: int) -> Any | None:
-        """``n_copies`` copies of this env (its config) stepped together with arrays, or ``None`` if the task has no batch form.
+    def make_batch(self, n_copies: int, **options: Any) -> TeamBatch:
+        """``n_copies`` copies of this env's config stepped together with arrays (:class:`~teamgym.envs.batch.TeamBatch`).
 
-        Navigation-v0 returns a :class:`~teamgym.envs.navigation.batch.NavigationBatch`; the
-        SB3 adapter uses it when it exists.
+        ``options`` are the batch's own (``auto_reset``, ``render_mode``, ``trails``).
         """
-        return None
+        from teamgym.envs.batch import TeamBatch
+
+        return TeamBatch(type(self), n_copies, config=self.config.as_dict(), **options)
 
     def _admit(self, agent: str) -> None:
         """Let ``agent`` (a new robot) join ``agents`` at the end of the current step."""
@@ -330,36 +340,11 @@ class TeamEnv(ParallelEnv):
                 f"{type(self).__name__}.step() called after the episode ended (all agents are done); call reset()"
             )
         checked = self._check_actions(actions)
-        self._log.append(("step", checked))
-        total = self._reward_total
-        total[:] = 0.0
-        self.action_type.start(self, checked)
-        while True:
-            self._control_step(checked)
-            self._update_state()
-            self._apply_events()
-            self._check_goals()
-            self._accumulate_rewards(total)
-            self._sense()
-            if not self.action_type.is_macro or self.action_type.stage_over(self) or self.cycles >= self.config.cycle_limit:
-                break
-        self._deliver_messages()
-        rewards = {a: float(total[self._row[a]]) for a in self.live_agents}
-        for agent in self._joining:
-            self.live_agents.append(agent)
-            self._trails[agent] = [self.robots[agent].position]
-            rewards[agent] = 0.0
-        self._joining = []
-        terminations = self._terminations()
-        truncated = self.cycles >= self.config.cycle_limit
-        truncations = {a: truncated and not terminations[a] for a in self.live_agents}
-        self._refresh_masks()
+        step_group(self._own_phases(), [0], [checked])
+        rewards, terminations, truncations = self._end_step()
         observations = self._collect_observations()
         infos = self._collect_infos()
-        self.live_agents = [a for a in self.live_agents if not (terminations[a] or truncations[a])]
-        for agent in terminations:
-            if terminations[agent] or truncations[agent]:
-                self.robots[agent].set_command(0.0, 0.0)
+        self._close_step([a for a in self.live_agents if terminations[a] or truncations[a]])
         if self._roster is not None:
             rewards, terminations, truncations = self._roster.step(self, rewards, terminations, truncations)
         self._rebase_if_due()
@@ -367,15 +352,41 @@ class TeamEnv(ParallelEnv):
             self.render()
         return observations, rewards, terminations, truncations, infos
 
-    def _control_step(self, actions: dict) -> None:
-        """Control and physics phases of one control step: commands, then the world steps Δt."""
-        act, robots = self.action_type.act, self.robots
-        for agent, action in actions.items():
-            robots[agent].set_command(*act(self, agent, action))
-        self._before_physics()
-        self.world.step()
-        self.cycles += 1
-        self._record_trails()
+    def _own_phases(self) -> CopyPhases:
+        """The step phases over this env alone (:mod:`teamgym.envs.step_loop`), made once."""
+        phases = self.__dict__.get("_phases")
+        if phases is None:
+            phases = self._phases = self.phases_class([self])
+        return phases
+
+    def _stage_goes_on(self) -> bool:
+        """After a control step: whether this ``step`` runs another (a macro action type's stage goes on)."""
+        return self.action_type.is_macro and not self.action_type.stage_over(self) and self.cycles < self.config.cycle_limit
+
+    def _end_step(self) -> StepOutcome:
+        """End of a step: messages, joining robots, terminations, truncations, masks (agents leave in :meth:`_close_step`)."""
+        self._deliver_messages()
+        total, row = self._reward_total, self._row
+        rewards = {a: float(total[row[a]]) for a in self.live_agents}
+        for agent in self._joining:
+            self.live_agents.append(agent)
+            if self.records_trails:
+                self._trails[agent] = [self.robots[agent].position]
+            rewards[agent] = 0.0
+        self._joining = []
+        terminations = self._terminations()
+        truncated = self.cycles >= self.config.cycle_limit
+        truncations = {a: truncated and not terminations[a] for a in self.live_agents}
+        self._refresh_masks()
+        return rewards, terminations, truncations
+
+    def _close_step(self, finished: list[str]) -> None:
+        """The ``finished`` agents leave ``live_agents`` and their robots stop (after observations and infos were read)."""
+        if not finished:
+            return
+        self.live_agents = [a for a in self.live_agents if a not in finished]
+        for agent in finished:
+            self.robots[agent].set_command(0.0, 0.0)
 
     def _record_trails(self) -> None:
         points = self.world.robot_states[:, :2].tolist()
@@ -524,11 +535,16 @@ class TeamEnv(ParallelEnv):
             layout.view(out[row], "inbox_sender")[:] = packed.sender
             layout.view(out[row], "inbox_mask")[:] = packed.mask
 
-    def _collect_observations(self) -> dict[str, np.ndarray | dict[str, np.ndarray]]:
+    def _observation_rows(self) -> np.ndarray:
+        """``(len(live_agents), D)`` flat observations of the live agents, inbox included, saturated at the bounds."""
         out = np.zeros((len(self.live_agents), self.layout.size), dtype=np.float32)
         self._observe(out)
         self._observe_inbox(out)
         self.layout.clip(out)
+        return out
+
+    def _collect_observations(self) -> dict[str, np.ndarray | dict[str, np.ndarray]]:
+        out = self._observation_rows()
         rows = dict(zip(self.live_agents, out))
         if self._roster is not None:
             out[:, self.layout.slices[PRESENT.name]] = 1.0
@@ -581,10 +597,15 @@ class TeamEnv(ParallelEnv):
 
     def _collect_infos(self) -> dict[str, dict[str, Any]]:
         success = bool(self.episode_success())
+        infos = self._infos_of(self.live_agents, success)
+        return infos if self._roster is None else self._roster.infos(self, infos, success)
+
+    def _infos_of(self, agents: list[str], success: bool) -> dict[str, dict[str, Any]]:
+        """The infos of ``agents`` (robots in the world) now: schema keys, metrics, ``success``, masks, channel counters."""
         template = self._info_template
         comm = bool(self.config.comm_dim) or self.uses_channel
         infos = {}
-        for agent, task_metrics in self._metrics_of(self.live_agents).items():
+        for agent, task_metrics in self._metrics_of(agents).items():
             info = self._schema_info(task_metrics)
             info["success"] = success
             if agent in self._masks:
@@ -595,7 +616,7 @@ class TeamEnv(ParallelEnv):
                 extra = sorted(set(info) - set(template))
                 raise RuntimeError(f"{type(self).__name__}: infos key(s) {extra} are not in the env's info schema (_info_keys)")
             infos[agent] = info
-        return infos if self._roster is None else self._roster.infos(self, infos, success)
+        return infos
 
     # -- rendering -------------------------------------------------------------------
     def render(self) -> np.ndarray | None:
@@ -657,7 +678,7 @@ class TeamEnv(ParallelEnv):
     #: callers hold (spaces, checkers), the renderer, the log and the trails.
     _KEPT_ON_REBASE: ClassVar[frozenset[str]] = frozenset(
         {"render_mode", "config", "possible_agents", "layout", "_checkers", "_observation_spaces", "_action_spaces"}
-        | {"_renderer", "_log", "_trails", "_object_trails", "_trail_archives"}
+        | {"_renderer", "_log", "_trails", "_object_trails", "_trail_archives", "_phases"}
     )
 
     def _record(self, method: str, *args: Any) -> None:

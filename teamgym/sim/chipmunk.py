@@ -37,6 +37,11 @@ def set_kinematic_motion(
     _lib.cpBodySetAngularVelocity(handle, angular_velocity)
 
 
+def kinematic_setters() -> tuple:
+    """Chipmunk's body setters of position, angle, velocity and angular velocity (they take ``body._body``)."""
+    return _lib.cpBodySetPosition, _lib.cpBodySetAngle, _lib.cpBodySetVelocity, _lib.cpBodySetAngularVelocity
+
+
 def set_pivot_anchor_a(pivot: pymunk.PivotJoint, anchor: tuple[float, float]) -> None:
     """Set a pivot joint's anchor on its first body (local coordinates)."""
     _lib.cpPivotJointSetAnchorA(pivot._constraint, anchor)
@@ -81,12 +86,24 @@ class BatchArrays:
         return np.frombuffer(_ffi.buffer(arr.arr, _INT_SIZE * arr.num), dtype=np.uintp)
 
 
+_GET_BODIES = _ffi.addressof(_lib, "pmSpaceBodyGetIteratorFuncBatched")
+_SET_BODIES = _ffi.addressof(_lib, "pmSpaceBodySetIteratorFuncBatched")
+_MOTION_FIELDS = _BODY_FIELDS & ~_batch.BodyFields.BODY_ID
+
+
 class BodyReader:
-    """Reads ``(x, y, angle, vx, vy, ω)`` of chosen bodies of a space in one batch call.
+    """Reads ``(x, y, angle, vx, vy, ω)`` of chosen bodies of a space in one batch call, and writes bodies back.
 
     Rows come back in the order of ``bodies``. The mapping from the space's body order is
     computed on the first read; make a new reader after adding or removing bodies (the
     :class:`~teamgym.sim.world.World` does this).
+
+    After a read, :attr:`every` holds the rows of every body of the space in the space's own
+    order (a writable view of the C array, valid until the next read); :meth:`rows_of` gives
+    the rows of chosen bodies in it, and :meth:`write` sets every body of the space from it in
+    one ``pymunk.batch.set_space_bodies`` pass (the same Chipmunk setters as pymunk's
+    properties). Writing back a row unchanged leaves its body bit for bit as it was when the
+    body's centre of gravity is its origin (``writable``; every teamgym body is built so).
     """
 
     def __init__(self, bodies: list[pymunk.Body]) -> None:
@@ -97,22 +114,64 @@ class BodyReader:
         self.ids = np.array([b.id for b in self.bodies], dtype=np.uintp)
         self._rows: np.ndarray | None = None
         self._arrays = BatchArrays()
+        self._get = self._batch_data(_BODY_FIELDS)
+        self._set = self._batch_data(_MOTION_FIELDS)
+        self._all_ids: np.ndarray | None = None
+        #: Rows of every body of the space after the last read (see the class docstring).
+        self.every = np.zeros((0, 6))
+
+    def _batch_data(self, fields: _batch.BodyFields):
+        data = _ffi.new("pmBatchedData *")
+        data.fields = fields.value
+        data.floatArray = self._arrays._float_arr
+        data.intArray = self._arrays._int_arr
+        return data
 
     def read(self, space: pymunk.Space) -> np.ndarray:
         """Array of shape ``(len(bodies), 6)``: x, y, angle, vx, vy, angular velocity."""
         arrays = self._arrays
         arrays.clear()
-        _batch.get_space_bodies(space, _BODY_FIELDS, arrays)
+        _lib.cpSpaceEachBody(space._space, _GET_BODIES, self._get)
         values = arrays.floats().reshape(-1, 6)
+        self.every = values
         if self._rows is None:
-            ids = arrays.ints()
+            ids = arrays.ints().copy()
             order = np.argsort(ids)
             found = np.minimum(np.searchsorted(ids, self.ids, sorter=order), len(ids) - 1)
             rows = order[found]
             if not np.array_equal(ids[rows], self.ids):
                 raise KeyError("BodyReader: some bodies are not in the space")
-            self._rows = rows
+            self._rows, self._all_ids = rows, ids
         return values[self._rows]
+
+    def rows_of(self, bodies: list[pymunk.Body]) -> np.ndarray:
+        """Rows of ``bodies`` in :attr:`every` (after the first read); ``KeyError`` for a body not in the space."""
+        if self._all_ids is None:
+            raise RuntimeError("BodyReader.rows_of before the first read")
+        index = {int(body_id): row for row, body_id in enumerate(self._all_ids.tolist())}
+        try:
+            return np.array([index[b.id] for b in bodies], dtype=np.intp)
+        except KeyError:
+            raise KeyError("BodyReader.rows_of: some bodies are not in the space") from None
+
+    def writable(self, space: pymunk.Space) -> bool:
+        """Whether :meth:`write` may be used: the space holds the bodies last read, each with its centre of gravity at 0."""
+        return (
+            self._all_ids is not None
+            and len(space.bodies) == len(self._all_ids)
+            and all(tuple(b.center_of_gravity) == (0.0, 0.0) for b in space.bodies)
+        )
+
+    def write(self, space: pymunk.Space) -> None:
+        """Set position, angle, velocity and angular velocity of every body of ``space`` from :attr:`every`."""
+        floats = self._arrays._float_arr
+        if floats.num != 6 * len(self._all_ids):
+            raise RuntimeError("BodyReader.write: the space's bodies changed since the last read")
+        floats.num = 0  # pymunk's set iterator pops from the front
+        try:
+            _lib.cpSpaceEachBody(space._space, _SET_BODIES, self._set)
+        finally:
+            floats.num = 6 * len(self._all_ids)
 
     def __getstate__(self) -> dict:
         return {"bodies": self.bodies}
@@ -170,6 +229,14 @@ class RayCaster:
         if _lib.cpSpaceSegmentQueryFirst(space._space, start, end, 0.0, shape_filter, info) == _NULL:
             return None
         return info.alpha
+
+    def cast_rays(self, space: pymunk.Space, rays: list, filters: list[pymunk.ShapeFilter]) -> list[float | None]:
+        """:meth:`cast` of every ray ``(x0, y0, x1, y1)`` with its filter, in one loop: hit fractions or ``None``."""
+        query, handle, info, null = _lib.cpSpaceSegmentQueryFirst, space._space, self._info, _NULL
+        alphas: list[float | None] = []
+        for (x0, y0, x1, y1), shape_filter in zip(rays, filters):
+            alphas.append(info.alpha if query(handle, (x0, y0), (x1, y1), 0.0, shape_filter, info) != null else None)
+        return alphas
 
     def __getstate__(self) -> dict:
         return {}

@@ -12,6 +12,8 @@ entity types:
 * ``fixed``: the entity never changes once added (walls, furniture): snapshots of the world
   refer to it rather than pickle it again (:meth:`~teamgym.sim.world.World.fixed_objects`).
 * ``draw_layer`` and :meth:`draw`: how the renderer shows it.
+* :meth:`step_group`: the object that runs the step hooks of a run of entities of one class
+  (default :class:`StepGroup`, entity by entity); a class may run its hooks in one pass.
 
 The world reads ``kind``, ``has_state_row`` and ``tracked`` when the entity is added.
 """
@@ -20,6 +22,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+import numpy as np
 import pymunk
 
 from teamgym.sim.canvas import Canvas, Layer
@@ -98,8 +101,42 @@ class Entity:
     def after_step(self, world: World, start: list[float], end: list[float]) -> None:
         """Finish a control step; ``start`` and ``end`` are the state rows before and after."""
 
+    @classmethod
+    def step_group(cls, entities: list[Entity], world: World) -> StepGroup:
+        """The runner of the step hooks of ``entities`` (all of this class, consecutive state rows of ``world``)."""
+        return StepGroup(entities)
+
     def __repr__(self) -> str:
         return f"{type(self).__name__}({self.name!r})"
+
+
+class StepGroup:
+    """Runs the step hooks of a run of entities of one class, entity by entity, in state-row order.
+
+    The :class:`~teamgym.sim.world.World` calls :meth:`before` with the entities' state rows
+    (lists, and the same rows as an array), then integrates, then :meth:`after`. ``direct``:
+    the hooks set bodies through pymunk (rather than into the world's body buffer, see
+    :meth:`~teamgym.sim.world.World.body_buffer`).
+    """
+
+    direct = True
+
+    def __init__(self, entities: list[Entity]) -> None:
+        self.entities = entities
+
+    def before(self, world: World, rows: list[list[float]], block: np.ndarray) -> list[tuple[float, Entity]]:
+        """Every entity's :meth:`Entity.before_step`; returns the ``(time, entity)`` pairs that asked for a mid-step call."""
+        switches = []
+        for entity, row in zip(self.entities, rows):
+            at = entity.before_step(world, row)
+            if at is not None:
+                switches.append((at, entity))
+        return switches
+
+    def after(self, world: World, starts: list[list[float]], ends: list[list[float]]) -> None:
+        """Every entity's :meth:`Entity.after_step`."""
+        for entity, start, end in zip(self.entities, starts, ends):
+            entity.after_step(world, start, end)
 
 
 class PointEntity(Entity):

@@ -43,14 +43,19 @@ import pymunk
 
 from teamgym.sim.canvas import Canvas, Layer, robot_colour
 from teamgym.sim.categories import RAY_HITS, Category
-from teamgym.sim.chipmunk import set_kinematic_motion, set_pivot_anchor_a
-from teamgym.sim.entity import Entity
+from teamgym.sim.chipmunk import kinematic_setters, set_pivot_anchor_a
+from teamgym.sim.entity import Entity, StepGroup
 from teamgym.sim.objects import FOOT_MASS_SHARE, add_support_feet, place_feet
 
 if TYPE_CHECKING:
     from teamgym.sim.world import World
 
 _group_ids = itertools.count(1)
+_set_position, _set_angle, _set_velocity, _set_angular_velocity = kinematic_setters()
+
+#: Runs of at least this many robots set their control bodies in one numpy pass and one
+#: ``pymunk.batch`` write (:class:`RobotSteps`); shorter runs robot by robot (cheaper below it).
+BULK_ROBOTS = 8
 
 
 @dataclass(frozen=True)
@@ -245,19 +250,29 @@ class DiffDriveRobot(Entity):
             theta = self.body.angle
         else:
             x, y, theta = state[0], state[1], state[2]
+        handle = self.control._body  # Chipmunk's setters, in the order of pymunk.batch's writes
         if abs(omega) < 1e-9:
-            set_kinematic_motion(self.control, (x, y), theta, (v * math.cos(theta), v * math.sin(theta)), 0.0)
-            anchor = (0.0, 0.0)
+            _set_position(handle, (x, y))
+            _set_angle(handle, theta)
+            _set_velocity(handle, (v * math.cos(theta), v * math.sin(theta)))
+            _set_angular_velocity(handle, 0.0)
+            anchor = 0.0
         else:
             radius = v / omega
-            centre = (x - radius * math.sin(theta), y + radius * math.cos(theta))
-            set_kinematic_motion(self.control, centre, theta, (0.0, 0.0), omega)
-            anchor = (0.0, -radius)
+            _set_position(handle, (x - radius * math.sin(theta), y + radius * math.cos(theta)))
+            _set_angle(handle, theta)
+            _set_velocity(handle, (0.0, 0.0))
+            _set_angular_velocity(handle, omega)
+            anchor = -radius
+        self._set_anchor(anchor)
+
+    def _set_anchor(self, anchor_y: float) -> None:
+        """Put the drive's anchor on the control body at ``(0, anchor_y)`` (each wheel's: offset by the wheel point)."""
         if self.pivot is not None:
-            set_pivot_anchor_a(self.pivot, anchor)
+            set_pivot_anchor_a(self.pivot, (0.0, anchor_y))
         else:  # each wheel's contact point, in the control body's frame
             for drive, (wx, wy) in zip(self.drives, self.wheel_points):
-                set_pivot_anchor_a(drive, (anchor[0] + wx, anchor[1] + wy))
+                set_pivot_anchor_a(drive, (0.0 + wx, anchor_y + wy))
 
     def disable(self) -> None:
         """Break down: stop the motors for good; the robot stays in the world as an obstacle."""
@@ -348,6 +363,12 @@ class DiffDriveRobot(Entity):
     def after_step(self, world: World, start: list[float], end: list[float]) -> None:
         self.end_step(world.dt, start, end)
 
+    @classmethod
+    def step_group(cls, entities: list[Entity], world: World) -> StepGroup:
+        """:class:`RobotSteps` for robots whose class keeps these step hooks (else the entity-by-entity default)."""
+        own = all(getattr(cls, name) is getattr(DiffDriveRobot, name) for name in _STEP_HOOKS)
+        return RobotSteps(entities, world) if own else super().step_group(entities, world)
+
     def draw(self, canvas: Canvas) -> None:
         index = canvas.take_index("robot")
         x, y, theta = self.pose
@@ -380,6 +401,71 @@ class DiffDriveRobot(Entity):
         place_feet(self.body, self.wheels, self.wheel_points)
         if self.space is not None:
             self.space.reindex_shapes_for_body(self.body)
+
+
+_STEP_HOOKS = ("before_step", "begin_step", "apply_command", "_set_anchor", "after_step", "end_step")
+
+
+class RobotSteps(StepGroup):
+    """The step hooks of a run of robots in one pass: :meth:`DiffDriveRobot.before_step` and ``after_step``, same numbers.
+
+    A run of at least :data:`BULK_ROBOTS` robots with centre ground contact, in a world whose
+    body buffer can be written (:meth:`~teamgym.sim.world.World.body_buffer`), computes
+    every control body's arc motion in one numpy pass (sines and cosines from ``math``, as
+    :meth:`DiffDriveRobot.apply_command`; the same operations in the same order, so the same
+    bits) and leaves them in the buffer, which the world writes in one ``pymunk.batch`` call;
+    the pivot anchors are set robot by robot. Other runs call ``apply_command`` robot by robot.
+    """
+
+    def __init__(self, robots: list[DiffDriveRobot], world: World) -> None:
+        super().__init__(robots)
+        centre = all(robot.pivot is not None for robot in robots)
+        self.rows = world.body_rows([robot.control for robot in robots]) if centre and len(robots) >= BULK_ROBOTS else None
+        self.direct = self.rows is None
+        self._pivots = [robot.pivot for robot in robots] if centre else []
+
+    def before(self, world: World, rows: list[list[float]], block: np.ndarray) -> list[tuple[float, Entity]]:
+        dt = world.dt
+        switches: list[tuple[float, Entity]] = []
+        bulk = self.rows is not None
+        commands = []
+        for robot, row in zip(self.entities, rows):
+            robot._start_pose = (row[0], row[1], row[2])
+            delay, command = robot.actuation_delay, robot.command
+            started = robot.applied_command if delay > 0.0 else command
+            if bulk:
+                commands.append(started)
+            else:
+                robot.apply_command(started, row)
+            if 0.0 < delay < dt and robot.applied_command != command:
+                switches.append((delay, robot))
+        if bulk:
+            self._drive(world, block, np.array(commands, dtype=float).reshape(-1, 2))
+        return switches
+
+    def _drive(self, world: World, block: np.ndarray, commands: np.ndarray) -> None:
+        """:meth:`DiffDriveRobot.apply_command` of every robot, into the world's body buffer."""
+        v, omega = commands[:, 0], commands[:, 1]
+        x, y, theta = block[:, 0], block[:, 1], block[:, 2]
+        angles = theta.tolist()
+        cos, sin = np.array(list(map(math.cos, angles))), np.array(list(map(math.sin, angles)))
+        straight = np.abs(omega) < 1e-9
+        radius = v / np.where(straight, 1.0, omega)
+        motion = np.empty((len(v), 6))
+        motion[:, 0] = np.where(straight, x, x - radius * sin)
+        motion[:, 1] = np.where(straight, y, y + radius * cos)
+        motion[:, 2] = theta
+        motion[:, 3] = np.where(straight, v * cos, 0.0)
+        motion[:, 4] = np.where(straight, v * sin, 0.0)
+        motion[:, 5] = np.where(straight, 0.0, omega)
+        world.body_buffer()[self.rows] = motion
+        for pivot, anchor in zip(self._pivots, np.where(straight, 0.0, -radius).tolist()):
+            set_pivot_anchor_a(pivot, (0.0, anchor))
+
+    def after(self, world: World, starts: list[list[float]], ends: list[list[float]]) -> None:
+        dt = world.dt
+        for robot, start, end in zip(self.entities, starts, ends):
+            robot.end_step(dt, start, end)
 
 
 def wrap_angle(angle: float | np.ndarray) -> float | np.ndarray:

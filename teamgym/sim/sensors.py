@@ -255,19 +255,21 @@ class ProximityRing(NoisyRowSensor):
     def _read_one(self, robot: DiffDriveRobot, space: pymunk.Space, x: float, y: float, theta: float, out: np.ndarray) -> None:
         """Noise-free distances of one robot into ``out``."""
         out.fill(self.max_range)
-        r = robot.spec.radius
-        query_filter = robot.sensor_filter
-        caster = self._caster
-        if caster.anything_within(space, (x, y), r + self.max_range, query_filter):
-            c, s = math.cos(theta), math.sin(theta)
-            span = self.max_range
-            cast = caster.cast
-            for i, (ca, sa) in enumerate(zip(self._cos, self._sin)):
-                dx, dy = c * ca - s * sa, s * ca + c * sa
-                start = (x + r * dx, y + r * dy)
-                alpha = cast(space, start, (start[0] + span * dx, start[1] + span * dy), query_filter)
-                if alpha is not None:
-                    out[i] = alpha * span
+        if self._caster.anything_within(space, (x, y), robot.spec.radius + self.max_range, robot.sensor_filter):
+            self._cast_one(robot, space, x, y, theta, out)
+
+    def _cast_one(self, robot: DiffDriveRobot, space: pymunk.Space, x: float, y: float, theta: float, out: np.ndarray) -> None:
+        """Cast one robot's rays; hits go into ``out`` (the other values are left as they are)."""
+        r, span = robot.spec.radius, self.max_range
+        c, s = math.cos(theta), math.sin(theta)
+        rays = []
+        for ca, sa in zip(self._cos, self._sin):
+            dx, dy = c * ca - s * sa, s * ca + c * sa
+            start_x, start_y = x + r * dx, y + r * dy
+            rays.append((start_x, start_y, start_x + span * dx, start_y + span * dy))
+        for i, alpha in enumerate(self._caster.cast_rays(space, rays, [robot.sensor_filter] * len(rays))):
+            if alpha is not None:
+                out[i] = alpha * span
 
 
 class LightSensor(NoisyRowSensor):

@@ -21,7 +21,7 @@ from teamgym.sim import snapshot
 from teamgym.sim.categories import Category
 from teamgym.sim.chipmunk import BodyReader, can_collide, shape_bbs, space_step
 from teamgym.sim.contacts import Contact, ContactCounter
-from teamgym.sim.entity import Entity
+from teamgym.sim.entity import Entity, StepGroup
 from teamgym.sim.objects import Wall
 from teamgym.sim.solver_state import SolverSpace
 
@@ -108,6 +108,12 @@ class World:
         self._rows_of: dict[Category, slice] = {}
         self._tracked: list[Entity] = []
         self._reader: BodyReader | None = None
+        #: Step groups of the state rows: ``(group, rows)`` per run of entities of one class (see ``step_group``).
+        self._plan: list[tuple[StepGroup, slice]] | None = None
+        #: The reader's body buffer holds the space's bodies as they are / holds writes not yet made.
+        self._buffer_fresh = False
+        self._buffer_dirty = False
+        self._buffer_writable: bool | None = None
         #: Fixed entities with their bodies and shapes, and their snapshot (see ``fixed_objects``).
         self._fixed: tuple[list, bytes | None] | None = None
         #: ``(x, y, angle, vx, vy, ω)`` of every entity with a state row after the last step.
@@ -166,7 +172,7 @@ class World:
         self._rows_of = {}
         for entity in self.entities.values():
             self._group(entity)
-        self._reader = None
+        self._forget_reader()
         self._contact_check = None
 
     def _group(self, entity: Entity) -> None:
@@ -189,9 +195,16 @@ class World:
             for row, stepped in enumerate(self._stepped):
                 first = self._rows_of.get(stepped.kind, slice(row, row)).start
                 self._rows_of[stepped.kind] = slice(first, row + 1)
-        self._reader = None
+        self._forget_reader()
         self._contact_check = None
         self._fixed = None
+
+    def _forget_reader(self) -> None:
+        """The bodies changed: a new reader, step groups and body buffer on the next read."""
+        self._reader = None
+        self._plan = None
+        self._buffer_fresh = self._buffer_dirty = False
+        self._buffer_writable = None
 
     def of_kind(self, kind: Category) -> list[Entity]:
         return [e for e in self.entities.values() if e.kind == kind]
@@ -225,13 +238,18 @@ class World:
         dt = self.dt
         self._contacts.new_step()
         fresh = reuse_states and self._reader is not None and len(self.states) == len(self._stepped)
-        before = self.states.tolist() if fresh else self._read().tolist()
-        stepped = self._stepped
+        block = self.states if fresh else self._read()
+        before = block.tolist()
         switches: dict[float, list[Entity]] = {}
-        for entity, row in zip(stepped, before):
-            at = entity.before_step(self, row)
-            if at is not None:
+        for group, rows in self._plan if self._plan is not None else self._make_plan():
+            if group.direct:
+                self._flush_buffer()
+            for at, entity in group.before(self, before[rows], block[rows]):
                 switches.setdefault(at, []).append(entity)
+            if group.direct:
+                self._buffer_fresh = False
+        self._flush_buffer()
+        self._buffer_fresh = False
         h = dt / self.substeps
         coarse = not switches and self.coarse_substeps > 0 and self._contact_free()
         self.coarse_steps += coarse
@@ -252,9 +270,49 @@ class World:
                 for entity in switches.get(boundary, ()):
                     entity.mid_step()
         after = self._read().tolist()
-        for entity, start, end in zip(stepped, before, after):
-            entity.after_step(self, start, end)
+        for group, rows in self._plan:
+            group.after(self, before[rows], after[rows])
         self.time += dt
+
+    def _make_plan(self) -> list[tuple[StepGroup, slice]]:
+        """Runs of consecutive state rows whose entities are of one class, each with its class's step group."""
+        runs: list[list] = []
+        for row, entity in enumerate(self._stepped):
+            if runs and type(entity) is runs[-1][0]:
+                runs[-1][1].append(entity)
+            else:
+                runs.append([type(entity), [entity], row])
+        self._plan = [(cls.step_group(group, self), slice(start, start + len(group))) for cls, group, start in runs]
+        return self._plan
+
+    def body_rows(self, bodies: list[pymunk.Body]) -> np.ndarray | None:
+        """Rows of ``bodies`` in :meth:`body_buffer`, or ``None`` when this world's buffer cannot be written.
+
+        For step groups (:meth:`~teamgym.sim.entity.Entity.step_group`), while the plan is made.
+        """
+        if self._reader is None or self._reader.every.shape[0] == 0:
+            self._read()
+        if self._buffer_writable is None:
+            self._buffer_writable = self._reader.writable(self.space)
+        return self._reader.rows_of(bodies) if self._buffer_writable else None
+
+    def body_buffer(self) -> np.ndarray:
+        """Every body of the space as ``(x, y, angle, vx, vy, ω)`` rows (order: :meth:`body_rows`), to write into.
+
+        For a step group's ``before`` (one that is not ``direct``): the rows it changes are set
+        in the space in one batch before the step is integrated (or before a ``direct`` group
+        runs). The buffer holds the space as it is when the group gets it.
+        """
+        if not self._buffer_fresh:
+            self._reader.read(self.space)
+            self._buffer_fresh = True
+        self._buffer_dirty = True
+        return self._reader.every
+
+    def _flush_buffer(self) -> None:
+        if self._buffer_dirty:
+            self._reader.write(self.space)
+            self._buffer_dirty = False
 
     def read_states(self) -> tuple[np.ndarray, np.ndarray]:
         """Refresh ``states`` and return ``(robot_states, mover_states)``, rows ``(x, y, angle, vx, vy, ω)``."""
@@ -265,6 +323,7 @@ class World:
         if self._reader is None:
             self._reader = BodyReader([e.state_body for e in self._stepped])
         states = self._reader.read(self.space) if self._reader.bodies else np.zeros((0, 6))
+        self._buffer_fresh = bool(self._reader.bodies)
         empty = slice(0, 0)
         self.states = states
         self.robot_states = states[self._rows_of.get(Category.ROBOT, empty)]
@@ -274,17 +333,19 @@ class World:
     def _integrate(self, h: float, n: int) -> None:
         """``n`` physics steps of length ``h``.
 
-        The first goes through ``pymunk.Space.step`` (which also runs pymunk's deferred
-        additions, removals and post-step callbacks); the rest call Chipmunk's step
-        directly, skipping about 3 µs of Python bookkeeping per substep. That is safe
-        because nothing adds or removes objects during a control step (the contact
-        callback only records).
+        The first goes through ``pymunk.Space.step`` when pymunk has deferred work (additions,
+        removals, post-step callbacks, bodies to check); the rest, and the first when there is
+        none, call Chipmunk's step directly, skipping about 3 µs of Python bookkeeping per
+        substep. That is safe because nothing adds or removes objects during a control step
+        (the contact callback only records).
         """
-        self.space.step(h)
-        if n > 1:
-            raw_step, handle = space_step, self.space._space
-            for _ in range(n - 1):
-                raw_step(handle, h)
+        space = self.space
+        raw_step, handle = space_step, space._space
+        if _pending(space):
+            space.step(h)
+            n -= 1
+        for _ in range(n):
+            raw_step(handle, h)
 
     def _contact_free(self) -> bool:
         """Whether no contact can begin in the next control step (see ``coarse_substeps``)."""
@@ -378,7 +439,17 @@ class World:
     def __getstate__(self) -> dict:
         state = self.__dict__.copy()
         state["_fixed"] = None
+        state["_plan"] = None  # step groups hold Chipmunk handles; made again on the next step
+        state["_buffer_fresh"] = state["_buffer_dirty"] = False
+        state["_buffer_writable"] = None
         return state
+
+
+def _pending(space: pymunk.Space) -> bool:
+    """Whether ``pymunk.Space.step`` has work besides Chipmunk's step (pymunk 7's private lists of deferred work)."""
+    return bool(
+        space._bodies_to_check or space._add_later or space._remove_later or space._post_step_callbacks or space._removed_shapes
+    ) or getattr(space, "threaded", False)
 
 
 class FixedRecord:

@@ -61,7 +61,7 @@ and m/s (section 6.2).
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from gymnasium import spaces
@@ -74,6 +74,7 @@ from teamgym.envs.config import ConfigError
 from teamgym.envs.infos import InfoKey, metrics, unknown
 from teamgym.envs.navigation.actions import HeadingAction
 from teamgym.envs.navigation.config import NavigationConfig
+from teamgym.envs.navigation.phases import NavigationPhases
 from teamgym.envs.navigation.scene import NavigationScene, PlacementError, scatter
 from teamgym.envs.navigation.team_state import TeamState
 from teamgym.envs.spaces import Field, ObservationLayout
@@ -83,9 +84,6 @@ from teamgym.sim.render import Overlay, robot_colour
 from teamgym.sim.robot import DiffDriveRobot, RobotSpec
 from teamgym.sim.sensors import KHEPERA_RING, ProximityRing
 from teamgym.sim.world import World
-
-if TYPE_CHECKING:
-    from teamgym.envs.navigation.batch import NavigationBatch
 
 __all__ = ["Navigation", "NavigationConfig", "env", "parallel_env"]
 
@@ -97,6 +95,7 @@ class Navigation(TeamEnv):
     rebase_cycles = 400  # replaying 400 control cycles takes about 0.1-0.2 s (TeamEnv: copying and pickling)
     config_class = NavigationConfig
     config: NavigationConfig
+    phases_class = NavigationPhases  # the step's phases over TeamState rows, one numpy pass for a batch's copies
 
     def _setup(self) -> None:
         c = self.config
@@ -280,7 +279,6 @@ class Navigation(TeamEnv):
         state = super()._episode_state()
         team, k = state.pop("_team"), state.pop("_k")
         del state["_ks"]
-        state.pop("_arriving", None)  # a view into the team, set again before it is read
         rows = {name: getattr(team, name)[k].copy() for name in team._allocate(0)}
         state["_team_rows"] = (rows, list(team.obstacle_shapes[k]))
         return state
@@ -327,39 +325,12 @@ class Navigation(TeamEnv):
             c.speed_rule,
         )
 
-    def _before_physics(self) -> None:
-        c = self.config
-        live = self._live_mask()
-        commands = np.array([robot.command for robot in self.robot_list], dtype=float)
-        self._team.command(self._ks, live, commands[None])
-        if c.actuation_delay > 0:
-            self._delay_actuation(self.robot_list, self.np_random)
-
     def _delay_actuation(self, robots: list[DiffDriveRobot], rng: np.random.Generator) -> None:
         """Section 6.1: each robot keeps its previous command for ½ T0 (1 + δt) of the step, δt ~ N(0.5, 0.25²) in [0, 1]."""
         delay = self.config.actuation_delay
         delta = np.clip(rng.normal(0.5, 0.25, size=len(robots)), 0.0, 1.0)
         for robot, d in zip(robots, delta.tolist()):
             robot.actuation_delay = 0.5 * delay * (1.0 + d)
-
-    def _update_state(self) -> None:
-        """Poses, distances, contacts, progress towards the goals and smoothness (section 6.2)."""
-        self._read_state()
-        team, ks = self._team, self._ks
-        team.update_distances(ks)
-        self._live = self._live_mask()
-        hits = self.world.contacts_per(self.possible_agents)
-        team.after_physics(ks, self._live, hits[None])
-
-    def _check_goals(self) -> None:
-        self._arriving = self._team.check_goals(self._ks, self._live, self.cycles * self.config.dt)
-
-    def _accumulate_rewards(self, total: np.ndarray) -> None:
-        total += self._team.rewards(self._ks, self._live)[0]
-
-    def _sense(self) -> None:
-        """Proximity rings of the robots that go on (arrived robots stop sensing)."""
-        self._read_proximity(np.flatnonzero(self._live[0] & ~self._arriving[0]))
 
     def _terminations(self) -> dict[str, bool]:
         """A robot that arrives terminates, stops and stays in the world."""
@@ -455,17 +426,6 @@ class Navigation(TeamEnv):
         robots = np.column_stack([team.pos[k], team.theta[k], team.vel[k], self.goals]).ravel()
         obstacles = np.column_stack([team.obs_pos[k], team.obs_vel[k]]).ravel() if self.obstacles else np.zeros(0)
         return np.concatenate([robots, obstacles]).astype(np.float32)
-
-    def make_batch(self, n_copies: int) -> NavigationBatch | None:
-        """``n_copies`` copies with this env's config, stepped together (:class:`NavigationBatch`).
-
-        ``None`` for configs the batch does not take (learned messages, dict observations, ``fixed_agents``).
-        """
-        from teamgym.envs.navigation.batch import NavigationBatch
-
-        if self.config.comm_dim or self.config.obs_format != "flat" or self.config.fixed_agents:
-            return None
-        return NavigationBatch(n_copies, **self.config.as_dict())
 
     def _overlay(self) -> Overlay:
         return Overlay(points=[(tuple(g), robot_colour(i)) for i, g in enumerate(self.goals)])

@@ -1,0 +1,106 @@
+"""Agent-steps/s of ``teamgym.make_batch`` against one lone env, for every env id (issue 24).
+
+For each id (default config, its default action type): a lone env stepped through the
+PettingZoo API, and batches of K copies (``--copies``) stepped with arrays, in one process,
+interleaved in rounds; the best round of each case is kept (the least disturbed on a shared
+machine) and the ratios are taken within this one run. Actions: uniform in a Box space; for a
+discrete space the first admissible action of each robot (so masked types stay legal); the
+same rule for the lone env and the batch. Episodes that end are reset (lone) or auto-reset
+(batch) and count. ``--clock cpu`` (the default) times process CPU.
+
+    python benchmarks/bench_batch_every_env.py [--envs ...] [--copies 1 16 64] [--steps 200] [--rounds 3] [--json FILE]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+
+import numpy as np
+from gymnasium import spaces
+
+import teamgym
+
+CLOCKS = {"cpu": time.process_time, "wall": time.perf_counter}
+
+
+def _choose(space: spaces.Space, rng: np.random.Generator, masks: np.ndarray | None, shape: tuple[int, ...]) -> np.ndarray:
+    if isinstance(space, spaces.Discrete):
+        if masks is None:
+            return np.zeros(shape, dtype=np.int64)
+        return np.argmax(masks, axis=-1)
+    if isinstance(space, spaces.MultiDiscrete):
+        return np.zeros((*shape, len(space.nvec)), dtype=np.int64)
+    return rng.uniform(space.low, space.high, size=(*shape, *space.shape)).astype(space.dtype)
+
+
+def time_lone(env_id: str, steps: int, clock) -> float:
+    """Agent-steps/s of one env through ``step(dict)``."""
+    env = teamgym.make(env_id)
+    env.reset(seed=0)
+    space = env.action_space(env.possible_agents[0])
+    rng = np.random.default_rng(0)
+    agent_steps, start = 0, clock()
+    for _ in range(steps):
+        if not env.agents:
+            env.reset()
+        masks = env.action_masks() if space.__class__ is spaces.Discrete else {}
+        actions = {}
+        for agent in env.agents:
+            mask = masks.get(agent)
+            actions[agent] = _choose(space, rng, None if mask is None else mask[None], (1,))[0]
+            if isinstance(space, spaces.Discrete):
+                actions[agent] = int(actions[agent])
+        agent_steps += len(actions)
+        env.step(actions)
+    return agent_steps / (clock() - start)
+
+
+def time_batch(env_id: str, copies: int, steps: int, clock) -> float:
+    """Agent-steps/s of ``make_batch(env_id, copies, auto_reset=True)`` through ``step(array)``."""
+    batch = teamgym.make_batch(env_id, copies, auto_reset=True)
+    batch.reset(seed=0)
+    rng = np.random.default_rng(0)
+    shape = (batch.n_copies, batch.n_robots)
+    agent_steps, start = 0, clock()
+    for _ in range(steps):
+        agent_steps += int(batch.active.sum())
+        batch.step(_choose(batch.action_space, rng, batch.action_masks(), shape))
+    return agent_steps / (clock() - start)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--envs", nargs="+", default=teamgym.envs())
+    parser.add_argument("--copies", nargs="+", type=int, default=[1, 16, 64])
+    parser.add_argument("--steps", type=int, default=200, help="steps per case per round")
+    parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument("--clock", choices=sorted(CLOCKS), default="cpu")
+    parser.add_argument("--json", help="write the results here")
+    args = parser.parse_args()
+    unknown = [e for e in args.envs if e not in teamgym.envs()]
+    if unknown or min(args.copies) < 1 or args.steps < 1 or args.rounds < 1:
+        parser.error(f"unknown env ids {unknown}" if unknown else "--copies, --steps and --rounds must be >= 1")
+    clock = CLOCKS[args.clock]
+    results: dict[str, dict[str, float]] = {}
+    for env_id in args.envs:
+        best: dict[str, float] = {}
+        for _ in range(args.rounds):
+            cases = {"lone": lambda e=env_id: time_lone(e, args.steps, clock)}
+            for k in args.copies:
+                cases[f"batch {k}"] = lambda e=env_id, k=k: time_batch(e, k, max(1, args.steps // k) * 4, clock)
+            for name, run in cases.items():
+                best[name] = max(best.get(name, 0.0), run())
+        results[env_id] = best
+        lone = best["lone"]
+        cells = "  ".join(f"{name}: {rate:9.0f} ({rate / lone:4.2f}x)" for name, rate in best.items())
+        print(f"{env_id:16s} {cells}", flush=True)
+    if args.json:
+        with open(args.json, "w") as handle:
+            record = {"clock": args.clock, "steps": args.steps, "rounds": args.rounds, "agent_steps_per_s": results}
+            json.dump(record, handle, indent=2)
+
+
+if __name__ == "__main__":
+    main()

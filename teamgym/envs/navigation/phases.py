@@ -1,0 +1,184 @@
+"""Navigation's control-step phases over copies whose per-step arrays share one :class:`TeamState`.
+
+A lone :class:`~teamgym.envs.navigation.env.Navigation` env runs them over its own row; a
+:class:`~teamgym.envs.batch.TeamBatch` of Navigation copies binds every copy to one row of a
+shared ``TeamState`` (:meth:`NavigationPhases.regroup`) and runs each phase once for all of
+them: commands, poses, distances, contacts, progress, arrivals, rewards, sensing and
+observations are one numpy pass over the copies; the worlds step one after the other.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from teamgym.envs.navigation.team_state import TeamState
+from teamgym.envs.step_loop import ActionRows, CopyPhases
+
+if TYPE_CHECKING:
+    from teamgym.envs.navigation.env import Navigation
+
+__all__ = ["NavigationPhases"]
+
+
+class NavigationPhases(CopyPhases):
+    """The phases of :class:`~teamgym.envs.step_loop.CopyPhases` for Navigation copies, over their ``TeamState`` rows."""
+
+    copies: list[Navigation]
+
+    def __init__(self, copies: list[Navigation]) -> None:
+        super().__init__(copies)
+        self._shared: TeamState | None = None  # a batch's (made by regroup)
+        self._live = np.zeros((0, 0), dtype=bool)
+        self._arriving = np.zeros((0, 0), dtype=bool)
+
+    def regroup(self) -> None:
+        """Bind copy ``k`` to row ``k`` of one shared ``TeamState`` (its rows so far are copied in)."""
+        copies = self.copies
+        first = copies[0]
+        if self._shared is None:
+            self._shared = TeamState(first.config, 0, first.ring.width)
+        team = self._shared
+        team.shrink(len(copies))
+        team.grow(len(copies))
+        names = list(team._allocate(0))
+        for k, env in enumerate(copies):
+            if env._team is team and env._k == k:
+                continue
+            for name in names:
+                getattr(team, name)[k] = getattr(env._team, name)[env._k]
+            team.obstacle_shapes[k] = list(env._team.obstacle_shapes[env._k])
+            env._bind(team, k)
+
+    def _rows(self, group: list[int]) -> tuple[TeamState, slice]:
+        """The team and the slice of its rows that covers ``group`` (copies bind to consecutive rows)."""
+        copies = self.copies
+        return copies[group[0]]._team, slice(copies[group[0]]._k, copies[group[-1]]._k + 1)
+
+    def _live_mask(self, group: list[int], ks: slice) -> np.ndarray:
+        """``(len(ks), N)``: the live robots of the copies of ``group`` (rows of other copies False)."""
+        if len(self.copies) == 1:
+            return self.copies[0]._live_mask()
+        live = np.zeros((ks.stop - ks.start, self.copies[0].config.n_robots), dtype=bool)
+        for k in group:
+            live[k - group[0], self.copies[k]._live_rows()] = True
+        return live
+
+    def control(self, group: list[int], actions: list[dict[str, Any]], rows: ActionRows | None) -> None:
+        """Commands of the acting robots (the action type's vectorised ``commands`` when the batch has arrays), then delays."""
+        copies = self.copies
+        team, ks = self._rows(group)
+        commands = None if rows is None else copies[group[0]].action_type.commands(rows[2])
+        if commands is not None:
+            for k, i, (v, omega) in zip(rows[0].tolist(), rows[1].tolist(), commands.tolist()):
+                copies[k].robot_list[i].set_command(v, omega)
+        else:
+            for k, joint in zip(group, actions):
+                env = copies[k]
+                act, robots = env.action_type.act, env.robots
+                for agent, action in joint.items():
+                    robots[agent].set_command(*act(env, agent, action))
+        self._live = live = self._live_mask(group, ks)
+        span = self._span(group, ks)
+        team.command(ks, live, np.array([[robot.command for robot in env.robot_list] for env in span], dtype=float))
+        if span[0].config.actuation_delay > 0:
+            for k in group:
+                env = copies[k]
+                env._delay_actuation(env.robot_list, env.np_random)
+
+    def physics(self, group: list[int]) -> None:
+        """Each copy's world steps Δt (nothing moves a copy's bodies between its steps: its last read is reused)."""
+        for k in group:
+            env = self.copies[k]
+            env.world.step(reuse_states=True)
+            env.cycles += 1
+            if env.records_trails:
+                env._record_trails()
+
+    def after_physics(self, group: list[int]) -> None:
+        """Poses, distances, contacts, progress, smoothness (section 6.2), arrivals, rewards, then the rings."""
+        copies = self.copies
+        team, ks = self._rows(group)
+        span = self._span(group, ks)
+        robots, movers = [], []
+        for env in span:
+            world = env.world
+            if len(world.robot_states) != len(env.robot_list):
+                world.read_states()
+            robots.append(world.robot_states)
+            movers.append(world.mover_states)
+        names, dt = span[0].possible_agents, span[0].config.dt
+        if len(span) == 1:  # a lone env: no stacking
+            team.read(ks, robots[0][None], movers[0][None])
+            hits = span[0].world.contacts_per(names)[None]
+            times: np.ndarray | float = span[0].cycles * dt
+        else:
+            team.read(ks, np.stack(robots), np.stack(movers))
+            hits = np.array([env.world.contacts_per(names) for env in span])
+            times = np.array([env.cycles for env in span]) * dt
+        team.update_distances(ks)
+        live = self._live
+        team.after_physics(ks, live, hits)
+        arriving = team.check_goals(ks, live, times)
+        rewards = team.rewards(ks, live)
+        for k in group:
+            copies[k]._reward_total += rewards[k - group[0]]
+        self._sense(group, team, ks, span, live & ~arriving)
+
+    def _span(self, group: list[int], ks: slice) -> list[Navigation]:
+        """The copies bound to rows ``ks`` (``group`` and the copies between its first and last)."""
+        return self.copies[group[0] : group[0] + ks.stop - ks.start]
+
+    def _sense(self, group: list[int], team: TeamState, ks: slice, span: list[Navigation], sensing: np.ndarray) -> None:
+        """Proximity rings of the ``sensing`` robots: rays only where something is within range.
+
+        A noiseless ring with nothing near reads ``sensor_range`` in one numpy step; the other
+        rows read through their copy (which casts the rays and draws the noise).
+        """
+        free = team.sensing_free(ks)
+        ring = span[0].ring
+        if ring.noiseless:
+            clear = sensing & free
+            team.proximity[ks][clear] = ring.max_range
+            sensing = sensing & ~free
+        for j in np.flatnonzero(sensing.any(axis=1)).tolist():
+            rows = np.flatnonzero(sensing[j])
+            span[j]._read_proximity(rows, free[j, rows])
+
+    def end(self, group: list[int], rewards: np.ndarray, terminated: np.ndarray, truncated: np.ndarray) -> None:
+        """The end phase as arrays (as :meth:`TeamEnv._end_step` per copy): arrivals terminate, the cycle limit truncates."""
+        copies = self.copies
+        if copies[group[0]].action_type.has_masks or any(copies[k]._joining for k in group):
+            super().end(group, rewards, terminated, truncated)
+            return
+        team, ks = self._rows(group)
+        span = self._span(group, ks)
+        for k in group:
+            copies[k]._deliver_messages()
+        live = self._live
+        rows = slice(group[0], group[0] + len(span))
+        np.copyto(rewards[rows], np.stack([env._reward_total for env in span]), where=live)
+        arrived = team.arrived[ks] & live
+        terminated[rows] = arrived
+        limit = span[0].config.cycle_limit
+        truncated[rows] = live & ~arrived & (np.array([env.cycles for env in span]) >= limit)[:, None]
+
+    def observe(self, group: list[int], out: np.ndarray) -> None:
+        """Every robot row of the copies ``group`` in one pass; rows of robots not live are zeroed."""
+        team, ks = self._rows(group)
+        first = group[0]
+        block = out[first : first + ks.stop - ks.start]
+        span = self._span(group, ks)
+        layout = span[0].layout
+        team.observe(ks, layout, block)
+        live = np.zeros(block.shape[:2], dtype=bool)
+        for j, env in enumerate(span):
+            rows = env._live_rows()
+            live[j, rows] = True
+            if env.config.comm_dim and len(rows):
+                inbox = block[j, rows]
+                env._observe_inbox(inbox)
+                block[j, rows] = inbox
+        layout.clip(block)
+        block[~live] = 0.0

@@ -1,0 +1,129 @@
+"""The step loop of every teamgym env, written once over a group of env copies.
+
+:meth:`TeamEnv.step <teamgym.envs.base.TeamEnv.step>` runs it with the env alone (a group of
+one), :class:`~teamgym.envs.batch.TeamBatch` with the copies that have a robot in their
+episode. The phases (the module docstring of :mod:`teamgym.envs.base` names them) run over the
+whole group, phase by phase:
+
+1. **start**: each copy logs its checked joint action (for copies and pickles) and its
+   action type starts the stage (``ActionType.start``);
+2. then, while a copy's stage goes on (a macro action type: each copy keeps its own stage
+   clock), over the copies still in their stage: **control** (commands), **physics** (the
+   worlds step Δt), then **state, events, goals, rewards, sensing**;
+3. **end** (the caller's, after ``step_group``): each copy delivers its messages, admits joining
+   robots, decides terminations and truncations and refreshes its masks: as dicts for a lone
+   env (:meth:`TeamEnv._end_step`), as arrays for a batch (:meth:`CopyPhases.end`).
+
+The phases of a control step are the methods of a :class:`CopyPhases` object. The default
+calls each copy's own hooks one copy after another; a task whose per-step state lives in
+arrays over copies (``TeamEnv.phases_class``) overrides them with one pass over the group, so
+a batch of copies costs one numpy pass where a loop of envs would cost K.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from teamgym.envs.base import TeamEnv
+
+__all__ = ["ActionRows", "CopyPhases", "StepArrays", "StepOutcome", "step_group"]
+
+#: One copy's outcome of a step: rewards, terminations and truncations of the agents that were live.
+StepOutcome = tuple[dict[str, float], dict[str, bool], dict[str, bool]]
+#: The outcome of a group's step as arrays over (copy, robot row): rewards, terminated, truncated.
+StepArrays = tuple[np.ndarray, np.ndarray, np.ndarray]
+#: The checked actions of a batch step as arrays: copy index, agent row and the action of each row.
+ActionRows = tuple[np.ndarray, np.ndarray, np.ndarray]
+
+
+class CopyPhases:
+    """The control-step phases over a group of ``copies`` (indices into the list); each copy's own hooks."""
+
+    def __init__(self, copies: Sequence[TeamEnv]) -> None:
+        self.copies = copies
+
+    def regroup(self) -> None:
+        """The list of copies changed (a batch added, dropped or replaced copies)."""
+
+    def control(self, group: list[int], actions: list[dict[str, Any]], rows: ActionRows | None) -> None:
+        """Control phase: every acting robot's body command, then each copy's ``_before_physics``.
+
+        ``rows``: the same actions as arrays when a batch has them (a task may use them instead of the dicts).
+        """
+        for k, joint in zip(group, actions):
+            env = self.copies[k]
+            act, robots = env.action_type.act, env.robots
+            for agent, action in joint.items():
+                robots[agent].set_command(*act(env, agent, action))
+            env._before_physics()
+
+    def physics(self, group: list[int]) -> None:
+        """Physics phase: each copy's world steps Δt; its trails are recorded."""
+        for k in group:
+            env = self.copies[k]
+            env.world.step()
+            env.cycles += 1
+            if env.records_trails:
+                env._record_trails()
+
+    def after_physics(self, group: list[int]) -> None:
+        """State, events, goals, rewards and sensing phases of each copy, in that order."""
+        for k in group:
+            env = self.copies[k]
+            env._update_state()
+            env._apply_events()
+            env._check_goals()
+            env._accumulate_rewards(env._reward_total)
+            env._sense()
+
+    def end(self, group: list[int], rewards: np.ndarray, terminated: np.ndarray, truncated: np.ndarray) -> None:
+        """End phase of each copy of ``group`` (:meth:`TeamEnv._end_step`) into rows ``[k, i]`` of the arrays."""
+        for k in group:
+            env = self.copies[k]
+            row = env._row
+            step_rewards, terminations, truncations = env._end_step()
+            for agent, value in step_rewards.items():
+                rewards[k, row[agent]] = value
+            for agent, value in terminations.items():
+                if value:
+                    terminated[k, row[agent]] = True
+                elif truncations[agent]:
+                    truncated[k, row[agent]] = True
+
+    def observe(self, group: list[int], out: np.ndarray) -> None:
+        """Rows ``out[k, i]`` of each copy ``k`` of ``group``: its live agents' observations, zeros elsewhere."""
+        for k in group:
+            env = self.copies[k]
+            block = out[k]
+            block[:] = 0
+            rows = env._live_rows()
+            if len(rows):
+                block[rows] = env._observation_rows()
+
+
+def step_group(phases: CopyPhases, group: list[int], actions: list[dict[str, Any]], rows: ActionRows | None = None) -> None:
+    """Start and control steps of one ``step`` of the copies ``group`` with their checked joint ``actions``.
+
+    The caller has checked every action and that every copy has a live agent; the end phase,
+    observations, infos and the agents' leaving are the caller's (a lone env's dicts, a batch's arrays).
+    """
+    copies = phases.copies
+    for k, joint in zip(group, actions):
+        env = copies[k]
+        env._log.append(("step", joint))
+        env._reward_total[:] = 0.0
+        env.action_type.start(env, joint)
+    running, running_actions, running_rows = group, actions, rows
+    while running:
+        phases.control(running, running_actions, running_rows)
+        phases.physics(running)
+        phases.after_physics(running)
+        going_on = [i for i, k in enumerate(running) if copies[k]._stage_goes_on()]
+        if len(going_on) < len(running):
+            running = [running[i] for i in going_on]
+            running_actions = [running_actions[i] for i in going_on]
+            running_rows = None
