@@ -400,8 +400,8 @@ class Exploration(TeamEnv):
         poses = self._pose_rows(self.world.robot_states)
         sectors, bounds = self._sector.tolist(), self._sector_bounds
         for i, (x, y, _) in enumerate(poses):
-            x0, x1, y0, y1 = bounds[sectors[i]]
-            if self._sectors_disjoint and x > x0 and x < x1 and y > y0 and y < y1:
+            left, right, bottom, top = bounds[sectors[i]]
+            if self._sectors_disjoint and left < x < right and bottom < y < top:
                 continue  # still in its sector, which no other sector overlaps
             for s, (x0, x1, y0, y1) in enumerate(bounds):
                 if x > x0 and x < x1 and y > y0 and y < y1:
@@ -423,10 +423,10 @@ class Exploration(TeamEnv):
                 if door >= 0:
                     places[i] = self.n_sectors + door
         self._place = np.array(places, dtype=self._sector.dtype)
-        visited, fresh = self.visited, [p for p in sorted(set(places)) if p < self.n_sectors and not self.visited[p]]
+        fresh = [p for p in sorted(set(places)) if p < self.n_sectors and not self.visited[p]]  # newly explored sectors
         if fresh:
-            visited[fresh] = True
-            self._explored_all = bool(np.all(visited[self.goal]))
+            self.visited[fresh] = True
+            self._explored_all = bool(np.all(self.visited[self.goal]))
         self._newly_explored = sum(self._goal_list[p] for p in fresh)
         self._explored_goals += self._newly_explored
         if self.world.contacts:
