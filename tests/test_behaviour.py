@@ -224,3 +224,28 @@ def test_point_to_point_reaches_the_target_without_collision():
     straight = math.dist((0.05, 0.65), (0.6, 0.35))
     assert robot.odometer > straight + 0.02  # it went around the desk in the way
     assert {GOAL_TRACKING, STOP} <= set(winners) and len(set(winners)) >= 3
+
+
+@settings(max_examples=300, deadline=None)
+@given(angle=st.floats(allow_nan=True, allow_infinity=True))
+def test_scalar_wrap_is_wrap_angle_bit_for_bit(angle):
+    from teamgym.control.behaviour import _wrap
+    from teamgym.sim.robot import wrap_angle
+
+    with np.errstate(invalid="ignore"):
+        expected = np.float64(wrap_angle(angle))
+    assert np.float64(_wrap(angle)).tobytes() == expected.tobytes() or (np.isnan(expected) and math.isnan(_wrap(angle)))
+
+
+@settings(max_examples=300, deadline=None)
+@given(values=st.lists(st.sampled_from([0.0, 0.3, 0.3, 1.0, -1.0, math.nan, math.inf]) | st.floats(), min_size=1, max_size=9))
+def test_first_max_is_argmax(values):
+    from teamgym.control.behaviour import _first_max
+
+    assert _first_max(values) == int(np.argmax(np.array(values)))
+
+
+def test_step_record_gives_arrays_of_its_levels():
+    out = BehaviourController().step(ORIGIN, np.array([0.02, 0.05, 0.1, 0.1, 0.03, 0.01, 0.1, 0.1], np.float32), (0.4, 0.1))
+    assert isinstance(out.activations, np.ndarray) and out.activations.tolist() == out.levels
+    assert out.weighted.tolist() == [a * q for a, q in zip(out.levels, BehaviourParameters().priorities)]

@@ -590,3 +590,43 @@ def test_more_robots_than_sectors_always_find_a_start():
         starts = env.world.robot_states[:, :2]
         gaps = np.linalg.norm(starts[:, None] - starts[None], axis=-1) + np.eye(16)
         assert gaps.min() >= 2 * RobotSpec.radius + 0.02 - 1e-9  # the start rule of _free
+
+
+@pytest.mark.parametrize("search_all", [False, True])
+def test_sectors_places_and_door_sightings_follow_the_array_rules(search_all):
+    """``_update_state`` on floats gives what the rectangle and disc tests over arrays give (with and
+    without the shortcut for a robot still in its sector, which office12's disjoint sectors allow)."""
+    env = teamgym.make("Exploration-v0").unwrapped
+    env.reset(seed=0)
+    assert env._sectors_disjoint
+    env._sectors_disjoint = not search_all
+    rng = np.random.default_rng(2)
+    centres, radii = env._door_centres, env._door_radii
+    at_doors = 0
+    for trial in range(300):
+        sector_before = env._sector.copy()
+        near_door = centres[rng.integers(len(centres)), :] + rng.normal(0.0, 0.05, (3, 2))
+        pos = near_door if trial % 2 else rng.uniform(0.0, max(env.map.size), (3, 2))
+        env.world.robot_states = np.column_stack([pos, np.zeros((3, 4))])
+        r, eps = env._rects, 1e-3
+        inside = (
+            (pos[:, None, 0] > r[None, :, 0] + eps)
+            & (pos[:, None, 0] < r[None, :, 2] - eps)
+            & (pos[:, None, 1] > r[None, :, 1] + eps)
+            & (pos[:, None, 1] < r[None, :, 3] - eps)
+        )
+        sector = np.where(inside.any(axis=1), inside.argmax(axis=1), sector_before)
+        distance = np.linalg.norm(pos[:, None, :] - centres[None, :, :], axis=2)
+        near = distance < radii[None, :]
+        beliefs = env.model.door_open.copy()
+        for j in np.flatnonzero(near.any(axis=0)):
+            beliefs[j] = 1.0 if env.doors[env.map.doors[j].id].is_open else 0.0
+        usable = near & (beliefs[None, :] > 0)
+        place = np.where(usable.any(axis=1), env.n_sectors + np.where(usable, distance, np.inf).argmin(axis=1), sector)
+        env._update_state()
+        assert np.array_equal(env._sector, sector) and np.array_equal(env._place, place)
+        assert np.array_equal(env.model.door_open, beliefs)
+        assert env._all_explored() == bool(np.all(env.visited[env.goal]))
+        assert env._explored_goals == int(np.count_nonzero(env.visited & env.goal))
+        at_doors += int((place >= env.n_sectors).sum())
+    assert at_doors > 50  # the door rule was exercised

@@ -214,3 +214,31 @@ def test_a_collision_between_robots_spoils_the_meeting():
 def test_blocked_ways_that_cut_the_map_are_refused_for_random_starts():
     with pytest.raises(ConfigError, match="random start places"):
         parallel_env(map="square4", blocked_ways=(("A", "B"), ("A", "C"), ("A", "D")))
+
+
+@pytest.mark.parametrize("n", [2, 3, 5])
+def test_pair_distances_are_the_norms_and_their_mean_bit_for_bit(n):
+    env = parallel_env(n_robots=n)
+    env.reset(seed=0)
+    rng = np.random.default_rng(n)
+    for _ in range(50):
+        env.world.robot_states = rng.uniform(0.0, 5.0, size=(n, 6))  # a new array, as every read of the world gives
+        pos = env.world.robot_states[:, :2]
+        expected = np.linalg.norm(pos[:, None, :] - pos[None, :, :], axis=2)
+        _, distances, mean = env._pair_distances()
+        assert np.array_equal(np.array(distances).reshape(n, n), expected)
+        assert mean == float(expected.sum() / (n * (n - 1)))
+
+
+def test_nearest_place_is_the_argmin_of_the_norms_within_half_a_corridor():
+    env = parallel_env()
+    env.reset(seed=0)
+    rng, half = np.random.default_rng(1), env.config.corridor_width / 2
+    places = env.places_xy
+    for trial in range(3000):
+        centre = places[rng.integers(len(places))]
+        x, y = (centre + rng.normal(0.0, half, 2) * (0.01, 1.0, 2.0)[trial % 3]).tolist()
+        d = np.linalg.norm(places - np.array((x, y)), axis=1)
+        k = int(np.argmin(d))
+        env._nearest_seen[0] = ()
+        assert env._nearest_place(0, (x, y, 0.0)) == (k if d[k] <= half else int(env._place[0]))

@@ -84,10 +84,14 @@ def test_resets_leave_no_memory_behind(env_id):
     objects = live_pymunk_objects()
     bodies = len(env.world.space.bodies)
     before = c_heap_bytes()
-    for seed in range(50, 150):
+    resets = 300
+    for seed in range(50, 50 + resets):
         env.reset(seed=seed)
     grown = c_heap_bytes() - before
     assert live_pymunk_objects() == objects, "resets leave pymunk objects (or whole spaces) alive"
-    # One leaked batch read of this space per reset would be 100 * bodies * ROW_BYTES or more.
-    limit = 100 * bodies * ROW_BYTES / 2
-    assert grown < limit, f"{env_id}: 100 resets left {grown} bytes on the C heap (limit {limit:.0f})"
+    # One leaked batch read of this space per reset would be resets * bodies * ROW_BYTES or more
+    # (with its arrays' slack, about 400 bytes a reset even for the 5 bodies of Rendezvous-v0,
+    # whose walls are joined). Blocks of up to ~50 kB come and go between two readings without
+    # growing (seen over 800 resets), hence the floor.
+    limit = max(resets * bodies * ROW_BYTES / 2, 64_000)
+    assert grown < limit, f"{env_id}: {resets} resets left {grown} bytes on the C heap (limit {limit:.0f})"
