@@ -238,7 +238,9 @@ def main() -> None:
     if args.check_seeds:
         digests = {name: w.ask(do="check", seeds=args.check_seeds) for name, w in trees.items()}
         differ = [k for k in digests["this"] if digests["this"][k] != digests["baseline"].get(k)]
-        print(f"check: {len(digests['this'])} rollout digests, {len(differ)} differ" + "".join(f"\n  differs: {k}" for k in differ))
+        print(
+            f"check: {len(digests['this'])} rollout digests, {len(differ)} differ" + "".join(f"\n  differs: {k}" for k in differ)
+        )
         failed = bool(differ)
     figures: dict[str, dict[str, list[float]]] = {name: {"random": [], "dmaps": []} for name in trees}
     for r in range(args.rounds):
@@ -248,14 +250,17 @@ def main() -> None:
             for mode, value in result.items():
                 figures[name][mode].append(value)
         print(
-            f"round {r}: " + ", ".join(f"{name} {figures[name]['random'][-1]:.0f}/{figures[name]['dmaps'][-1]:.0f}" for name in trees),
+            f"round {r}: "
+            + ", ".join(f"{name} {figures[name]['random'][-1]:.0f}/{figures[name]['dmaps'][-1]:.0f}" for name in trees),
             flush=True,
         )
     for w in trees.values():
         w.close()
     for mode in ("random", "dmaps"):
         this, base = (statistics.median(figures[name][mode]) for name in ("this", "baseline"))
-        print(f"{mode:6s} actions: agent-steps/s this {this:.0f}, baseline {base:.0f}, ratio {this / base:.2f}x (medians of {args.rounds})")
+        print(
+            f"{mode:6s} actions: agent-steps/s this {this:.0f}, baseline {base:.0f}, ratio {this / base:.2f}x (medians of {args.rounds})"
+        )
     sys.exit(1 if failed else 0)
 
 
