@@ -60,7 +60,7 @@ from teamgym.envs.foraging.actions import GoToCellAction
 from teamgym.envs.foraging.config import ForagingConfig
 from teamgym.envs.foraging.controller import GoToController
 from teamgym.envs.foraging.perception import ROBOT, SENDER, Odometry, VisionModel, landmark_positions, packet_bytes
-from teamgym.envs.foraging.sensing import Cameras, perceive
+from teamgym.envs.foraging.sensing import POLAR, TARGET_CELL, Cameras, cells_of, perceive
 from teamgym.envs.infos import InfoKey, metrics, unknown
 from teamgym.envs.reset_input import scene_points
 from teamgym.envs.spaces import Field, ObservationLayout
@@ -204,7 +204,8 @@ class Foraging(TeamEnv):
         self.world.read_states()
         self._pose = self._read_pose()
         self.odometry = Odometry(self._pose, c.rotational_certainty, c.odometry_rotation_noise, c.odometry_distance_noise)
-        self._target_gap = np.hypot(*(self._pose[:, None, :2] - self.targets[None, :, :]).transpose(2, 0, 1))
+        self._heading_trig = (np.cos(self._pose[:, 2]), np.sin(self._pose[:, 2]))
+        self._measure_targets()
         self._nearest = self._nearest_target_distance()
         self._update_presence()
         self._success = False
@@ -229,11 +230,13 @@ class Foraging(TeamEnv):
         pose[:, 2] = (pose[:, 2] + math.pi) % (2 * math.pi) - math.pi
         return pose
 
-    def _rows_of(self, agents: list[str]) -> np.ndarray:
-        """Rows (``possible_agents`` order) of ``agents``; the shared live rows when they are the live agents."""
+    def _rows_of(self, agents: list[str]) -> tuple[np.ndarray, bool]:
+        """Rows (``possible_agents`` order) of ``agents`` and whether they are every robot in order."""
         if agents == self.live_agents:
-            return self._live_rows()
-        return np.fromiter((self._row[a] for a in agents), dtype=np.int64, count=len(agents))
+            self._live_mask()
+            return self._live_rows(), self._everyone
+        rows = np.fromiter((self._row[a] for a in agents), dtype=np.int64, count=len(agents))
+        return rows, len(rows) == self.config.n_robots and bool(np.all(rows == np.arange(len(rows))))
 
     def _live_mask(self) -> np.ndarray:
         """(n,) bool: the robots in ``live_agents`` (rebuilt only when they change)."""
@@ -242,34 +245,51 @@ class Foraging(TeamEnv):
             self._live_mask_rows = rows
             self._live_flags = np.zeros(self.config.n_robots, dtype=bool)
             self._live_flags[rows] = True
+            self._everyone = len(rows) == self.config.n_robots and bool(np.all(rows == np.arange(len(rows))))
         return self._live_flags
 
     def goto_commands(self, cells: dict[str, int]) -> dict[str, tuple[float, float]]:
         """Control phase of ``goto_cell``: every acting robot's ``(v, ω)`` for its go-to cell."""
         agents = list(cells)
-        rows = self._rows_of(agents)
-        index = np.fromiter(cells.values(), dtype=np.int64, count=len(cells))
+        rows, everyone = self._rows_of(agents)
+        index = np.fromiter(cells.values(), dtype=np.int64, count=len(agents))
         goal = self._cell_xy[index]
-        estimate = self.odometry.estimate[rows]
+        pose, estimate, at, (c, s) = self._pose, self.odometry.estimate, self._at, self._heading_trig
+        if not everyone:
+            pose, estimate, at, c, s = pose[rows], estimate[rows], at[rows], c[rows], s[rows]
         # Homing: the detected target nearest (in cells) to the go-to cell, if within one cell of it.
-        gap = np.abs(self._sightings.target_cells[rows] - goal[:, None, :]).max(axis=2)
-        best = np.argmin(gap, axis=1)
-        homing = self._sightings.polar[rows, best].astype(float)
-        homing[gap.min(axis=1) > 1] = np.nan
+        homing = None
+        table = self._sightings.table
+        if self._sightings.any_target:
+            gap = np.abs(table[rows, 1:, TARGET_CELL] - goal[:, None, :]).max(axis=2)
+            close = gap.min(axis=1) <= 1
+            if close.any():
+                homing = table[rows, 1 + np.argmin(gap, axis=1), POLAR].astype(float)
+                homing[~close] = np.nan
         # Stop at a target when the go-to cell is within one cell of the robot's estimated cell.
-        own = self.grid.cell_of(estimate[:, :2])
-        stop = (self._at[rows] >= 0) & (np.abs(own - goal).max(axis=1) <= 1)
-        commands = self.controller.commands(estimate, self._pose[rows], self._cell_centre[index], homing, stop, self.grid_size)
+        stop = None
+        present = at >= 0
+        if present.any():
+            stop = present & (np.abs(cells_of(self.grid, estimate[:, :2]) - goal).max(axis=1) <= 1)
+        commands = self.controller.commands(estimate, pose, self._cell_centre[index], homing, stop, self.grid_size, (c, s))
         return dict(zip(agents, map(tuple, commands.tolist())))
 
     def _update_state(self) -> None:
         """State phase: true poses, odometry, distance travelled, who is at which target."""
-        before = self._pose
+        before, (c, s) = self._pose, self._heading_trig
         self._pose = self._read_pose()
-        step = self.odometry.advance(before, self._pose, self.np_random)
+        n = len(before)
+        angles = np.concatenate([self.odometry.estimate[:, 2], self._pose[:, 2]])
+        cos, sin = np.cos(angles), np.sin(angles)
+        self._heading_trig = (cos[n:], sin[n:])
+        step = self.odometry.advance(before, self._pose, self.np_random, (c, s, cos[:n], sin[:n]))
         self._travelled += np.hypot(step[:, 0], step[:, 1])
-        self._target_gap = np.hypot(*(self._pose[:, None, :2] - self.targets[None, :, :]).transpose(2, 0, 1))
+        self._measure_targets()
         self._update_presence()
+
+    def _measure_targets(self) -> None:
+        """Distances (n, T) of every robot to every target."""
+        self._target_gap = np.hypot(*(self._pose[:, None, :2] - self.targets[None, :, :]).transpose(2, 0, 1))
 
     def _update_presence(self) -> None:
         """``_at[i]``: the live target robot i is within ``reach_radius`` of (nearest), −1 if none."""
@@ -340,15 +360,10 @@ class Foraging(TeamEnv):
 
     def _send_packets(self) -> None:
         """Every live robot broadcasts its location tuple and detections (section 4.3)."""
-        packets, count, sizes, send = (
-            self._sightings.packets,
-            self._sightings.count.tolist(),
-            self._packet_sizes,
-            self.channel.send_array,
-        )
+        sightings, sizes, send = self._sightings, self._packet_sizes, self.channel.send_array
+        count = sightings.count.tolist()
         for agent, i in zip(self.live_agents, self._live_rows().tolist()):
-            m = count[i]
-            send(agent, packets[i, : 1 + m].reshape(-1), sizes[m], PACKET_KIND)
+            send(agent, sightings.packet(i), sizes[count[i]], PACKET_KIND)
 
     def _received(self, agent: str) -> tuple[np.ndarray, np.ndarray]:
         """Tuples (m, 4) and their senders' indices (m,) delivered to ``agent`` this step."""

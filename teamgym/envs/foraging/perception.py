@@ -38,6 +38,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from teamgym.envs.foraging.frames import to_field, to_robot
 from teamgym.envs.foraging.grid import GridSpec
 
 __all__ = [
@@ -211,19 +212,31 @@ class Odometry:
         self.rotation_noise = rotation_noise
         self.distance_noise = distance_noise
 
-    def advance(self, before: np.ndarray, after: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-        """Integrate one control step of the motion ``before`` → ``after`` (rows x, y, θ); returns the displacements (n, 2)."""
-        turn = (after[:, 2] - before[:, 2] + math.pi) % (2 * math.pi) - math.pi
+    def advance(
+        self,
+        before: np.ndarray,
+        after: np.ndarray,
+        rng: np.random.Generator,
+        trig: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None,
+    ) -> np.ndarray:
+        """Integrate one control step of the motion ``before`` → ``after`` (rows x, y, θ); returns the displacements (n, 2).
+
+        ``trig``: cos and sin of the ``before`` headings and of the estimated headings, if known already.
+        """
+        turn = after[:, 2] - before[:, 2]
+        turn += math.pi
+        turn %= 2 * math.pi
+        turn -= math.pi
         step = after[:, :2] - before[:, :2]
-        c, s = np.cos(before[:, 2]), np.sin(before[:, 2])
-        forward, lateral = c * step[:, 0] + s * step[:, 1], -s * step[:, 0] + c * step[:, 1]
-        length = np.hypot(forward, lateral)
-        noise = rng.standard_normal((2, len(before)))
         est = self.estimate
+        if trig is None:
+            trig = (np.cos(before[:, 2]), np.sin(before[:, 2]), np.cos(est[:, 2]), np.sin(est[:, 2]))
+        c, s, ce, se = trig
+        travel = to_robot(step, c, s)  # (forward, lateral) in the robot's frame at the start
+        length = np.hypot(travel[:, 0], travel[:, 1])
+        noise = rng.standard_normal((2, len(before)))
         scale = 1.0 + self.distance_noise * noise[1] * (length > 0)
-        ce, se = np.cos(est[:, 2]), np.sin(est[:, 2])
-        est[:, 0] += scale * (ce * forward - se * lateral)
-        est[:, 1] += scale * (se * forward + ce * lateral)
+        est[:, :2] += scale[:, None] * to_field(travel, ce, se)
         est[:, 2] = (est[:, 2] + turn + self.rotation_noise * np.abs(turn) * noise[0] + math.pi) % (2 * math.pi) - math.pi
         self.certainty *= self.pe ** np.abs(turn)
         return step

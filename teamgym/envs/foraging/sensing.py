@@ -18,24 +18,49 @@ import numpy as np
 from teamgym.envs.foraging.grid import GridSpec
 from teamgym.envs.foraging.perception import ROBOT, SENDER, TARGET, Odometry, VisionModel, in_view, occluded
 
-__all__ = ["Cameras", "Sightings", "perceive", "relocalise"]
+__all__ = ["NO_CELL", "Cameras", "Sightings", "cells_of", "perceive", "relocalise"]
 
-#: Cell coordinate of a padding row in :attr:`Sightings.target_cells` (never within a cell of a go-to cell).
-NO_CELL = 1 << 20
+#: Cell coordinate of the rows of :attr:`Sightings.table` that are not target detections (far from every cell).
+NO_CELL = 1.0e6
+#: Columns of :attr:`Sightings.table`: the tuple, the measured polar position, the target cell.
+TUPLE, POLAR, TARGET_CELL = slice(0, 4), slice(4, 6), slice(6, 8)
 
 
 class Sightings(NamedTuple):
-    """What the robots perceive in one sensing phase (rows: robots in ``possible_agents`` order)."""
+    """What the robots perceive in one sensing phase (rows: robots in ``possible_agents`` order).
 
-    packets: np.ndarray  #: (n, 1 + D, 4) float32: the own tuple ``(SENDER, gx, gy, Pl)``, then the detections
-    polar: np.ndarray  #: (n, D, 2) float32: measured distance and bearing of each detection, 0 for padding
+    ``table`` (n, 1 + D, 8) float32: per robot, row 0 is its own tuple ``(SENDER, gx, gy, Pl)``
+    and rows 1.. its detections, targets first, then zero padding; columns :data:`TUPLE`
+    ``(class, gx, gy, Pc)``, :data:`POLAR` (measured distance and bearing) and
+    :data:`TARGET_CELL` (``(gx, gy)`` of a target detection, :data:`NO_CELL` on other rows).
+    """
+
+    table: np.ndarray
     count: np.ndarray  #: (n,) int: detections per robot
-    target_cells: np.ndarray  #: (n, D, 2) int: cells of the target detections, :data:`NO_CELL` elsewhere
+    any_target: bool  #: whether any robot detects a target
 
     @property
     def detections(self) -> np.ndarray:
-        """(n, D, 4) float32: the tuples ``(class, gx, gy, Pc)``, targets first, zero padding."""
-        return self.packets[:, 1:]
+        """(n, D, 4) float32 (a view): the tuples ``(class, gx, gy, Pc)``."""
+        return self.table[:, 1:, TUPLE]
+
+    @property
+    def polar(self) -> np.ndarray:
+        """(n, D, 2) float32 (a view): measured distance (m) and bearing (rad) of each detection."""
+        return self.table[:, 1:, POLAR]
+
+    def packet(self, i: int) -> np.ndarray:
+        """Robot i's packet payload: its own tuple and its detections, flat float32 (a new array)."""
+        return self.table[i, : 1 + self.count[i], TUPLE].reshape(-1)
+
+
+def cells_of(grid: GridSpec, xy: np.ndarray) -> np.ndarray:
+    """:meth:`GridSpec.cell_of` as floats (the same cells): ``(..., 2)`` positions to ``(gx, gy)``."""
+    cells = xy / grid.cell_size
+    cells += 1e-9
+    np.floor(cells, out=cells)
+    np.maximum(cells, 0.0, out=cells)
+    return np.minimum(cells, (grid.nx - 1, grid.ny - 1), out=cells)
 
 
 class Cameras:
@@ -46,6 +71,7 @@ class Cameras:
         self.landmarks = np.asarray(landmarks, dtype=float).reshape(-1, 2)
         self.camera_range, self.camera_fov, self.radius = float(camera_range), float(camera_fov), float(robot_radius)
         self._masks: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        self._blank: np.ndarray | None = None
 
     def _masks_for(self, t: int) -> tuple[np.ndarray, np.ndarray]:
         """For ``t`` live targets: (n, P) points a robot may see (not itself) and (n, P, n) occluders that count."""
@@ -59,6 +85,13 @@ class Cameras:
             counted[:, t + np.arange(n), np.arange(n)] = False  # nor a teammate itself
             self._masks[t] = (not_self, counted)
         return self._masks[t]
+
+    def blank(self, n_slots: int) -> np.ndarray:
+        """An empty :attr:`Sightings.table` (a new array): zeros, :data:`NO_CELL` in the target-cell columns."""
+        if self._blank is None or self._blank.shape[1] != 1 + n_slots:
+            self._blank = np.zeros((self.n, 1 + n_slots, 8), dtype=np.float32)
+            self._blank[:, :, TARGET_CELL] = NO_CELL
+        return self._blank.copy()
 
     def look(self, pose: np.ndarray, targets: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Seen (n, P) bool, true distances and bearings (n, P) of the points ``[targets, robots, landmarks]``.
@@ -139,33 +172,33 @@ def perceive(
     seen, distance, bearing = cameras.look(pose, targets)
     objects = seen[:, : t + n]
     rows, cols = np.nonzero(objects)  # row-major: per robot, targets before robots
-    d_true, b_true = distance[:, : t + n][objects], bearing[:, : t + n][objects]
-    pv = vision.pv(d_true, b_true)
-    measured_d, measured_b = vision.measure(d_true, b_true, pv, rng) if len(rows) else (d_true, b_true)
+    if len(rows):
+        d_true, b_true = distance[:, : t + n][objects], bearing[:, : t + n][objects]
+        pv = vision.pv(d_true, b_true)
+        measured_d, measured_b = vision.measure(d_true, b_true, pv, rng)
     relocalise(odometry, vision, pose, seen[:, t + n :], distance[:, t + n :], bearing[:, t + n :], live, rng)
     est, certainty = odometry.estimate, odometry.certainty
-    packets = np.zeros((n, 1 + n_slots, 4), dtype=np.float32)
-    packets[:, 0, 0] = SENDER
-    packets[:, 0, 1:3] = grid.cell_of(est[:, :2])
-    packets[:, 0, 3] = certainty
-    polar = np.zeros((n, n_slots, 2), dtype=np.float32)
-    target_cells = np.full((n, n_slots, 2), NO_CELL, dtype=np.int64)
+    table = cameras.blank(n_slots)
+    own = table[:, 0]
+    own[:, 0] = SENDER
+    own[:, 1:3] = cells_of(grid, est[:, :2])
+    own[:, 3] = certainty
     count = np.bincount(rows, minlength=n)
+    any_target = False
     if len(rows):
-        slots = np.arange(len(rows)) - np.searchsorted(rows, rows)
+        values = np.empty((len(rows), 8))
         heading = est[rows, 2] + measured_b
-        offset = np.empty((len(rows), 2))
-        np.cos(heading, out=offset[:, 0])
-        np.sin(heading, out=offset[:, 1])
-        offset *= measured_d[:, None]
-        cells = grid.cell_of(est[rows, :2] + offset)
+        np.cos(heading, out=values[:, 1])
+        np.sin(heading, out=values[:, 2])
+        values[:, 1:3] *= measured_d[:, None]
+        values[:, 1:3] += est[rows, :2]
+        values[:, 1:3] = cells_of(grid, values[:, 1:3])
         is_target = cols < t
-        tuples = packets[rows, 1 + slots]
-        tuples[:, 0] = np.where(is_target, TARGET, ROBOT)
-        tuples[:, 1:3] = cells
-        tuples[:, 3] = pv * certainty[rows]
-        packets[rows, 1 + slots] = tuples
-        polar[rows, slots, 0] = measured_d
-        polar[rows, slots, 1] = measured_b
-        target_cells[rows[is_target], slots[is_target]] = cells[is_target]
-    return Sightings(packets, polar, count, target_cells), bool(seen[:, :t].any())
+        values[:, 0] = np.where(is_target, TARGET, ROBOT)
+        values[:, 3] = pv * certainty[rows]
+        values[:, 4] = measured_d
+        values[:, 5] = measured_b
+        values[:, 6:8] = np.where(is_target[:, None], values[:, 1:3], NO_CELL)
+        table[rows, 1 + np.arange(len(rows)) - np.searchsorted(rows, rows)] = values
+        any_target = bool(is_target.any())
+    return Sightings(table, count, any_target), any_target
