@@ -379,7 +379,7 @@ class Channel:
         return []
 
     def _arrive(self, where: list[tuple[float, float] | None], step: int, arrivals: list) -> None:
-        """Move copies due at or before ``step`` (``arrivals`` and those in flight) into the inboxes, up to ``inbox_size`` each."""
+        """Move the copies due by ``step`` (``arrivals`` and those in flight) into the inboxes, up to ``inbox_size`` each."""
         if self._in_flight:
             for due in sorted(d for d in self._in_flight if d <= step):
                 arrivals.extend(self._in_flight.pop(due))

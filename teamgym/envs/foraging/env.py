@@ -197,17 +197,18 @@ class Foraging(TeamEnv):
         self.target_done_at = np.full(t, np.nan)
         self._done_order: list[float] = []
         self._first_seen = math.nan
-        self._timer = np.zeros(n)
-        self._at = np.full(n, -1)
+        self._no_target, self._zero_timer = np.full(n, -1), np.zeros(n)  # shared, never written to
+        self._timer, self._at = self._zero_timer, self._no_target
         self._travelled = np.zeros(n)
         self._finished_now = 0
         self.world.read_states()
         self._pose = self._read_pose()
         self.odometry = Odometry(self._pose, c.rotational_certainty, c.odometry_rotation_noise, c.odometry_distance_noise)
         self._heading_trig = (np.cos(self._pose[:, 2]), np.sin(self._pose[:, 2]))
-        self._measure_targets()
-        self._nearest = self._nearest_target_distance()
+        self._points = self.cameras.points(self.targets)
+        self._geometry = self.cameras.view(self._pose, self._points)
         self._update_presence()
+        self._nearest = self._nearest_target_distance()
         self._success = False
         self.models = {}
         if c.observe_world_model:
@@ -284,22 +285,27 @@ class Foraging(TeamEnv):
         self._heading_trig = (cos[n:], sin[n:])
         step = self.odometry.advance(before, self._pose, self.np_random, (c, s, cos[:n], sin[:n]))
         self._travelled += np.hypot(step[:, 0], step[:, 1])
-        self._measure_targets()
+        self._geometry = self.cameras.view(self._pose, self._points)
         self._update_presence()
 
-    def _measure_targets(self) -> None:
-        """Distances (n, T) of every robot to every target."""
-        self._target_gap = np.hypot(*(self._pose[:, None, :2] - self.targets[None, :, :]).transpose(2, 0, 1))
-
     def _update_presence(self) -> None:
-        """``_at[i]``: the live target robot i is within ``reach_radius`` of (nearest), −1 if none."""
+        """``_at[i]``: the live target robot i is within ``reach_radius`` of (nearest), −1 if none; ``_nearest_live``
+        each robot's distance to its nearest live target."""
         live = self._live_targets
-        if len(live):
-            gap = self._target_gap[:, live]
-            at = np.where(gap.min(axis=1) <= self.config.reach_radius, live[np.argmin(gap, axis=1)], -1)
+        if not len(live):
+            self._nearest_live = None
+            at = self._no_target
         else:
-            at = np.full(len(self._pose), -1)
-        self._timer = np.where((at >= 0) & (at == self._at), self._timer, 0.0)
+            gap = self._geometry.distance[:, : self.config.n_targets]
+            if len(live) < self.config.n_targets:
+                gap = gap[:, live]
+            self._nearest_live = nearest = gap.min(axis=1)
+            reached = nearest <= self.config.reach_radius
+            at = np.where(reached, live[np.argmin(gap, axis=1)], -1) if reached.any() else self._no_target
+        if at is self._no_target:  # no robot at a target: every timer restarts
+            self._timer = self._zero_timer
+        else:
+            self._timer = np.where((at >= 0) & (at == self._at), self._timer, 0.0)
         self._at = at
 
     def _check_goals(self) -> None:
@@ -307,6 +313,9 @@ class Foraging(TeamEnv):
         c, now = self.config, self.world.time
         self._finished_now = 0
         present = self._at >= 0
+        if not present.any():
+            self._success = not len(self._live_targets)
+            return
         if c.task == "consume":
             self._timer[present] += c.dt
             finished = present & (self._timer >= c.consume_time - 1e-9) & self._live_mask()
@@ -329,32 +338,35 @@ class Foraging(TeamEnv):
         self.world.remove(self._target_names[j])
 
     def _nearest_target_distance(self) -> np.ndarray:
-        if not len(self._live_targets):
-            return np.zeros(len(self._pose))
-        return np.min(self._target_gap[:, self._live_targets], axis=1)
+        return np.zeros(len(self._pose)) if self._nearest_live is None else self._nearest_live
 
     def _accumulate_rewards(self, total: np.ndarray) -> None:
         c = self.config
         before, self._nearest = self._nearest, self._nearest_target_distance()
-        progress = np.where(self._finished_now > 0, 0.0, before - self._nearest)
-        rows = self._live_rows()
-        total[rows] += c.consume_reward * self._finished_now + c.progress_reward * progress[rows] - c.time_penalty
+        progress = 0.0 if self._finished_now else before - self._nearest
+        gain = c.consume_reward * self._finished_now + c.progress_reward * progress - c.time_penalty
+        self._live_mask()
+        if self._everyone:
+            total += gain
+        else:
+            rows = self._live_rows()
+            total[rows] += gain if np.ndim(gain) == 0 else gain[rows]
 
     def _sense(self) -> None:
         """Sensing phase: camera (targets, robots, landmarks), re-localisation, tuples; packets go on the radio."""
-        sightings, target_seen = perceive(
+        self._sightings = perceive(
             self.cameras,
             self.grid,
             self.vision,
             self.odometry,
             self._pose,
-            self.targets[self._live_targets],
+            self._geometry,
+            self._live_targets,
             self._live_mask(),
             self.n_detections,
             self.np_random,
         )
-        self._sightings = sightings
-        if target_seen and not math.isfinite(self._first_seen):
+        if self._sightings.any_target and not math.isfinite(self._first_seen):
             self._first_seen = self.world.time
         self._send_packets()
 

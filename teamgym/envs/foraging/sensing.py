@@ -1,11 +1,13 @@
 """The sensing phase of ``Foraging-v0`` over all robots at once: cameras, re-localisation, perception tuples.
 
-:class:`Cameras` looks with every robot's camera at the live targets, the teammates and the
-landmarks in one pass (the geometry of :func:`~teamgym.envs.foraging.perception.visibility`,
-with its occlusion masks built once per number of live targets). :func:`perceive` runs the
-phase: sightings, their measurement errors, re-localisation at landmarks (:func:`relocalise`)
-and the perception tuples of section 2.1 (eq. 1), as the packets every robot broadcasts: one
-``(n, 1 + D, 4)`` float32 array whose row 0 is the sender's own tuple.
+:class:`Cameras` holds what every robot's camera needs besides the poses: the landmarks and
+the occlusion masks, built once per number of live targets. :meth:`Cameras.view` computes
+the geometry of every robot to every point ``[targets, robots, landmarks]`` once per control
+step (the state phase reads the target distances from it); :meth:`Cameras.seen` applies
+:func:`~teamgym.envs.foraging.perception.visibility`'s rules to the live points.
+:func:`perceive` runs the phase: sightings, their measurement errors, re-localisation at
+landmarks (:func:`relocalise`) and the perception tuples of section 2.1 (eq. 1) in one
+:class:`Sightings` table, from which every robot's packet is a slice.
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ import numpy as np
 from teamgym.envs.foraging.grid import GridSpec
 from teamgym.envs.foraging.perception import ROBOT, SENDER, TARGET, Odometry, VisionModel, in_view, occluded
 
-__all__ = ["NO_CELL", "Cameras", "Sightings", "cells_of", "perceive", "relocalise"]
+__all__ = ["NO_CELL", "Cameras", "Sightings", "View", "cells_of", "perceive", "relocalise"]
 
 #: Cell coordinate of the rows of :attr:`Sightings.table` that are not target detections (far from every cell).
 NO_CELL = 1.0e6
@@ -54,6 +56,15 @@ class Sightings(NamedTuple):
         return self.table[i, : 1 + self.count[i], TUPLE].reshape(-1)
 
 
+class View(NamedTuple):
+    """Every robot's true geometry to the points ``[targets, robots, landmarks]`` (:func:`in_view`)."""
+
+    rel: np.ndarray  #: (n, P, 2) offsets (m)
+    distance: np.ndarray  #: (n, P) m
+    bearing: np.ndarray  #: (n, P) rad, in [−π, π)
+    in_sector: np.ndarray  #: (n, P) bool: within the camera's range and opening
+
+
 def cells_of(grid: GridSpec, xy: np.ndarray) -> np.ndarray:
     """:meth:`GridSpec.cell_of` as floats (the same cells): ``(..., 2)`` positions to ``(gx, gy)``."""
     cells = xy / grid.cell_size
@@ -70,21 +81,55 @@ class Cameras:
         self.n = int(n_robots)
         self.landmarks = np.asarray(landmarks, dtype=float).reshape(-1, 2)
         self.camera_range, self.camera_fov, self.radius = float(camera_range), float(camera_fov), float(robot_radius)
-        self._masks: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        # Teammates at least this far apart hide nothing from each other (see ``seen``): the camera's range,
+        # or 0 when it does not reach past a robot's radius (nothing is hidden then), inf in between (always look).
+        r, reach = self.radius, self.camera_range
+        self.clear_distance = reach if reach > r + 1e-6 else (0.0 if reach <= r else math.inf)
+        self._self_gap = np.where(np.eye(self.n, dtype=bool), np.inf, 0.0)  # added to the teammate distances
+        self._masks: dict[tuple[int, ...], tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
         self._blank: np.ndarray | None = None
 
-    def _masks_for(self, t: int) -> tuple[np.ndarray, np.ndarray]:
-        """For ``t`` live targets: (n, P) points a robot may see (not itself) and (n, P, n) occluders that count."""
-        if t not in self._masks:
-            n = self.n
-            points = t + n + len(self.landmarks)
-            not_self = np.ones((n, points), dtype=bool)
+    def points(self, targets: np.ndarray) -> np.ndarray:
+        """A buffer of the points ``[targets, robots, landmarks]`` (P, 2); :meth:`view` fills the robots' rows."""
+        return np.concatenate([targets, np.zeros((self.n, 2)), self.landmarks])
+
+    def view(self, pose: np.ndarray, points: np.ndarray) -> View:
+        """The geometry of every robot (true ``pose`` (n, 3)) to ``points`` (the buffer of :meth:`points`)."""
+        t = len(points) - self.n - len(self.landmarks)
+        points[t : t + self.n] = pose[:, :2]
+        return View(*in_view(pose, points, self.camera_range, self.camera_fov))
+
+    def _masks_for(self, live: tuple[int, ...], n_targets: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """For the ``live`` targets: columns of a :class:`View` to keep, (n, P) points a robot may see
+        (not itself) and (n, P, n) occluders that count, P = live targets + robots + landmarks."""
+        if live not in self._masks:
+            n, t = self.n, len(live)
+            columns = np.concatenate([np.array(live, dtype=np.int64), n_targets + np.arange(n + len(self.landmarks))])
+            not_self = np.ones((n, len(columns)), dtype=bool)
             not_self[np.arange(n), t + np.arange(n)] = False
-            counted = np.ones((n, points, n), dtype=bool)
+            counted = np.ones((n, len(columns), n), dtype=bool)
             counted[np.arange(n), :, np.arange(n)] = False  # a robot does not hide its own view
             counted[:, t + np.arange(n), np.arange(n)] = False  # nor a teammate itself
-            self._masks[t] = (not_self, counted)
-        return self._masks[t]
+            self._masks[live] = (columns, not_self, counted)
+        return self._masks[live]
+
+    def seen(self, pose: np.ndarray, view: View, live: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Seen (n, P) bool, true distances and bearings (n, P) of the points ``[live targets, robots, landmarks]``.
+
+        ``view``: :meth:`view` at ``pose`` over every target; ``live``: indices of the live targets.
+        """
+        n_targets = len(view.distance[0]) - self.n - len(self.landmarks)
+        columns, not_self, counted = self._masks_for(tuple(live.tolist()), n_targets)
+        rel, distance, bearing, seen = view
+        if len(live) < n_targets:
+            rel, distance, bearing, seen = rel[:, columns], distance[:, columns], bearing[:, columns], seen[:, columns]
+        seen = seen & not_self
+        t = len(live)
+        # A teammate hides a point only if it is nearer than the camera's range (the point lies within it and
+        # the teammate within a radius of the sight line): skipped when every teammate is farther.
+        if self.n > 1 and seen.any() and not (distance[:, t : t + self.n] + self._self_gap >= self.clear_distance).all():
+            seen &= ~occluded(pose, rel, distance, pose[:, :2], self.radius, counted)
+        return seen, distance, bearing
 
     def blank(self, n_slots: int) -> np.ndarray:
         """An empty :attr:`Sightings.table` (a new array): zeros, :data:`NO_CELL` in the target-cell columns."""
@@ -92,19 +137,6 @@ class Cameras:
             self._blank = np.zeros((self.n, 1 + n_slots, 8), dtype=np.float32)
             self._blank[:, :, TARGET_CELL] = NO_CELL
         return self._blank.copy()
-
-    def look(self, pose: np.ndarray, targets: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Seen (n, P) bool, true distances and bearings (n, P) of the points ``[targets, robots, landmarks]``.
-
-        ``pose`` (n, 3): the robots' true poses; ``targets`` (t, 2): the live targets.
-        """
-        not_self, counted = self._masks_for(len(targets))
-        points = np.concatenate([targets, pose[:, :2], self.landmarks])
-        rel, distance, bearing, seen = in_view(pose, points, self.camera_range, self.camera_fov)
-        seen &= not_self
-        if self.n > 1 and seen.any():
-            seen &= ~occluded(pose, rel, distance, pose[:, :2], self.radius, counted)
-        return seen, distance, bearing
 
 
 def relocalise(
@@ -114,24 +146,28 @@ def relocalise(
     seen: np.ndarray,
     distance: np.ndarray,
     bearing: np.ndarray,
+    pv: np.ndarray,
     live: np.ndarray,
     rng: np.random.Generator,
 ) -> None:
-    """Landmark sightings (n, L): the nearest landmark in view re-localises a ``live`` robot when its Pv ≥ Pl.
+    """Landmark sightings (n, L) with their Pv: the nearest landmark in view re-localises a ``live`` robot when its Pv ≥ Pl.
 
     The robots go in index order, each drawing its sighting's measurement error in turn, so
     the random stream is that of one robot at a time.
     """
-    candidates = np.flatnonzero(seen.any(axis=1) & live)
-    if not len(candidates):
+    candidates = seen.any(axis=1)
+    candidates &= live
+    if not candidates.any():
         return
-    nearest = np.argmin(np.where(seen[candidates], distance[candidates], np.inf), axis=1)
-    d, b = distance[candidates, nearest], bearing[candidates, nearest]
-    pv = vision.pv(d, b)
-    keep = pv >= odometry.certainty[candidates]
-    if not keep.any():
+    robots = np.arange(len(seen))
+    nearest = np.argmin(np.where(seen, distance, np.inf), axis=1)
+    sighted = pv[robots, nearest]
+    candidates &= sighted >= odometry.certainty
+    if not candidates.any():
         return
-    rows, d, b, pv = candidates[keep], d[keep], b[keep], pv[keep]
+    rows = np.flatnonzero(candidates)
+    nearest = nearest[rows]
+    d, b, pv = distance[rows, nearest], bearing[rows, nearest], sighted[rows]
     if vision.noise == 0.0:
         d_m, b_m = d, b
     else:  # one robot's (distance, bearing) errors after the other's
@@ -156,27 +192,33 @@ def perceive(
     vision: VisionModel,
     odometry: Odometry,
     pose: np.ndarray,
-    targets: np.ndarray,
+    view: View,
+    live_targets: np.ndarray,
     live: np.ndarray,
     n_slots: int,
     rng: np.random.Generator,
-) -> tuple[Sightings, bool]:
-    """One sensing phase: the sightings of every robot and whether any robot saw a target.
+) -> Sightings:
+    """One sensing phase: the sightings of every robot (see the module docstring).
 
-    ``targets`` (t, 2): the live targets; ``live`` (n,) bool: robots in the episode (only they
-    re-localise). Random draws, in order: the measurement errors of every target and teammate
-    sighting (row-major: per robot, targets before robots), then the re-localisations. A
-    tuple's position and Pc use the odometry after the re-localisation.
+    ``view``: :meth:`Cameras.view` at ``pose``; ``live_targets``: indices of the live targets;
+    ``live`` (n,) bool: robots in the episode (only they re-localise). Random draws, in order:
+    the measurement errors of every target and teammate sighting (row-major: per robot,
+    targets before robots), then the re-localisations. A tuple's position and Pc use the
+    odometry after the re-localisation.
     """
-    n, t = len(pose), len(targets)
-    seen, distance, bearing = cameras.look(pose, targets)
+    n, t = len(pose), len(live_targets)
+    seen, distance, bearing = cameras.seen(pose, view, live_targets)
+    pv = vision.pv(distance, bearing)
     objects = seen[:, : t + n]
     rows, cols = np.nonzero(objects)  # row-major: per robot, targets before robots
     if len(rows):
         d_true, b_true = distance[:, : t + n][objects], bearing[:, : t + n][objects]
-        pv = vision.pv(d_true, b_true)
-        measured_d, measured_b = vision.measure(d_true, b_true, pv, rng)
-    relocalise(odometry, vision, pose, seen[:, t + n :], distance[:, t + n :], bearing[:, t + n :], live, rng)
+        pv_seen = pv[:, : t + n][objects]
+        measured_d, measured_b = vision.measure(d_true, b_true, pv_seen, rng)
+    landmarks = slice(t + n, None)
+    relocalise(
+        odometry, vision, pose, seen[:, landmarks], distance[:, landmarks], bearing[:, landmarks], pv[:, landmarks], live, rng
+    )
     est, certainty = odometry.estimate, odometry.certainty
     table = cameras.blank(n_slots)
     own = table[:, 0]
@@ -195,10 +237,10 @@ def perceive(
         values[:, 1:3] = cells_of(grid, values[:, 1:3])
         is_target = cols < t
         values[:, 0] = np.where(is_target, TARGET, ROBOT)
-        values[:, 3] = pv * certainty[rows]
+        values[:, 3] = pv_seen * certainty[rows]
         values[:, 4] = measured_d
         values[:, 5] = measured_b
         values[:, 6:8] = np.where(is_target[:, None], values[:, 1:3], NO_CELL)
         table[rows, 1 + np.arange(len(rows)) - np.searchsorted(rows, rows)] = values
         any_target = bool(is_target.any())
-    return Sightings(table, count, any_target), any_target
+    return Sightings(table, count, any_target)
