@@ -92,7 +92,7 @@ class GoToController:
             gap = np.hypot(rel[..., 0], rel[..., 1])
             gap.flat[:: n + 1] = np.inf
             near = gap < self.avoid_range
-            if near.any():
+            if np.count_nonzero(near):
                 strength = np.where(near, (self.avoid_range - gap) / (self.avoid_range - 2 * self.robot_radius + 1e-9), 0.0)
                 unit = rel / np.maximum(gap, 1e-9)[..., None]
                 world = -(strength[..., None] * unit).sum(axis=1) * self.avoid_gain * 2

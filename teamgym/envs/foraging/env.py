@@ -47,6 +47,7 @@ Reset options fix a scene: ``{"targets": [(x, y), ...], "starts": [(x, y, θ), .
 from __future__ import annotations
 
 import math
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -60,7 +61,7 @@ from teamgym.envs.foraging.actions import GoToCellAction
 from teamgym.envs.foraging.config import ForagingConfig
 from teamgym.envs.foraging.controller import GoToController
 from teamgym.envs.foraging.perception import ROBOT, SENDER, Odometry, VisionModel, landmark_positions, packet_bytes
-from teamgym.envs.foraging.sensing import POLAR, TARGET_CELL, Cameras, cells_of, perceive
+from teamgym.envs.foraging.sensing import POLAR, TARGET_CELL, TUPLE, Cameras, perceive
 from teamgym.envs.infos import InfoKey, metrics, unknown
 from teamgym.envs.reset_input import scene_points
 from teamgym.envs.spaces import Field, ObservationLayout
@@ -145,7 +146,12 @@ class Foraging(TeamEnv):
         ]
         if c.observe_world_model:
             fields.append(Field("world_model", (2, *self.grid.shape), 0.0, 1.0))
-        return ObservationLayout(fields)
+        layout = ObservationLayout(fields)
+        slices = layout.slices
+        head = slice(slices["pose_estimate"].start, slices["localisation_certainty"].stop)
+        self._fields = SimpleNamespace(head=head, **slices)  # where _observe writes each field of a flat row
+        self._pose_low, self._pose_high = np.array([-w, -h]), np.array([2 * w, 2 * h])
+        return layout
 
     # -- a new episode ------------------------------------------------------------------------
     def _draw_scene(self, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray] | None:
@@ -262,16 +268,16 @@ class Foraging(TeamEnv):
         homing = None
         table = self._sightings.table
         if self._sightings.any_target:
-            gap = np.abs(table[rows, 1:, TARGET_CELL] - goal[:, None, :]).max(axis=2)
-            close = gap.min(axis=1) <= 1
-            if close.any():
+            gap = np.maximum.reduce(np.abs(table[rows, 1:, TARGET_CELL] - goal[:, None, :]), axis=2)
+            close = np.minimum.reduce(gap, axis=1) <= 1
+            if np.count_nonzero(close):
                 homing = table[rows, 1 + np.argmin(gap, axis=1), POLAR].astype(float)
                 homing[~close] = np.nan
         # Stop at a target when the go-to cell is within one cell of the robot's estimated cell.
         stop = None
         present = at >= 0
-        if present.any():
-            stop = present & (np.abs(cells_of(self.grid, estimate[:, :2]) - goal).max(axis=1) <= 1)
+        if np.count_nonzero(present):  # (the own cell of the last packet is the estimated cell now)
+            stop = present & (np.maximum.reduce(np.abs(table[rows, 0, 1:3] - goal), axis=1) <= 1)
         commands = self.controller.commands(estimate, pose, self._cell_centre[index], homing, stop, self.grid_size, (c, s))
         return dict(zip(agents, map(tuple, commands.tolist())))
 
@@ -299,9 +305,9 @@ class Foraging(TeamEnv):
             gap = self._geometry.distance[:, : self.config.n_targets]
             if len(live) < self.config.n_targets:
                 gap = gap[:, live]
-            self._nearest_live = nearest = gap.min(axis=1)
+            self._nearest_live = nearest = np.minimum.reduce(gap, axis=1)
             reached = nearest <= self.config.reach_radius
-            at = np.where(reached, live[np.argmin(gap, axis=1)], -1) if reached.any() else self._no_target
+            at = np.where(reached, live[np.argmin(gap, axis=1)], -1) if np.count_nonzero(reached) else self._no_target
         if at is self._no_target:  # no robot at a target: every timer restarts
             self._timer = self._zero_timer
         else:
@@ -313,13 +319,13 @@ class Foraging(TeamEnv):
         c, now = self.config, self.world.time
         self._finished_now = 0
         present = self._at >= 0
-        if not present.any():
+        if not np.count_nonzero(present):
             self._success = not len(self._live_targets)
             return
         if c.task == "consume":
             self._timer[present] += c.dt
             finished = present & (self._timer >= c.consume_time - 1e-9) & self._live_mask()
-            done = np.unique(self._at[finished]) if finished.any() else ()
+            done = np.unique(self._at[finished]) if np.count_nonzero(finished) else ()
         else:
             counts = np.bincount(self._at[present & self._live_mask()], minlength=c.n_targets)
             done = np.flatnonzero(counts >= c.robots_per_target)
@@ -395,33 +401,43 @@ class Foraging(TeamEnv):
 
     # -- outputs ------------------------------------------------------------------------------
     def _observe(self, out: np.ndarray) -> None:
-        c, slices, (w, h) = self.config, self.layout.slices, self.grid_size
+        c, fields = self.config, self._fields
         rows = self._live_rows()
-        sightings = self._sightings
-        estimate = self.odometry.estimate[rows]
-        pose = out[:, slices["pose_estimate"]]
-        pose[:, :2] = np.minimum(np.maximum(estimate[:, :2], (-w, -h)), (2 * w, 2 * h))
-        pose[:, 2] = estimate[:, 2]
-        out[:, slices["localisation_certainty"]] = self.odometry.certainty[rows, None]
-        out[:, slices["detections"]] = sightings.detections[rows].reshape(len(rows), -1)
-        out[:, slices["detection_polar"]] = sightings.polar[rows].reshape(len(rows), -1)
-        out[:, slices["detection_mask"]] = self._slot_index < sightings.count[rows, None]
-        out[:, slices["at_target"]] = self._at[rows, None] >= 0
+        self._live_mask()
+        table, count, odometry = self._sightings.table, self._sightings.count, self.odometry
+        estimate, certainty, at, timer = odometry.estimate, odometry.certainty, self._at, self._timer
+        if not self._everyone:
+            table, count, estimate, certainty, at, timer = (
+                table[rows],
+                count[rows],
+                estimate[rows],
+                certainty[rows],
+                at[rows],
+                timer[rows],
+            )
+        head = out[:, fields.head]  # pose_estimate, localisation_certainty
+        head[:, :2] = np.minimum(np.maximum(estimate[:, :2], self._pose_low), self._pose_high)
+        head[:, 2] = estimate[:, 2]
+        head[:, 3] = certainty
+        n = len(out)
+        out[:, fields.detections].reshape(n, -1, 4)[:] = table[:, 1:, TUPLE]
+        out[:, fields.detection_polar].reshape(n, -1, 2)[:] = table[:, 1:, POLAR]
+        out[:, fields.detection_mask] = self._slot_index < count[:, None]
+        out[:, fields.at_target] = at[:, None] >= 0
         if c.task == "consume":
-            out[:, slices["consume_progress"]] = np.minimum(1.0, self._timer[rows, None] / c.consume_time)
-        received, received_sender, received_mask = slices["received"], slices["received_sender"], slices["received_mask"]
-        out[:, received_sender] = -1
+            out[:, fields.consume_progress] = np.minimum(1.0, timer[:, None] / c.consume_time)
+        out[:, fields.received_sender] = -1
         for obs, agent, i in zip(out, self.live_agents, rows.tolist()):
             tuples, senders = self._received(agent)
             k = len(tuples)
             if k:
-                obs[received][: 4 * k] = tuples.reshape(-1)
-                obs[received_sender][:k] = senders
-                obs[received_mask][:k] = 1
+                obs[fields.received][: 4 * k] = tuples.reshape(-1)
+                obs[fields.received_sender][:k] = senders
+                obs[fields.received_mask][:k] = 1
             if c.observe_world_model:
                 model = self.models[agent]
-                m = int(sightings.count[i])
-                model.observe_own(sightings.detections[i, :m], self._sector(i), self.world.time)
+                m = int(self._sightings.count[i])
+                model.observe_own(self._sightings.detections[i, :m], self._sector(i), self.world.time)
                 for sender in np.unique(senders).tolist():
                     model.receive(sender, tuples[senders == sender], self.world.time)
                 self.layout.view(obs, "world_model")[:] = model.fused()
@@ -443,19 +459,30 @@ class Foraging(TeamEnv):
         return {**unknown(*times), **metrics("DG", "targets_done", "localisation_certainty", "position_error")}
 
     def _metrics(self, agent: str) -> dict[str, Any]:
-        i = self._row[agent]
-        metrics: dict[str, Any] = {}
+        return self._metrics_of([agent])[agent]
+
+    def _metrics_of(self, agents: list[str]) -> dict[str, dict[str, Any]]:
+        team: dict[str, Any] = {}
         if math.isfinite(self._first_seen):
-            metrics["TL"] = self._first_seen
+            team["TL"] = self._first_seen
         for k, time in enumerate(self._done_order, start=1):
-            metrics[f"TT{k}"] = time
+            team[f"TT{k}"] = time
         if self._success:
-            metrics["TG"] = self._done_order[-1]
-        metrics["DG"] = float(self._travelled[i])
-        metrics["targets_done"] = len(self._done_order)
-        metrics["localisation_certainty"] = float(self.odometry.certainty[i])
-        metrics["position_error"] = float(np.hypot(*(self.odometry.estimate[i, :2] - self._pose[i, :2])))
-        return metrics
+            team["TG"] = self._done_order[-1]
+        offset = self.odometry.estimate[:, :2] - self._pose[:, :2]
+        errors = np.hypot(offset[:, 0], offset[:, 1]).tolist()
+        travelled, certainty = self._travelled.tolist(), self.odometry.certainty.tolist()
+        done, out = len(self._done_order), {}
+        for agent in agents:
+            i = self._row[agent]
+            out[agent] = {
+                **team,
+                "DG": travelled[i],
+                "targets_done": done,
+                "localisation_certainty": certainty[i],
+                "position_error": errors[i],
+            }
+        return out
 
     def episode_success(self) -> bool:
         """Every target consumed (``consume``) or surrounded (``surround``)."""

@@ -127,7 +127,11 @@ class Cameras:
         t = len(live)
         # A teammate hides a point only if it is nearer than the camera's range (the point lies within it and
         # the teammate within a radius of the sight line): skipped when every teammate is farther.
-        if self.n > 1 and seen.any() and not (distance[:, t : t + self.n] + self._self_gap >= self.clear_distance).all():
+        if (
+            self.n > 1
+            and np.count_nonzero(seen)
+            and np.count_nonzero(distance[:, t : t + self.n] + self._self_gap < self.clear_distance)
+        ):
             seen &= ~occluded(pose, rel, distance, pose[:, :2], self.radius, counted)
         return seen, distance, bearing
 
@@ -155,15 +159,15 @@ def relocalise(
     The robots go in index order, each drawing its sighting's measurement error in turn, so
     the random stream is that of one robot at a time.
     """
-    candidates = seen.any(axis=1)
+    candidates = np.logical_or.reduce(seen, axis=1)
     candidates &= live
-    if not candidates.any():
+    if not np.count_nonzero(candidates):
         return
     robots = np.arange(len(seen))
     nearest = np.argmin(np.where(seen, distance, np.inf), axis=1)
     sighted = pv[robots, nearest]
     candidates &= sighted >= odometry.certainty
-    if not candidates.any():
+    if not np.count_nonzero(candidates):
         return
     rows = np.flatnonzero(candidates)
     nearest = nearest[rows]
@@ -242,5 +246,5 @@ def perceive(
         values[:, 5] = measured_b
         values[:, 6:8] = np.where(is_target[:, None], values[:, 1:3], NO_CELL)
         table[rows, 1 + np.arange(len(rows)) - np.searchsorted(rows, rows)] = values
-        any_target = bool(is_target.any())
+        any_target = bool(np.count_nonzero(is_target))
     return Sightings(table, count, any_target)
