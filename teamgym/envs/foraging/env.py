@@ -262,22 +262,22 @@ class Foraging(TeamEnv):
         index = np.fromiter(cells.values(), dtype=np.int64, count=len(agents))
         goal = self._cell_xy[index]
         pose, estimate, at, (c, s) = self._pose, self.odometry.estimate, self._at, self._heading_trig
+        table = self._sightings.table
         if not everyone:
-            pose, estimate, at, c, s = pose[rows], estimate[rows], at[rows], c[rows], s[rows]
+            pose, estimate, at, c, s, table = pose[rows], estimate[rows], at[rows], c[rows], s[rows], table[rows]
         # Homing: the detected target nearest (in cells) to the go-to cell, if within one cell of it.
         homing = None
-        table = self._sightings.table
         if self._sightings.any_target:
-            gap = np.maximum.reduce(np.abs(table[rows, 1:, TARGET_CELL] - goal[:, None, :]), axis=2)
+            gap = np.maximum.reduce(np.abs(table[:, 1:, TARGET_CELL] - goal[:, None, :]), axis=2)
             close = np.minimum.reduce(gap, axis=1) <= 1
             if np.count_nonzero(close):
-                homing = table[rows, 1 + np.argmin(gap, axis=1), POLAR].astype(float)
+                homing = table[np.arange(len(table)), 1 + np.argmin(gap, axis=1), POLAR].astype(float)
                 homing[~close] = np.nan
         # Stop at a target when the go-to cell is within one cell of the robot's estimated cell.
         stop = None
         present = at >= 0
         if np.count_nonzero(present):  # (the own cell of the last packet is the estimated cell now)
-            stop = present & (np.maximum.reduce(np.abs(table[rows, 0, 1:3] - goal), axis=1) <= 1)
+            stop = present & (np.maximum.reduce(np.abs(table[:, 0, 1:3] - goal), axis=1) <= 1)
         commands = self.controller.commands(estimate, pose, self._cell_centre[index], homing, stop, self.grid_size, (c, s))
         return dict(zip(agents, map(tuple, commands.tolist())))
 

@@ -199,7 +199,10 @@ class VisionModel:
         spread = self.noise * (1.0 - pv)
         measured = np.minimum(np.maximum(0.0, distance + DISTANCE_ERROR * spread * distance_noise), self.max_distance)
         turned = bearing + BEARING_ERROR * spread * bearing_noise
-        return measured, np.where(np.abs(turned) > math.pi, (turned + math.pi) % (2 * math.pi) - math.pi, turned)
+        beyond = np.abs(turned) > math.pi
+        if np.count_nonzero(beyond):
+            turned = np.where(beyond, (turned + math.pi) % (2 * math.pi) - math.pi, turned)
+        return measured, turned
 
 
 class Odometry:
@@ -235,10 +238,20 @@ class Odometry:
         travel = to_robot(step, c, s)  # (forward, lateral) in the robot's frame at the start
         length = np.hypot(travel[:, 0], travel[:, 1])
         noise = rng.standard_normal((2, len(before)))
-        scale = 1.0 + self.distance_noise * noise[1] * (length > 0)
-        est[:, :2] += scale[:, None] * to_field(travel, ce, se)
-        est[:, 2] = (est[:, 2] + turn + self.rotation_noise * np.abs(turn) * noise[0] + math.pi) % (2 * math.pi) - math.pi
-        self.certainty *= self.pe ** np.abs(turn)
+        scale = self.distance_noise * noise[1]
+        scale *= length > 0
+        scale += 1.0
+        moved = to_field(travel, ce, se)
+        moved *= scale[:, None]
+        est[:, :2] += moved
+        size = np.abs(turn)
+        heading = est[:, 2] + turn
+        heading += self.rotation_noise * size * noise[0]
+        heading += math.pi
+        heading %= 2 * math.pi
+        heading -= math.pi
+        est[:, 2] = heading
+        self.certainty *= self.pe**size
         return step
 
     def relocalise(self, robot: int, true_pose: np.ndarray, pv: float, error: tuple[float, float, float]) -> None:
