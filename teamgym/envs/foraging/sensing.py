@@ -20,6 +20,8 @@ import numpy as np
 from teamgym.envs.foraging.grid import GridSpec
 from teamgym.envs.foraging.perception import ROBOT, SENDER, TARGET, Odometry, VisionModel, in_view, occluded
 
+assert (TARGET, ROBOT) == (0, 1)  # a detection's class is written as "is a robot"
+
 __all__ = ["NO_CELL", "Cameras", "Sightings", "View", "cells_of", "perceive", "relocalise"]
 
 #: Cell coordinate of the rows of :attr:`Sightings.table` that are not target detections (far from every cell).
@@ -233,18 +235,21 @@ def perceive(
     any_target = False
     if len(rows):
         values = np.empty((len(rows), 8))
-        heading = est[rows, 2] + measured_b
+        seer = est[rows]
+        heading = seer[:, 2] + measured_b
+        position = values[:, 1:3]
         np.cos(heading, out=values[:, 1])
         np.sin(heading, out=values[:, 2])
-        values[:, 1:3] *= measured_d[:, None]
-        values[:, 1:3] += est[rows, :2]
-        values[:, 1:3] = cells_of(grid, values[:, 1:3])
-        is_target = cols < t
-        values[:, 0] = np.where(is_target, TARGET, ROBOT)
-        values[:, 3] = pv_seen * certainty[rows]
+        position *= measured_d[:, None]
+        position += seer[:, :2]
+        position[:] = cells_of(grid, position)
+        robot = cols >= t
+        values[:, 0] = robot  # the class: TARGET 0, ROBOT 1
+        np.multiply(pv_seen, certainty[rows], out=values[:, 3])
         values[:, 4] = measured_d
         values[:, 5] = measured_b
-        values[:, 6:8] = np.where(is_target[:, None], values[:, 1:3], NO_CELL)
+        values[:, 6:8] = position
+        values[robot, 6:8] = NO_CELL
         table[rows, 1 + np.arange(len(rows)) - np.searchsorted(rows, rows)] = values
-        any_target = bool(np.count_nonzero(is_target))
+        any_target = len(rows) > np.count_nonzero(robot)
     return Sightings(table, count, any_target)
