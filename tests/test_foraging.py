@@ -378,3 +378,41 @@ def test_velocity_actions_are_accepted_exactly_when_the_space_contains_them(v, w
         with pytest.raises(ValueError, match="robot_0"):
             env.step(actions)
         assert np.array_equal(env.state(), before) and env.cycles == 0
+
+
+# -- episode length --------------------------------------------------------------------------
+@pytest.mark.parametrize(
+    ("config", "cycles"),
+    [
+        ({}, 2000),  # 200 s of 0.1 s steps
+        ({"dt": 0.05}, 4000),
+        ({"time_limit": 33.3}, 333),
+        ({"time_limit": 0.25, "dt": 0.1, "consume_time": 0.1}, 3),
+        ({"max_cycles": 500}, 500),  # a set max_cycles still caps
+        ({"max_cycles": 5000}, 2000),  # ... and time_limit too
+        ({"dt": 1e-4, "substeps": 1, "time_limit": 100_000.0}, 10**6),  # the derived length stops at 10**6
+        ({"dt": 1e-4, "substeps": 1, "time_limit": 100_000.0, "max_cycles": 10**9}, 10**9),
+    ],
+)
+def test_episode_length_derives_from_time_limit_and_max_cycles_caps_it(config, cycles):
+    c = teamgym.make("Foraging-v0", **config).config
+    assert c.max_cycles == config.get("max_cycles")  # None unless set: no stand-in count
+    assert c.cycle_limit == cycles == min(c.max_cycles or 10**6, math.ceil(c.time_limit / c.dt - 1e-9))
+    assert type(c)(**c.as_dict()).cycle_limit == cycles
+
+
+def test_episodes_are_truncated_at_the_derived_length():
+    env = velocity_env(time_limit=1.0, n_targets=1, consume_time=1.0)
+    env.reset(seed=0)
+    steps = 0
+    while env.agents:
+        *_, truncations, _ = env.step(still(env))
+        steps += 1
+    assert steps == env.config.cycle_limit == 10 and all(truncations.values())
+
+
+@pytest.mark.parametrize("value", [0, -1, 10**9 + 1, 2.5, True, "many"])
+def test_an_invalid_max_cycles_is_a_one_line_error_naming_it(value):
+    with pytest.raises(ConfigError, match=f"max_cycles={value!r} is invalid") as caught:
+        teamgym.make("Foraging-v0", max_cycles=value)
+    assert "\n" not in str(caught.value)
