@@ -22,7 +22,7 @@ from teamgym.envs.foraging.perception import ROBOT, SENDER, TARGET, Odometry, Vi
 
 assert (TARGET, ROBOT) == (0, 1)  # a detection's class is written as "is a robot"
 
-__all__ = ["NO_CELL", "Cameras", "Sightings", "View", "cells_of", "perceive", "relocalise"]
+__all__ = ["NO_CELL", "Cameras", "Sightings", "View", "cells_of", "landmark_fixes", "measure_all", "perceive", "relocalise"]
 
 #: Cell coordinate of the rows of :attr:`Sightings.table` that are not target detections (far from every cell).
 NO_CELL = 1.0e6
@@ -145,43 +145,40 @@ class Cameras:
         return self._blank.copy()
 
 
-def relocalise(
-    odometry: Odometry,
-    vision: VisionModel,
-    pose: np.ndarray,
-    seen: np.ndarray,
-    distance: np.ndarray,
-    bearing: np.ndarray,
-    pv: np.ndarray,
-    live: np.ndarray,
-    rng: np.random.Generator,
-) -> None:
-    """Landmark sightings (n, L) with their Pv: the nearest landmark in view re-localises a ``live`` robot when its Pv ≥ Pl.
+def landmark_fixes(
+    certainty: np.ndarray, seen: np.ndarray, distance: np.ndarray, bearing: np.ndarray, pv: np.ndarray, live: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
+    """The ``live`` robots whose nearest landmark in view (sightings (n, L) with their Pv) re-localises them (Pv ≥ Pl).
 
-    The robots go in index order, each drawing its sighting's measurement error in turn, so
-    the random stream is that of one robot at a time.
+    Returns their rows (in index order) and that landmark's true distance, bearing and Pv, or None.
     """
     candidates = np.logical_or.reduce(seen, axis=1)
     candidates &= live
     if not np.count_nonzero(candidates):
-        return
+        return None
     robots = np.arange(len(seen))
     nearest = np.argmin(np.where(seen, distance, np.inf), axis=1)
     sighted = pv[robots, nearest]
-    candidates &= sighted >= odometry.certainty
-    if not np.count_nonzero(candidates):
-        return
-    rows = np.flatnonzero(candidates)
-    nearest = nearest[rows]
-    d, b, pv = distance[rows, nearest], bearing[rows, nearest], sighted[rows]
-    if vision.noise == 0.0:
-        d_m, b_m = d, b
-    else:  # one robot's (distance, bearing) errors after the other's
-        noise = rng.standard_normal(2 * len(rows)).reshape(len(rows), 2)
-        d_m, b_m = vision.measure_with(d, b, pv, noise[:, 0], noise[:, 1])
+    candidates &= sighted >= certainty
+    count = np.count_nonzero(candidates)
+    if not count:
+        return None
+    if count < len(robots):
+        robots = np.flatnonzero(candidates)
+        nearest, sighted = nearest[robots], sighted[robots]
+    return robots, distance[robots, nearest], bearing[robots, nearest], sighted
+
+
+def relocalise(
+    odometry: Odometry, pose: np.ndarray, fixes: tuple[np.ndarray, ...], measured_d: np.ndarray, measured_b: np.ndarray
+) -> None:
+    """Re-localise the robots of :func:`landmark_fixes` from their landmark's measured distance and bearing."""
+    rows, d, b, pv = fixes
     # The pose implied by the measured landmark differs from the truth by the measurement error.
     errors = np.empty((len(rows), 3))
-    for k, (i, true_d, true_b, m_d, m_b) in enumerate(zip(rows.tolist(), d.tolist(), b.tolist(), d_m.tolist(), b_m.tolist())):
+    for k, (i, true_d, true_b, m_d, m_b) in enumerate(
+        zip(rows.tolist(), d.tolist(), b.tolist(), measured_d.tolist(), measured_b.tolist())
+    ):
         theta = float(pose[i, 2])
         ray, measured_ray = theta + true_b, theta + m_b
         errors[k] = (
@@ -190,6 +187,31 @@ def relocalise(
             true_b - m_b,
         )
     odometry.relocalise_rows(rows, pose[rows], pv, errors)
+
+
+def measure_all(
+    vision: VisionModel, sightings: tuple[np.ndarray, ...], fixes: tuple[np.ndarray, ...] | None, rng: np.random.Generator
+) -> tuple[tuple[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]:
+    """Measured (distance, bearing) of the object sightings (true distance, bearing, Pv) and of the landmark fixes.
+
+    One draw serves both, in the order of the paper's model run robot by robot: the distance
+    errors of every object sighting, then their bearing errors, then each re-localising
+    robot's distance and bearing error.
+    """
+    d, b, pv = sightings
+    m = len(d)
+    r = 0 if fixes is None else len(fixes[0])
+    if vision.noise == 0.0 or not m + r:
+        return (d, b), ((fixes[1], fixes[2]) if r else (d[:0], b[:0]))
+    noise = rng.standard_normal(2 * (m + r))
+    if r:
+        d, b, pv = np.concatenate([d, fixes[1]]), np.concatenate([b, fixes[2]]), np.concatenate([pv, fixes[3]])
+        distance_noise = np.concatenate([noise[:m], noise[2 * m :: 2]])
+        bearing_noise = np.concatenate([noise[m : 2 * m], noise[2 * m + 1 :: 2]])
+    else:
+        distance_noise, bearing_noise = noise[:m], noise[m:]
+    measured_d, measured_b = vision.measure_with(d, b, pv, distance_noise, bearing_noise)
+    return (measured_d[:m], measured_b[:m]), (measured_d[m:], measured_b[m:])
 
 
 def perceive(
@@ -209,22 +231,23 @@ def perceive(
     ``view``: :meth:`Cameras.view` at ``pose``; ``live_targets``: indices of the live targets;
     ``live`` (n,) bool: robots in the episode (only they re-localise). Random draws, in order:
     the measurement errors of every target and teammate sighting (row-major: per robot,
-    targets before robots), then the re-localisations. A tuple's position and Pc use the
-    odometry after the re-localisation.
+    targets before robots), then the re-localisations' (:func:`measure_all`). A tuple's
+    position and Pc use the odometry after the re-localisation.
     """
     n, t = len(pose), len(live_targets)
     seen, distance, bearing = cameras.seen(pose, view, live_targets)
     pv = vision.pv(distance, bearing)
     objects = seen[:, : t + n]
     rows, cols = np.nonzero(objects)  # row-major: per robot, targets before robots
-    if len(rows):
-        d_true, b_true = distance[:, : t + n][objects], bearing[:, : t + n][objects]
-        pv_seen = pv[:, : t + n][objects]
-        measured_d, measured_b = vision.measure(d_true, b_true, pv_seen, rng)
+    sighted = distance[:, : t + n][objects], bearing[:, : t + n][objects], pv[:, : t + n][objects]
     landmarks = slice(t + n, None)
-    relocalise(
-        odometry, vision, pose, seen[:, landmarks], distance[:, landmarks], bearing[:, landmarks], pv[:, landmarks], live, rng
+    fixes = landmark_fixes(
+        odometry.certainty, seen[:, landmarks], distance[:, landmarks], bearing[:, landmarks], pv[:, landmarks], live
     )
+    (measured_d, measured_b), fixed = measure_all(vision, sighted, fixes, rng)
+    if fixes is not None:
+        relocalise(odometry, pose, fixes, *fixed)
+    pv_seen = sighted[2]
     est, certainty = odometry.estimate, odometry.certainty
     table = cameras.blank(n_slots)
     own = table[:, 0]
