@@ -265,7 +265,8 @@ class Channel:
         """
         s = self._agent_index(sender, "sender")
         if type(payload) is not np.ndarray or payload.dtype != np.float32 or payload.ndim != 1:
-            raise TypeError(f"Channel.send_array: payload from {sender!r} must be a 1-D float32 numpy array, got {payload!r}")
+            got = f"{payload.dtype} array of shape {payload.shape}" if isinstance(payload, np.ndarray) else type(payload).__name__
+            raise TypeError(f"Channel.send_array: payload from {sender!r} must be a 1-D float32 numpy array, got {got}")
         if type(size) is not int:
             size = _as_int(size, f"Message size from {sender!r}")
         if size < 0:
