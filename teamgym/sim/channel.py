@@ -6,10 +6,14 @@ Robots exchange :class:`Message` records through a :class:`Channel`. Messages ca
 env-generated (e.g. shared perception tuples) or agent-chosen (a learned ``comm_dim`` float
 vector). Per control step, the environment
 
-1. calls :meth:`Channel.send` any number of times (the message is queued for this step),
+1. calls :meth:`Channel.send` any number of times (the message is queued for this step;
+   :meth:`Channel.send_array` queues an env's own float32 array without copying it),
 2. calls :meth:`Channel.deliver` once with the robots' positions, its own
-   ``np.random.Generator`` and the step number, then reads :meth:`Channel.inbox` or
-   :meth:`Channel.inbox_array` to build observations.
+   ``np.random.Generator`` and the step number, then reads :meth:`Channel.inbox`,
+   :meth:`Channel.inbox_array` or :meth:`Channel.inbox_payloads` to build observations.
+
+Inside, queued and delivered messages are plain tuples; :meth:`Channel.inbox` builds the
+:class:`Message` records when it is read.
 
 A message reaches a receiver (every *other* present robot for a broadcast, the recipient
 otherwise) only if
