@@ -268,7 +268,7 @@ class Channel:
         bad size or kind, before changing anything.
         """
         s = self._agent_index(sender, "sender")
-        if type(payload) is not np.ndarray or payload.dtype != np.float32 or payload.ndim != 1:
+        if type(payload) is not np.ndarray or payload.dtype.char != "f" or payload.ndim != 1:
             got = f"{payload.dtype} array of shape {payload.shape}" if isinstance(payload, np.ndarray) else type(payload).__name__
             raise TypeError(f"Channel.send_array: payload from {sender!r} must be a 1-D float32 numpy array, got {got}")
         if type(size) is not int:
@@ -277,7 +277,7 @@ class Channel:
             raise ValueError(f"Message size from {sender!r} must be >= 0, got {size}")
         if not isinstance(kind, str):
             raise TypeError(f"Message kind from {sender!r} must be a str, got {kind!r}")
-        payload.flags.writeable = False
+        payload.setflags(write=False)
         return self._queue(s, -1, payload, size, kind)
 
     def _queue(self, s: int, r: int, payload: np.ndarray, size: int, kind: str) -> bool:
@@ -315,7 +315,8 @@ class Channel:
         self._last_step = step
 
     def _check_step(self, step: Any) -> int:
-        step = _as_int(step, "Channel.deliver step")
+        if type(step) is not int:
+            step = _as_int(step, "Channel.deliver step")
         if self._last_step is not None and step <= self._last_step:
             raise ValueError(f"Channel.deliver: step={step} must be greater than the previous step {self._last_step}")
         return step
@@ -414,7 +415,7 @@ class Channel:
         entries = [*self._outbox, *(c[3] for copies in self._in_flight.values() for c in copies)]
         entries += [entry for inbox in self._inboxes for entry, _sent in inbox]
         for entry in entries:
-            entry[3].flags.writeable = False
+            entry[3].setflags(write=False)
 
     def _message(self, entry: _Entry, sent: int) -> Message:
         s, _seq, r, payload, size, kind = entry
