@@ -4,8 +4,8 @@ Two long-lived worker processes, one per checkout (``PYTHONPATH`` set to it), ta
 every round each worker steps ``--steps`` control steps of the default config with random
 ``goto_cell`` actions and then ``--dmaps-steps`` steps driven by the ``dmaps`` baseline, and
 reports the CPU time (``time.process_time``) spent inside ``env.step`` only. The rounds
-alternate which worker goes first; the figure quoted is the ratio of the medians of
-agent-steps/s (this checkout / baseline).
+alternate which worker goes first; the run reports the ratio of the medians of agent-steps/s
+(this checkout / baseline) and the median of the per-round ratios.
 
 Before timing, both workers roll out every config of :data:`CHECK_CONFIGS` (seeds
 ``--check-seeds``, up to 300 steps, random admissible actions, one deepcopy mid-episode
