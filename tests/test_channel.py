@@ -483,3 +483,53 @@ def test_bad_agent_lists():
         Channel([])
     with pytest.raises(KeyError, match="'zz'"):
         Channel(AGENTS).stats("zz")
+
+
+# ---------------------------------------------------------------- env-generated arrays
+
+
+def test_send_array_delivers_and_counts_as_send_does():
+    sent, packed = Channel(AGENTS, LOSSY), Channel(AGENTS, LOSSY)
+    traffic = np.random.default_rng(11)
+    rngs = np.random.default_rng(12), np.random.default_rng(12)
+    for step in range(30):
+        for _ in range(int(traffic.integers(0, 5))):
+            sender = AGENTS[int(traffic.integers(len(AGENTS)))]
+            payload = traffic.normal(size=int(traffic.integers(0, 4))).astype(np.float32)
+            size, kind = int(traffic.integers(0, 12)), str(traffic.choice(["perception", "learned"]))
+            assert sent.send(sender, payload, size=size, kind=kind) == packed.send_array(sender, payload.copy(), size, kind)
+        positions = {a: tuple(traffic.uniform(0, 2, size=2)) for a in AGENTS}
+        for channel, rng in zip((sent, packed), rngs):
+            channel.deliver(positions, rng, step)
+        assert inbox_keys(packed) == inbox_keys(sent)
+        for agent in AGENTS:
+            expected = [(AGENTS.index(m.sender), m.payload.tolist()) for m in sent.inbox(agent) if m.kind == "perception"]
+            assert [(s, p.tolist()) for s, p in packed.inbox_payloads(agent, "perception")] == expected
+    assert all_stats(packed) == all_stats(sent)
+
+
+def test_send_array_keeps_the_array_read_only():
+    channel = Channel(AGENTS)
+    payload = np.array([1.0, 2.0], dtype=np.float32)
+    channel.send_array("a0", payload, 8, "perception")
+    assert not payload.flags.writeable
+    channel.deliver(spread(), np.random.default_rng(0), 0)
+    (sender, received), *_ = channel.inbox_payloads("a1", "perception")
+    assert sender == 0 and received.tolist() == [1.0, 2.0] and not received.flags.writeable
+
+
+@pytest.mark.parametrize(
+    ("args", "error_type", "culprit"),
+    [
+        (("ghost", np.zeros(2, np.float32), 8, "k"), KeyError, "'ghost'"),
+        (("a1", [1.0, 2.0], 8, "k"), TypeError, "float32"),
+        (("a1", np.zeros(2), 8, "k"), TypeError, "float32"),
+        (("a1", np.zeros((2, 2), np.float32), 8, "k"), TypeError, "1-D"),
+        (("a1", np.zeros(2, np.float32), 2.5, "k"), TypeError, "2.5"),
+        (("a1", np.zeros(2, np.float32), -1, "k"), ValueError, "-1"),
+        (("a1", np.zeros(2, np.float32), 8, 3), TypeError, "kind"),
+    ],
+)
+def test_bad_send_array_names_the_culprit_and_changes_nothing(args, error_type, culprit):
+    channel = busy_channel()
+    assert_one_line_error(error_type, [culprit], lambda: channel.send_array(*args), channel)

@@ -378,3 +378,88 @@ def test_velocity_actions_are_accepted_exactly_when_the_space_contains_them(v, w
         with pytest.raises(ValueError, match="robot_0"):
             env.step(actions)
         assert np.array_equal(env.state(), before) and env.cycles == 0
+
+
+# -- episode length --------------------------------------------------------------------------
+@pytest.mark.parametrize(
+    ("config", "cycles"),
+    [
+        ({}, 2000),  # 200 s of 0.1 s steps
+        ({"dt": 0.05}, 4000),
+        ({"time_limit": 33.3}, 333),
+        ({"time_limit": 0.25, "dt": 0.1, "consume_time": 0.1}, 3),
+        ({"max_cycles": 500}, 500),  # a set max_cycles still caps
+        ({"max_cycles": 5000}, 2000),  # ... and time_limit too
+        ({"dt": 1e-4, "substeps": 1, "time_limit": 100_000.0}, 10**6),  # the derived length stops at 10**6
+        ({"dt": 1e-4, "substeps": 1, "time_limit": 100_000.0, "max_cycles": 10**9}, 10**9),
+    ],
+)
+def test_episode_length_derives_from_time_limit_and_max_cycles_caps_it(config, cycles):
+    c = teamgym.make("Foraging-v0", **config).config
+    assert c.max_cycles == config.get("max_cycles")  # None unless set: no stand-in count
+    assert c.cycle_limit == cycles == min(c.max_cycles or 10**6, math.ceil(c.time_limit / c.dt - 1e-9))
+    assert type(c)(**c.as_dict()).cycle_limit == cycles
+
+
+def test_episodes_are_truncated_at_the_derived_length():
+    env = velocity_env(time_limit=1.0, n_targets=1, consume_time=1.0)
+    env.reset(seed=0)
+    steps = 0
+    while env.agents:
+        *_, truncations, _ = env.step(still(env))
+        steps += 1
+    assert steps == env.config.cycle_limit == 10 and all(truncations.values())
+
+
+@pytest.mark.parametrize("value", [0, -1, 10**9 + 1, 2.5, True, "many"])
+def test_an_invalid_max_cycles_is_a_one_line_error_naming_it(value):
+    with pytest.raises(ConfigError, match=f"max_cycles={value!r} is invalid") as caught:
+        teamgym.make("Foraging-v0", max_cycles=value)
+    assert "\n" not in str(caught.value)
+
+
+# -- the vectorised sensing phase ---------------------------------------------------------------
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 10**6), n=st.integers(1, 6), t=st.integers(0, 4), spread=st.sampled_from([0.3, 1.0, 3.0]))
+def test_cameras_see_what_visibility_sees(seed, n, t, spread):
+    """Cameras.seen (occlusion masks built once, skipped for teammates out of range) equals visibility()."""
+    from teamgym.envs.foraging.sensing import Cameras
+
+    rng = np.random.default_rng(seed)
+    landmarks = landmark_positions(3.0, 2.4, 0.6)
+    cameras = Cameras(n, landmarks, 1.0, 1.28, 0.09)
+    pose = np.column_stack([1.5 + spread * rng.uniform(-0.5, 0.5, (n, 2)), rng.uniform(-math.pi, math.pi, n)])
+    targets = rng.uniform(0, (3.0, 2.4), (4, 2))
+    live = np.sort(rng.choice(4, size=t, replace=False))
+    seen, distance, bearing = cameras.seen(pose, cameras.view(pose, cameras.points(targets)), live)
+    points = np.concatenate([targets[live], pose[:, :2], landmarks])
+    skip = np.full((n, len(points)), -1)
+    skip[:, t : t + n] = np.arange(n)
+    expected, d, b = visibility(pose, points, 1.0, 1.28, pose[:, :2], 0.09, skip)
+    expected[np.arange(n), t + np.arange(n)] = False
+    assert np.array_equal(seen, expected) and np.array_equal(distance, d) and np.array_equal(bearing, b)
+
+
+def test_frame_changes_are_the_textbook_products_and_sums():
+    from teamgym.envs.foraging.frames import to_field, to_robot
+
+    rng = np.random.default_rng(5)
+    v, theta = rng.normal(size=(50, 2)), rng.uniform(-math.pi, math.pi, 50)
+    c, s = np.cos(theta), np.sin(theta)
+    assert np.array_equal(to_robot(v, c, s), np.column_stack([c * v[:, 0] + s * v[:, 1], -s * v[:, 0] + c * v[:, 1]]))
+    assert np.array_equal(to_field(v, c, s), np.column_stack([c * v[:, 0] - s * v[:, 1], s * v[:, 0] + c * v[:, 1]]))
+
+
+def test_one_draw_measures_sightings_then_fixes_as_separate_draws_did():
+    from teamgym.envs.foraging.perception import VisionModel
+    from teamgym.envs.foraging.sensing import measure_all
+
+    vision = VisionModel(1.0, 1.28, 2.0)
+    sightings = (np.array([0.2, 0.9, 0.5]), np.array([0.1, -0.6, 3.1]), np.array([0.95, 0.5, 0.8]))
+    fixes = (np.array([0, 2]), np.array([0.7, 0.3]), np.array([-0.2, 0.4]), np.array([0.65, 0.9]))
+    (d, b), (fd, fb) = measure_all(vision, sightings, fixes, np.random.default_rng(3))
+    rng = np.random.default_rng(3)
+    assert np.array_equal(np.stack([d, b]), np.stack(vision.measure(*sightings[:2], sightings[2], rng)))
+    for k in range(2):  # then one robot's (distance, bearing) error after the other's
+        one = vision.measure(fixes[1][k : k + 1], fixes[2][k : k + 1], fixes[3][k : k + 1], rng)
+        assert (fd[k], fb[k]) == (one[0][0], one[1][0])
