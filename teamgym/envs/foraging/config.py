@@ -79,14 +79,7 @@ class ForagingConfig(EnvConfig):
     time_penalty: float = 0.001
 
     def check(self) -> None:
-        if self.max_cycles is None:  # derived from time_limit: EnvConfig's range check of an int count does not apply
-            object.__setattr__(self, "max_cycles", 1)
-            try:
-                super().check()
-            finally:
-                object.__setattr__(self, "max_cycles", None)
-        else:
-            super().check()
+        super().check()  # max_cycles=None (derived from time_limit) passes EnvConfig's range check
         width, height = self.field_size
         require(self, "field_size", 0.5 <= width <= 50 and 0.5 <= height <= 50, "must be (width, height) in [0.5, 50] m")
         require(self, "n_robots", 1 <= self.n_robots <= 16, "must be in [1, 16]")
