@@ -7,7 +7,7 @@ a_i ∈ (0, 1) by sigmoid functions; a fixed-priority arbiter picks the behaviou
 
 and the winner alone sets the controls from its activation, ``[v, ω] = f_k(a_k)`` (6).
 The paper gives neither the sigmoids nor f_k (it refers to [Skrzypczyk 2002]); our choices
-(documented in docs/exploration.md and tested in tests/test_behaviour.py):
+(documented in docs/exploration.md and tested in tests/envs/test_behaviour.py):
 
 ============== ========================================= ===================================
 behaviour      activation a_i                            control f_i(a_i)

@@ -4,9 +4,9 @@ pymunk's public property setters cost about 2 µs each in Python (a mixin ``__se
 an assert and the cffi call); driving five robots needs some fifty of them per control
 step. These helpers call the same Chipmunk functions through pymunk's cffi handles
 (``Body._body``, ``Constraint._constraint``, ``Space._space``), which are stable across
-pymunk 7.x (the version range pinned in ``pyproject.toml``). ``tests/test_sim_chipmunk.py``
+pymunk 7.x (the version range pinned in ``pyproject.toml``). ``tests/sim/test_sim_chipmunk.py``
 checks them against the public API; ``test_ring_skip_gives_same_readings_as_casting_every_ray``
-in ``tests/test_sim_sensors.py`` checks the proximity ring built on :class:`RayCaster`.
+in ``tests/sim/test_sim_sensors.py`` checks the proximity ring built on :class:`RayCaster`.
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """Adaptive substeps (config ``coarse_substeps``; ``World(coarse_substeps=, contact_reach=)``).
 
 A control step in which no contact can begin runs coarse; contacts are still resolved with the
-fine substeps, so the penetration bound of tests/test_physics.py holds; runs stay deterministic.
+fine substeps, so the penetration bound of tests/sim/test_physics.py holds; runs stay deterministic.
 """
 
 import math

@@ -10,7 +10,7 @@ from PIL import Image
 
 import teamgym
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 PAGES = ROOT / "docs" / "envs"
 _spec = importlib.util.spec_from_file_location("gen_env_pages", ROOT / "scripts" / "gen_env_pages.py")
 gen = importlib.util.module_from_spec(_spec)

@@ -5,7 +5,7 @@ from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 #: ``name._private`` (or ``a.b._private``) where the object is not ``self``/``cls``; dunders are fine.
 PRIVATE = re.compile(r"(?<![\w.])((?:\w+\.)*\w+)\._(?!_)[a-z]\w*")
 

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-_BENCH = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_training_throughput.py"
+_BENCH = Path(__file__).resolve().parents[2] / "benchmarks" / "bench_training_throughput.py"
 _spec = importlib.util.spec_from_file_location("bench_training_throughput", _BENCH)
 bench = importlib.util.module_from_spec(_spec)
 sys.modules[_spec.name] = bench  # dataclasses look their module up

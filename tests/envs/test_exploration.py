@@ -94,7 +94,7 @@ def same_steps(a, b):
 
 
 def test_every_key_is_covered_and_accepted():
-    # normalize_actions needs a continuous action type (tests/test_rl_options.py covers it)
+    # normalize_actions needs a continuous action type (tests/baselines/test_rl_options.py covers it)
     assert set(EVERY_KEY) | {"normalize_actions"} == set(ExplorationConfig.field_names())
     defaults = ExplorationConfig()
     for key, value in EVERY_KEY.items():

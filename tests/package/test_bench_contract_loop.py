@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-_BENCH = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_navigation.py"
+_BENCH = Path(__file__).resolve().parents[2] / "benchmarks" / "bench_navigation.py"
 _spec = importlib.util.spec_from_file_location("bench_navigation", _BENCH)
 bench = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(bench)

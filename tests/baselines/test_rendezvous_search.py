@@ -23,7 +23,7 @@ from baselines.rendezvous.search import (
 from teamgym.maps.graph import load_graph_map
 
 # The random graphs of the planner benchmark (one definition for the benchmark and the tests).
-_BENCH = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_rendezvous_search.py"
+_BENCH = Path(__file__).resolve().parents[2] / "benchmarks" / "bench_rendezvous_search.py"
 _spec = importlib.util.spec_from_file_location("bench_rendezvous_search", _BENCH)
 bench = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(bench)

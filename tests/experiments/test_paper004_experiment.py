@@ -10,7 +10,7 @@ import pytest
 
 from baselines.stats import mean_text, rate_text
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 SCRIPT = ROOT / "experiments" / "paper004_box_pushing.py"
 
 

@@ -17,7 +17,7 @@ from baselines.learned import (
 from baselines.registry import policy_class
 from tests.rllib_support import HAVE_RAY
 
-AGENTS = Path(__file__).resolve().parents[1] / "baselines" / "rl" / "agents"
+AGENTS = Path(__file__).resolve().parents[2] / "baselines" / "rl" / "agents"
 
 #: A sidecar as ``python -m baselines.rl.rllib`` wrote it before format 1: the given settings in ``config``.
 OLD_RLLIB = {

@@ -61,7 +61,7 @@ EVERY_KEY = dict(
 
 
 def test_every_documented_key_is_covered():
-    # normalize_actions needs a continuous action type (tests/test_rl_options.py covers it)
+    # normalize_actions needs a continuous action type (tests/baselines/test_rl_options.py covers it)
     assert set(EVERY_KEY) | {"normalize_actions"} == set(NavigationConfig.field_names())
     defaults = NavigationConfig()
     for key, value in EVERY_KEY.items():

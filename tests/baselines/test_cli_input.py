@@ -38,7 +38,7 @@ from baselines.rl.hyperparameters import check_hyperparameters, check_rollout, p
 from baselines.rl.sb3_policy import ALGORITHMS  # noqa: E402
 from baselines.runners import Episodes, chunks  # noqa: E402
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 SMALL = ["--set", "n_robots=2", "--max-cycles", "10", "--n-envs", "1", "--verbose", "0"]
 
 

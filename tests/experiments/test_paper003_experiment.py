@@ -10,7 +10,7 @@ import networkx as nx
 import numpy as np
 import pytest
 
-SCRIPT = Path(__file__).resolve().parents[1] / "experiments" / "paper003_rendezvous.py"
+SCRIPT = Path(__file__).resolve().parents[2] / "experiments" / "paper003_rendezvous.py"
 
 
 @pytest.fixture(scope="module")

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-SCRIPT = Path(__file__).resolve().parents[1] / "experiments" / "paper002_foraging.py"
+SCRIPT = Path(__file__).resolve().parents[2] / "experiments" / "paper002_foraging.py"
 
 
 @pytest.fixture(scope="module")

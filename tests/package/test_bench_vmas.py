@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-_BENCH = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_vmas.py"
+_BENCH = Path(__file__).resolve().parents[2] / "benchmarks" / "bench_vmas.py"
 _spec = importlib.util.spec_from_file_location("bench_vmas", _BENCH)
 bench = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(bench)

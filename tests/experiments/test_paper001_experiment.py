@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-SCRIPT = Path(__file__).resolve().parents[1] / "experiments" / "paper001_navigation.py"
+SCRIPT = Path(__file__).resolve().parents[2] / "experiments" / "paper001_navigation.py"
 
 
 @pytest.fixture(scope="module")

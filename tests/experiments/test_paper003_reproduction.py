@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-SCRIPT = Path(__file__).resolve().parents[1] / "experiments" / "paper003_scenarios.py"
+SCRIPT = Path(__file__).resolve().parents[2] / "experiments" / "paper003_scenarios.py"
 _spec = importlib.util.spec_from_file_location("paper003_scenarios", SCRIPT)
 scenarios = importlib.util.module_from_spec(_spec)
 sys.modules["paper003_scenarios"] = scenarios

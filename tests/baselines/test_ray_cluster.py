@@ -31,7 +31,7 @@ from tests.rllib_support import TINY, needs_rllib
 
 pytestmark = [pytest.mark.rllib, needs_rllib]
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 ADDRESS = "127.0.0.1:6379"
 #: Bounds (seconds) of the commands: a node's start, a driver's query, an evaluation, an RLlib iteration.
 START, QUERY, EVALUATE, TRAIN = 90, 60, 180, 240

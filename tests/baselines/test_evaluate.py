@@ -19,7 +19,7 @@ from baselines.episode import Step, success_of
 from baselines.evaluate import EpisodeResult, evaluate, main, run_episode
 from baselines.summary import summarise, summary_table
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 SHORT = ["--set", "max_cycles=30"]
 
 
