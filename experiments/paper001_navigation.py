@@ -232,7 +232,8 @@ def experiment_delay_long(out: Path, seeds: int, first_seed: int = 0) -> dict:
     rows = []
     for true_delay, fraction, modelled in cases:
         config = {**CROSSING, "actuation_delay": fraction * CROSSING["dt"], "true_delay": true_delay}
-        results = [run("Navigation-v0", "nash", s, config, {"model_delay": modelled}) for s in range(first_seed, first_seed + seeds)]
+        kwargs = {"model_delay": modelled}
+        results = [run("Navigation-v0", "nash", s, config, kwargs) for s in range(first_seed, first_seed + seeds)]
         rows.append(_delay_row(results, fraction, true_delay, modelled))
     return {"rows": rows, "seeds": [first_seed, first_seed + seeds - 1]}
 
@@ -434,7 +435,10 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--out", type=Path, default=Path("results/paper001"))
     parser.add_argument("--seeds", type=int, default=100, help="seeds for obstacles, failures and delay-long (20 for the others)")
     parser.add_argument(
-        "--first-seed", type=int, default=0, help="first seed of obstacles, failures and delay-long (100 = the held-out tuning seeds)"
+        "--first-seed",
+        type=int,
+        default=0,
+        help="first seed of obstacles, failures, delay-long (100: held-out tuning seeds)",
     )
     args = parser.parse_args(argv)
     if args.seeds < 1 or args.first_seed < 0:

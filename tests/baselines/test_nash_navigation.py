@@ -183,3 +183,33 @@ def test_modelled_delay_is_the_env_delay_unless_disabled():
     env = teamgym.make("Navigation-v0", action_type="heading", actuation_delay=0.09)
     assert make_policy("nash", env).delay == pytest.approx(0.09)
     assert make_policy("nash", env, model_delay=False).delay == 0.0
+
+
+def test_a_modelled_delay_above_dt_is_refused_naming_t0_and_dt():
+    env = teamgym.make("Navigation-v0", action_type="heading", actuation_delay=0.15)
+    with pytest.raises(ValueError, match=r"T0=0.15 s must be in \[0, dt=0.1\]"):
+        make_policy("nash", env)
+    assert make_policy("nash", env, model_delay=False).delay == 0.0
+    with pytest.raises(ValueError, match="T0=0.12"):
+        make_policy("nash", teamgym.make("Navigation-v0", action_type="heading"), delay=0.12)
+
+
+def test_at_t0_equal_to_dt_eq_26_drops_the_decision_and_every_loss_ties():
+    """Eqs. (17), (26) at T0 = Δt: the decision acts for Δt − T0 = 0, so no decision changes any loss."""
+    env = teamgym.make("Navigation-v0", action_type="heading", actuation_delay=0.1, n_robots=3)
+    policy = make_policy("nash", env)
+    assert policy.delay == env.config.dt
+    state = TeamState(
+        positions=np.array([[0.5, 0.5], [1.5, 0.6], [1.0, 1.4]]),
+        headings=np.array([0.3, 2.0, -1.5]),
+        previous=np.array([[0.2, 1.0], [0.2, -1.0], [0.1, 0.0]]),
+        speeds=np.array([0.25, 0.25, 0.2]),
+        goals=np.array([[1.5, 1.5], [0.5, 1.5], [1.0, 0.3]]),
+        static_points=np.zeros((0, 2)),
+        obstacles=np.array([[1.0, 0.8]]),
+    )
+    tied, _, _ = loss_tensor(state, policy.rates, 0.1, 0.1, policy.gains)
+    for i in range(3):
+        np.testing.assert_allclose(tied[i], tied[i].flat[0], rtol=1e-12, atol=1e-12)
+    steered, _, _ = loss_tensor(state, policy.rates, 0.1, 0.09, policy.gains)
+    assert all(np.ptp(steered[i]) > 1e-6 for i in range(3))

@@ -443,3 +443,56 @@ def test_heading_speed_in_open_space_is_v_opt():
     v, omega = env.robots["robot_0"].command
     assert omega == 0.0
     assert v == pytest.approx(env.config.v_opt, rel=0.02)
+
+
+# -- actuation delays past one step (section 6.1 carried on) ---------------------------
+
+
+def test_delays_up_to_eight_steps_are_accepted_and_fixed_true_delay_is_t0():
+    assert NavigationConfig.MAX_DELAY_STEPS == 8
+    env = teamgym.make("Navigation-v0", actuation_delay=0.8, n_obstacles=0)
+    assert env.config.actuation_delay == 0.8
+    fixed = teamgym.make("Navigation-v0", actuation_delay=0.07, true_delay="fixed", n_obstacles=0)
+    fixed.reset(seed=0)
+    state = fixed.np_random.bit_generator.state
+    fixed.step({a: fixed.action_space(a).sample() * 0 for a in fixed.agents})
+    assert [r.actuation_delay for r in fixed.robot_list] == [0.07] * fixed.config.n_robots
+    assert fixed.np_random.bit_generator.state == state  # "fixed" draws no δt
+
+
+@pytest.mark.parametrize("true_delay", ["random", "fixed"])
+def test_copies_and_pickles_with_a_command_queue_go_on_bit_for_bit(monkeypatch, true_delay):
+    import pickle
+
+    monkeypatch.setattr(teamgym.env_class("Navigation-v0"), "rebase_cycles", 4)  # the queue crosses re-bases
+    env = teamgym.make("Navigation-v0", actuation_delay=0.25, true_delay=true_delay, n_robots=3, max_cycles=40)
+    env.reset(seed=2)
+    plan = [{a: env.action_space(a).sample() for a in env.possible_agents} for _ in range(30)]
+    for actions in plan[:10]:
+        env.step({a: actions[a] for a in env.agents})
+    assert all(len(r.given_commands) == 4 for r in env.robot_list)  # ⌊2.5⌋ + 2 commands kept
+    twins = [env.copy(), pickle.loads(pickle.dumps(env))]
+    for actions in plan[10:]:
+        if not env.agents:
+            break
+        for e in (env, *twins):
+            e.step({a: actions[a] for a in e.agents})
+        for twin in twins:
+            np.testing.assert_array_equal(twin.state(), env.state())
+
+
+def test_a_finished_robot_is_given_stop_commands_and_halts_after_the_delay():
+    env = teamgym.make("Navigation-v0", actuation_delay=0.2, true_delay="fixed", n_robots=2, n_obstacles=0)
+    env.reset(seed=1)
+    env.live_agents = env.live_agents[:1]  # robot 1 left the episode: its queue fills with (0, 0)
+    robot = env.robot_list[1]
+    robot.given_commands = ((0.3, 0.0), (0.3, 0.0))
+    moved = []
+    for _ in range(3):
+        before = np.array(robot.pose[:2])
+        env._delay_actuation(env.robot_list, env.np_random)
+        env.world.step()
+        moved.append(float(np.hypot(*(np.array(robot.pose[:2]) - before))))
+    assert robot.given_commands[-2:] == ((0.0, 0.0), (0.0, 0.0))
+    assert moved[0] > 0.02 and moved[1] > 0.02  # the two commands in flight still run
+    assert moved[2] < 0.25 * moved[1]  # then (0, 0): the robot brakes to a halt

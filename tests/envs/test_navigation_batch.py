@@ -22,6 +22,7 @@ CONFIGS = {
         "actuation_delay": 0.05,
         "max_cycles": 120,
     },
+    "delay-past-a-step": {"n_robots": 3, "actuation_delay": 0.15, "max_cycles": 120},
     "heading": {"n_robots": 2, "action_type": "heading", "local_features": True, "max_cycles": 150},
     "one-robot-no-obstacles": {"n_robots": 1, "n_obstacles": 0, "max_cycles": 200},
     "crowded-no-walls": {"n_robots": 4, "n_obstacles": 4, "walls": False, "obstacle_motion": "straight", "max_cycles": 150},

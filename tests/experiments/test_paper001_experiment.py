@@ -82,3 +82,17 @@ def test_cli_rejects_bad_seed_ranges(paper001, tmp_path):
         paper001.main(["obstacles", "--out", str(tmp_path), "--seeds", "0"])
     with pytest.raises(SystemExit):
         paper001.main(["obstacles", "--out", str(tmp_path), "--first-seed", "-1"])
+
+
+def test_delay_long_runs_modelled_only_up_to_dt_and_reports_the_eq26_case(paper001, tmp_path, monkeypatch):
+    monkeypatch.setattr(paper001, "LONG_RANDOM", (1.0,))
+    monkeypatch.setattr(paper001, "LONG_FIXED", (1.5,))
+    paper001.main(["delay-long", "--out", str(tmp_path), "--seeds", "1", "--first-seed", "3"])
+    result = json.loads((tmp_path / "delay-long.json").read_text())
+    assert result["seeds"] == [3, 3]
+    cases = [(r["T0/dt"], r["true delay"], r["T0 modelled"]) for r in result["rows"]]
+    assert cases == [(1.0, "½T0(1+δt)", False), (1.0, "½T0(1+δt)", True), (1.5, "T0", False)]
+    unmodelled, eq26, fixed = result["rows"]
+    assert eq26["arrived"] == 0  # eq. (26) at T0 = Δt: the decision drops out, the robots cannot steer
+    assert unmodelled["arrived"] == fixed["arrived"] == 1
+    assert "seeds 3–3" in (tmp_path / "delay-long.md").read_text()

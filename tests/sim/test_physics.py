@@ -193,6 +193,81 @@ def test_navigation_actuation_delay_lags_a_command_change():
     assert np.all(moved_late_next > moved_late + 0.01)
 
 
+def heading_steps(delay, commands, lag=True):
+    """Heading change of each control step of a robot given ``commands`` (v, ω), one per step, ``delay`` s late."""
+    world = World((3.0, 3.0))
+    robot = world.add(DiffDriveRobot("r", (1.5, 1.5), 0.0))
+    turns = []
+    for command in commands:
+        robot.set_command(*command)
+        if lag:
+            robot.lag_commands(robot.command, delay, world.dt, depth=5)
+        else:
+            robot.actuation_delay = delay
+        before = robot.body.angle
+        world.step()
+        turns.append(robot.body.angle - before)
+    return np.array(turns)
+
+
+#: Steer left, right, straight, left again: each command's turn shows which step runs it.
+TURNS = [(0.2, 0.0), (0.2, 3.0), (0.2, 0.0), (0.2, -2.0), (0.2, -2.0), (0.2, 0.0), (0.2, 1.0), (0.2, 0.0), (0.2, 0.0), (0.2, 0.0)]
+
+
+@pytest.mark.parametrize("steps", [1, 2, 3])
+def test_a_delay_of_whole_steps_runs_the_command_given_that_many_steps_earlier(steps):
+    """Section 6.1 past Δt (command queue): with delay m·Δt step n runs the command of step n − m, whole."""
+    plain = heading_steps(0.0, TURNS)
+    late = heading_steps(steps * 0.1, TURNS)
+    np.testing.assert_allclose(late[:steps], 0.0, atol=1e-9)  # before the first command: (0, 0)
+    np.testing.assert_allclose(late[steps:], plain[:-steps], atol=0.005)
+    assert plain[1] > 0.25  # 3 rad/s for 0.1 s (a little less: the motors take up the turn)
+
+
+def test_a_delay_between_steps_splits_each_step_between_two_earlier_commands():
+    """Delay 1.5Δt = Δt + r: step n runs the command of step n − 2 for r = 0.05 s, then that of n − 1."""
+    omega = np.array([w for _, w in TURNS])
+    expected = 0.05 * (np.r_[0.0, omega[:-1]] + np.r_[0.0, 0.0, omega[:-2]])
+    late = heading_steps(0.15, TURNS)
+    # Within 0.02 rad (the motors take up a turn a little late); the one- and two-step models miss by 0.15.
+    np.testing.assert_allclose(late, expected, atol=0.02)
+    assert late[2] == pytest.approx(0.15, abs=0.02) == late[3]
+
+
+@pytest.mark.parametrize("delay", [0.0, 0.04, 0.1])
+def test_the_command_queue_below_one_step_is_the_one_step_model(delay):
+    np.testing.assert_array_equal(heading_steps(delay, TURNS, lag=True), heading_steps(delay, TURNS, lag=False))
+
+
+def test_lag_commands_refuses_a_queue_too_short_for_the_delay():
+    robot = DiffDriveRobot("r", (1.0, 1.0), 0.0)
+    with pytest.raises(ValueError, match="depth >= 4"):
+        robot.lag_commands((0.1, 0.0), 0.25, 0.1, depth=3)
+    assert robot.given_commands == () and robot.command == (0.0, 0.0)
+
+
+def test_navigation_delay_of_two_steps_moves_robots_two_steps_late():
+    kwargs = dict(n_robots=3, n_obstacles=0, max_cycles=10)
+    plain = teamgym.make("Navigation-v0", **kwargs)
+    late = teamgym.make("Navigation-v0", actuation_delay=0.2, true_delay="fixed", **kwargs)
+    plain.reset(seed=3)
+    late.reset(seed=3)
+    go = {a: np.array([0.3, 1.0], dtype=np.float32) for a in plain.agents}
+
+    def positions(env, steps):
+        out = []
+        for _ in range(steps):
+            env.step(go)
+            out.append(np.array([r.pose for r in env.robots.values()]))
+        return np.array(out)
+
+    start = np.array([r.pose for r in late.robots.values()])
+    moved_plain, moved_late = positions(plain, 2), positions(late, 4)
+    np.testing.assert_allclose(moved_late[:2], np.broadcast_to(start, moved_late[:2].shape), atol=1e-9)
+    np.testing.assert_allclose(moved_late[2:], moved_plain, atol=1e-6)
+    assert np.all(np.hypot(*(moved_plain[0, :, :2] - start[:, :2]).T) > 0.02)
+
+
 # -- crowded episodes ------------------------------------------------------------------
 
 

@@ -328,7 +328,9 @@ class Navigation(TeamEnv):
         )
 
     def _delay_actuation(self, robots: list[DiffDriveRobot], rng: np.random.Generator) -> None:
-        """Section 6.1: each robot's true delay this step is ½ T0 (1 + δt), δt ~ N(0.5, 0.25²) in [0, 1] (T0 with ``true_delay="fixed"``).
+        """Section 6.1: each robot's true delay this step is ½ T0 (1 + δt), δt ~ N(0.5, 0.25²) in [0, 1].
+
+        With ``true_delay="fixed"`` it is T0 in every step (no δt is drawn).
 
         T0 ≤ Δt: the robot keeps its previous command for the true delay, then runs the new
         one. T0 > Δt (up to ``MAX_DELAY_STEPS``·Δt): a command queue, the command given at t_j
