@@ -14,6 +14,8 @@ Subcommands (each writes JSON, a Markdown table and PNG plots into ``--out``):
   modelled only where T0 ≤ Δt (``nash`` refuses a larger T0: eq. 26's Δt − T0 turns negative),
   which includes T0 = Δt, where eq. (26) drops the decision from the predicted heading. Arrival
   rate with its Wilson interval, contact-free rate, collisions, time to goal, smoothness J.
+  ``--layout random`` (written as ``delay-long-random``): 2 robots with random starts, headings
+  and goals instead of Fig. 5's head-on crossing, whose seeds change only the circle's phase.
 * ``decision-set`` (section 6.2, Figs. 6–7): K = 3, 5, 9, 17 angular-velocity levels;
   smoothness J_1 of robot 1 and decision time per step.
 * ``obstacles`` (section 6.3, Figs. 8–9): 3 and 5 robots, 2 obstacles at 20 cm/s,
@@ -225,17 +227,21 @@ def experiment_delay(out: Path, seeds: int) -> dict:
     return {"rows": rows}
 
 
-def experiment_delay_long(out: Path, seeds: int, first_seed: int = 0) -> dict:
-    """``delay-long``: delays from Δt on (random ½T0(1+δt), then fixed), modelled where eq. (26) allows."""
+def experiment_delay_long(out: Path, seeds: int, first_seed: int = 0, layout: str = "circle") -> dict:
+    """``delay-long``: delays from Δt on (random ½T0(1+δt), then fixed), modelled where eq. (26) allows.
+
+    ``layout="circle"`` is Fig. 5's head-on crossing (seeds change only the circle's phase);
+    ``"random"`` draws starts, headings and goals per seed (independent episodes).
+    """
     cases = [("random", f, m) for f in LONG_RANDOM for m in ((False, True) if f <= 1.0 else (False,))]
     cases += [("fixed", f, m) for f in LONG_FIXED for m in ((False, True) if f <= 1.0 else (False,))]
     rows = []
     for true_delay, fraction, modelled in cases:
-        config = {**CROSSING, "actuation_delay": fraction * CROSSING["dt"], "true_delay": true_delay}
+        config = {**CROSSING, "layout": layout, "actuation_delay": fraction * CROSSING["dt"], "true_delay": true_delay}
         kwargs = {"model_delay": modelled}
         results = [run("Navigation-v0", "nash", s, config, kwargs) for s in range(first_seed, first_seed + seeds)]
         rows.append(_delay_row(results, fraction, true_delay, modelled))
-    return {"rows": rows, "seeds": [first_seed, first_seed + seeds - 1]}
+    return {"rows": rows, "seeds": [first_seed, first_seed + seeds - 1], "layout": layout}
 
 
 def _delay_row(results: list[dict], fraction: float, true_delay: str, modelled: bool) -> dict:
@@ -440,6 +446,9 @@ def main(argv: list[str] | None = None) -> None:
         default=0,
         help="first seed of obstacles, failures, delay-long (100: held-out tuning seeds)",
     )
+    parser.add_argument(
+        "--layout", choices=["circle", "random"], default="circle", help="delay-long: Fig. 5's crossing or random starts"
+    )
     args = parser.parse_args(argv)
     if args.seeds < 1 or args.first_seed < 0:
         parser.error("--seeds must be >= 1 and --first-seed >= 0")
@@ -447,7 +456,11 @@ def main(argv: list[str] | None = None) -> None:
     names = [n for n in EXPERIMENTS if n not in NOT_IN_ALL] if args.experiment == "all" else [args.experiment]
     for name in names:
         seeds = args.seeds if name in SEEDED else min(args.seeds, 20)
-        if name in SEEDED:
+        if name == "delay-long":
+            result = experiment_delay_long(args.out, seeds, args.first_seed, args.layout)
+            label = f"seeds {args.first_seed}–{args.first_seed + seeds - 1}, layout {args.layout}"
+            name += "" if args.layout == "circle" else f"-{args.layout}"
+        elif name in SEEDED:
             result = EXPERIMENTS[name](args.out, seeds, args.first_seed)
             label = f"seeds {args.first_seed}–{args.first_seed + seeds - 1}"
         else:
