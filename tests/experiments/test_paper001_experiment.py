@@ -96,3 +96,14 @@ def test_delay_long_runs_modelled_only_up_to_dt_and_reports_the_eq26_case(paper0
     assert eq26["arrived"] == 0  # eq. (26) at T0 = Δt: the decision drops out, the robots cannot steer
     assert unmodelled["arrived"] == fixed["arrived"] == 1
     assert "seeds 3–3" in (tmp_path / "delay-long.md").read_text()
+
+
+def test_delay_long_random_layout_writes_its_own_table(paper001, tmp_path, monkeypatch):
+    monkeypatch.setattr(paper001, "LONG_RANDOM", ())
+    monkeypatch.setattr(paper001, "LONG_FIXED", (2.0,))
+    paper001.main(["delay-long", "--layout", "random", "--out", str(tmp_path), "--seeds", "2"])
+    assert not (tmp_path / "delay-long.md").exists()
+    result = json.loads((tmp_path / "delay-long-random.json").read_text())
+    assert result["layout"] == "random" and len(result["rows"]) == 1
+    assert result["rows"][0]["episodes"] == 2
+    assert "layout random" in (tmp_path / "delay-long-random.md").read_text()
