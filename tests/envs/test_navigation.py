@@ -40,6 +40,7 @@ EVERY_KEY = dict(
     walls=False,
     obstacle_motion="straight",
     actuation_delay=0.02,
+    true_delay="fixed",
     goal_tolerance=0.04,
     min_goal_distance=0.5,
     spawn_margin=0.1,
