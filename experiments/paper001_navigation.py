@@ -227,14 +227,24 @@ def experiment_delay(out: Path, seeds: int) -> dict:
     return {"rows": rows}
 
 
-def experiment_delay_long(out: Path, seeds: int, first_seed: int = 0, layout: str = "circle") -> dict:
+def experiment_delay_long(
+    out: Path,
+    seeds: int,
+    first_seed: int = 0,
+    layout: str = "circle",
+    random_fractions: tuple[float, ...] | None = None,
+    fixed_fractions: tuple[float, ...] | None = None,
+) -> dict:
     """``delay-long``: delays from Δt on (random ½T0(1+δt), then fixed), modelled where eq. (26) allows.
 
     ``layout="circle"`` is Fig. 5's head-on crossing (seeds change only the circle's phase);
-    ``"random"`` draws starts, headings and goals per seed (independent episodes).
+    ``"random"`` draws starts, headings and goals per seed (independent episodes). The
+    fractions of Δt default to ``LONG_RANDOM`` and ``LONG_FIXED``.
     """
-    cases = [("random", f, m) for f in LONG_RANDOM for m in ((False, True) if f <= 1.0 else (False,))]
-    cases += [("fixed", f, m) for f in LONG_FIXED for m in ((False, True) if f <= 1.0 else (False,))]
+    random_fractions = LONG_RANDOM if random_fractions is None else random_fractions
+    fixed_fractions = LONG_FIXED if fixed_fractions is None else fixed_fractions
+    cases = [("random", f, m) for f in random_fractions for m in ((False, True) if f <= 1.0 else (False,))]
+    cases += [("fixed", f, m) for f in fixed_fractions for m in ((False, True) if f <= 1.0 else (False,))]
     rows = []
     for true_delay, fraction, modelled in cases:
         config = {**CROSSING, "layout": layout, "actuation_delay": fraction * CROSSING["dt"], "true_delay": true_delay}
@@ -435,6 +445,17 @@ SEEDED = ("obstacles", "failures", "delay-long")
 NOT_IN_ALL = ("failures", "delay-long")
 
 
+def _fractions(text: str) -> tuple[float, ...]:
+    """``--random-delays`` / ``--fixed-delays``: comma-separated T0/Δt in [0, 8] (the env's limit)."""
+    try:
+        values = tuple(float(v) for v in text.split(",") if v.strip())
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected comma-separated numbers, got {text!r}") from None
+    if not all(0.0 <= v <= 8.0 for v in values):
+        raise argparse.ArgumentTypeError(f"each T0/Δt must be in [0, 8], got {text!r}")
+    return values
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description="Reproduce paper 001's experiments with the nash baseline.")
     parser.add_argument("experiment", choices=[*EXPERIMENTS, "all"])
@@ -449,6 +470,13 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument(
         "--layout", choices=["circle", "random"], default="circle", help="delay-long: Fig. 5's crossing or random starts"
     )
+    for kind, default in (("random", LONG_RANDOM), ("fixed", LONG_FIXED)):
+        parser.add_argument(
+            f"--{kind}-delays",
+            type=_fractions,
+            default=None,
+            help=f"delay-long: T0/Δt of the {kind} true delay, comma-separated ('' none; default {','.join(map(str, default))})",
+        )
     args = parser.parse_args(argv)
     if args.seeds < 1 or args.first_seed < 0:
         parser.error("--seeds must be >= 1 and --first-seed >= 0")
@@ -457,7 +485,7 @@ def main(argv: list[str] | None = None) -> None:
     for name in names:
         seeds = args.seeds if name in SEEDED else min(args.seeds, 20)
         if name == "delay-long":
-            result = experiment_delay_long(args.out, seeds, args.first_seed, args.layout)
+            result = experiment_delay_long(args.out, seeds, args.first_seed, args.layout, args.random_delays, args.fixed_delays)
             label = f"seeds {args.first_seed}–{args.first_seed + seeds - 1}, layout {args.layout}"
             name += "" if args.layout == "circle" else f"-{args.layout}"
         elif name in SEEDED:

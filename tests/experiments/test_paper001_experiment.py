@@ -107,3 +107,12 @@ def test_delay_long_random_layout_writes_its_own_table(paper001, tmp_path, monke
     assert result["layout"] == "random" and len(result["rows"]) == 1
     assert result["rows"][0]["episodes"] == 2
     assert "layout random" in (tmp_path / "delay-long-random.md").read_text()
+
+
+def test_delay_long_takes_its_delays_from_the_command_line(paper001, tmp_path):
+    paper001.main(["delay-long", "--out", str(tmp_path), "--seeds", "1", "--random-delays", "", "--fixed-delays", "0.5,3"])
+    rows = json.loads((tmp_path / "delay-long.json").read_text())["rows"]
+    assert [(r["T0/dt"], r["T0 modelled"]) for r in rows] == [(0.5, False), (0.5, True), (3.0, False)]
+    for bad in ("0.5,x", "9"):
+        with pytest.raises(SystemExit):
+            paper001.main(["delay-long", "--out", str(tmp_path), "--fixed-delays", bad])
