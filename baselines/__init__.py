@@ -3,7 +3,8 @@
 ``make_policy(name, env)`` builds a policy by name (``policies()`` lists them):
 
 * any env: ``random`` (uniform random actions); ``sb3:PATH`` (a saved Stable-Baselines3
-  model, parameter-shared across robots; :mod:`baselines.rl`);
+  model, parameter-shared across robots; :mod:`baselines.rl`); ``rllib:PATH`` (an RLlib
+  checkpoint of ``python -m baselines.rl.rllib``; :mod:`baselines.learned`);
 * Navigation-v0 (paper 001, :mod:`baselines.navigation`): ``goto`` (turn to the goal and
   drive), ``nash`` (one non-cooperative game per step with the fair arbiter; heading
   actions), ``nash-first`` (the first equilibrium, no arbiter);

@@ -247,14 +247,17 @@ def _record_scene(env: Any, result: EpisodeResult) -> None:
 
 
 def static_geometry(world: Any) -> tuple[list, list]:
-    """Wall and closed-door segments and furniture polygons of a world, for plots."""
+    """Wall and closed-door segments (the walls of a ``JoinedWalls`` one by one) and furniture polygons, for plots."""
+    from teamgym.maps.walls import JoinedWalls
     from teamgym.sim.objects import Door, StaticPolygon, Wall
 
     walls, furniture = [], []
     for entity in world.entities.values():
         if isinstance(entity, Door) and entity.is_open:
             continue
-        if isinstance(entity, Wall):
+        if isinstance(entity, JoinedWalls):
+            walls += [(tuple(w.a), tuple(w.b)) for w in entity.walls]
+        elif isinstance(entity, Wall):
             walls.append((tuple(entity.a), tuple(entity.b)))
         elif isinstance(entity, StaticPolygon):
             furniture.append([tuple(v) for v in entity.vertices])

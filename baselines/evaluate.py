@@ -11,21 +11,24 @@ so results do not depend on ``--workers``. ``--workers ray`` runs the episodes o
 cluster (one actor per CPU; ``--ray-address HOST:PORT`` or ``RAY_ADDRESS`` names an existing
 cluster, else a local one starts; needs ``pip install ray``) with the same results.
 ``--policy sb3:PATH`` evaluates a saved Stable-Baselines3 model (see
-:mod:`baselines.rl.sb3_policy`), deterministically unless ``--stochastic``.
+:mod:`baselines.rl.sb3_policy`) and ``--policy rllib:PATH`` an RLlib checkpoint of
+``python -m baselines.rl.rllib`` (:class:`baselines.rl.rllib.RLlibPolicy`; needs ``ray[rllib]``),
+deterministically unless ``--stochastic``.
 
-A model saved by ``python -m baselines.train`` has a sidecar ``<model>.json`` with the env
-id and config overrides it was trained with. When it exists they are the defaults: the
-env is the sidecar's unless ``--env`` is given, and the config is the sidecar's overrides
+A policy trained by ``python -m baselines.train`` or ``python -m baselines.rl.rllib`` has a sidecar
+(:mod:`baselines.learned`: ``<model>.json`` beside an SB3 model, ``teamgym.json`` in an RLlib
+checkpoint) with the env id and config overrides it was trained with. When it exists they are the
+defaults: the env is the sidecar's unless ``--env`` is given, and the config is the sidecar's overrides
 updated with the ``--set``/``--max-cycles`` given (an explicit setting wins, key by key).
 An ``--env`` other than the sidecar's drops the sidecar's overrides and is accepted only if
-the model's spaces fit that env (a note goes to stderr); otherwise it is a one-line error
+the policy's spaces fit that env (a note goes to stderr); otherwise it is a one-line error
 naming both envs. Files written to ``DIR`` (default ``results/<env>_<policy>/``):
 
 * ``summary.json``: env, policy, resolved config, episodes, seed, ``success_rate``,
   ``mean_episode_length``, ``mean_return`` and ``mean_<metric>`` for every numeric
   metric, plus ``metrics`` (mean/std/min/max/count of each), ``deterministic`` (false
   with ``--stochastic``), ``overrides`` (the ``--set`` and sidecar settings, as strings), for
-  a model with a sidecar ``sidecar`` (its path) and, with ``--workers ray``, ``ray_nodes``
+  a learned policy with a sidecar ``sidecar`` (its path) and, with ``--workers ray``, ``ray_nodes``
   (the episodes each Ray node ran, by node id);
 * ``episodes.csv``: one row per episode (seed, length, success, mean return over robots
   and the per-episode mean of every metric over the robots that report it);
@@ -47,6 +50,10 @@ Metric means pool all (robot, episode) values: a metric a robot does not report 
 ``time_to_goal`` before arrival) is left out rather than counted as zero; booleans count
 as 0/1 (so ``mean_arrived`` is the arrival rate). Non-finite means are written as ``null``.
 
+The pieces live in their own modules: the command-line toolkit in :mod:`baselines.cli`, the
+summary, tables and writers in :mod:`baselines.summary`, the serial, process-pool and Ray runners in
+:mod:`baselines.runners` (names imported from here before they moved still import from here).
+
 From Python::
 
     from baselines.evaluate import evaluate, summarise
@@ -63,24 +70,42 @@ if __name__ == "__main__":  # the CLI: one numeric thread per process, set befor
         os.environ.setdefault(_variable, "1")
 
 import argparse
-import csv
-import json
-import math
+import importlib
 import re
 import sys
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import Any
 
-import numpy as np
-
+from baselines.cli import (
+    Parser,
+    UsageError,
+    at_least,
+    check_out,
+    cluster_address,
+    guarded,
+    message,
+    nonblank,
+    one_line,
+    parse_args,
+    parse_pairs,
+    workers_or_ray,
+)
 from baselines.episode import EpisodeResult, metric_names, run_episode
+from baselines.learned import is_learned, policy_sidecar, split_scheme
+from baselines.runners import EpisodeRunner, Episodes, check_ray_address, require_ray, run_episodes
+from baselines.summary import markdown_table, summarise, summary_table, write_episodes_csv, write_summary_json
 
 __all__ = [
+    "MAX_EPISODES",
     "EpisodeResult",
+    "build_parser",
+    "check_ray_address",
     "evaluate",
     "main",
+    "markdown_table",
     "metric_names",
+    "require_ray",
     "run_episode",
     "summarise",
     "summary_table",
@@ -88,187 +113,40 @@ __all__ = [
     "write_summary_json",
 ]
 
+#: Names that lived here before :mod:`baselines.cli`, :mod:`baselines.summary` and :mod:`baselines.runners`
+#: took them: old name -> (module, name there). Importing one from here still works.
+_MOVED: dict[str, tuple[str, str]] = {
+    "_at_least": ("baselines.cli", "at_least"),
+    "_check_out": ("baselines.cli", "check_out"),
+    "_message": ("baselines.cli", "message"),
+    "_nonblank": ("baselines.cli", "nonblank"),
+    "_one_line": ("baselines.cli", "one_line"),
+    "_parse_sets": ("baselines.cli", "parse_pairs"),
+    "_Parser": ("baselines.cli", "Parser"),
+    "_ray_address": ("baselines.cli", "cluster_address"),
+    "_UsageError": ("baselines.cli", "UsageError"),
+    "_workers": ("baselines.cli", "workers_or_ray"),
+    "_json_safe": ("baselines.summary", "json_safe"),
+    "_stats": ("baselines.summary", "stats"),
+    "_chunks": ("baselines.runners", "chunks"),
+    "_Episodes": ("baselines.runners", "Episodes"),
+    "_pool_context": ("baselines.runners", "pool_context"),
+    "_Runner": ("baselines.runners", "EpisodeRunner"),
+}
 
-#: The env evaluated when neither ``--env`` nor an SB3 model's sidecar names one.
+
+def __getattr__(name: str) -> Any:
+    if name in _MOVED:
+        module, new = _MOVED[name]
+        return getattr(importlib.import_module(module), new)
+    raise AttributeError(f"module 'baselines.evaluate' has no attribute {name!r}")
+
+
+#: The env evaluated when neither ``--env`` nor a learned policy's sidecar names one.
 DEFAULT_ENV = "Navigation-v0"
 #: The most episodes one evaluation runs: their results are kept for the summary and the CSV
 #: (about 2 kB each for ``goto`` on Navigation-v0, 0.1 CPU-s to play), so more would not fit in memory.
 MAX_EPISODES = 10**6
-
-
-class _Runner:
-    """An env and a policy built once and reused for many episodes."""
-
-    def __init__(
-        self,
-        env_id: str,
-        policy_name: str,
-        config: Mapping[str, Any] | None,
-        render_mode: str | None = None,
-        policy_kwargs: Mapping[str, Any] | None = None,
-    ) -> None:
-        import teamgym
-        from baselines.registry import make_policy, policy_class, required_config
-
-        if env_id in teamgym.envs():  # a policy for another env fails here, before its required config
-            policy_class(policy_name).check_env_id(env_id, policy_name)
-        config = {**required_config(policy_name), **dict(config or {})}
-        self.env = teamgym.make(env_id, render_mode=render_mode, **config)
-        try:
-            self.policy = make_policy(policy_name, self.env, **dict(policy_kwargs or {}))
-        except BaseException:
-            self.env.close()
-            raise
-
-    def run(self, seed: int, record_frames: bool = False, record_trajectories: bool = False) -> EpisodeResult:
-        return run_episode(self.env, self.policy, seed, record_frames=record_frames, record_trajectories=record_trajectories)
-
-    def close(self) -> None:
-        self.env.close()
-
-
-_WORKER: _Runner | None = None
-
-
-def _init_worker(
-    env_id: str, policy_name: str, config: Mapping[str, Any] | None, policy_kwargs: Mapping[str, Any] | None = None
-) -> None:
-    """Process-pool initializer: one env and policy per worker process, single-threaded torch."""
-    global _WORKER
-    os.environ.setdefault("OMP_NUM_THREADS", "1")
-    _WORKER = _Runner(env_id, policy_name, config, policy_kwargs=policy_kwargs)
-    if "torch" in sys.modules:
-        sys.modules["torch"].set_num_threads(1)
-
-
-def _worker_run(seed: int, record_trajectories: bool) -> EpisodeResult:
-    assert _WORKER is not None, "worker not initialised"
-    return _WORKER.run(seed, record_trajectories=record_trajectories)
-
-
-def _worker_run_chunk(chunk: Sequence[tuple[int, bool]]) -> list[EpisodeResult]:
-    """Several episodes in one task (fewer round trips between processes)."""
-    return [_worker_run(s, k) for s, k in chunk]
-
-
-def _ray_results(
-    env_id: str,
-    policy_name: str,
-    config: Mapping[str, Any],
-    policy_kwargs: Mapping[str, Any] | None,
-    items: Sequence[tuple[int, bool]],
-    on_done: Callable[[int], None],
-    address: str | None = None,
-    nodes: dict[str, int] | None = None,
-) -> list[EpisodeResult]:
-    """Episodes ``items`` (seed, keep trajectories) on Ray actors, one per cluster CPU, each with its own env and policy.
-
-    Uses the running Ray session, else ``ray.init(address)`` (``None``: ``RAY_ADDRESS`` or a new local
-    cluster), shut down after. ``nodes`` gets the number of episodes each node ran (node id -> count).
-    """
-    ray = require_ray()
-    started = not ray.is_initialized()
-    if started:
-        import logging
-
-        ray.init(address=address, logging_level=logging.WARNING)
-    try:
-        cpus = max(1, int(ray.cluster_resources().get("CPU", 1)))
-        chunks = _chunks(items, cpus)
-        actor_class = ray.remote(num_cpus=1)(_RayRunner)
-        actors = [
-            actor_class.remote(env_id, policy_name, dict(config), dict(policy_kwargs or {}))
-            for _ in range(min(cpus, len(chunks)))
-        ]
-        pool = ray.util.ActorPool(actors)
-        for i, chunk in enumerate(chunks):
-            pool.submit(lambda actor, job: actor.run_chunk.remote(*job), (i, chunk))
-        slots: list[list[EpisodeResult] | None] = [None] * len(chunks)
-        while pool.has_next():
-            i, node, results = pool.get_next_unordered()
-            slots[i] = results
-            if nodes is not None:
-                nodes[node] = nodes.get(node, 0) + len(results)
-            on_done(len(results))
-        for actor in actors:
-            ray.kill(actor)
-        return [r for chunk in slots if chunk is not None for r in chunk]
-    finally:
-        if started:
-            ray.shutdown()
-
-
-class _RayRunner:
-    """A Ray actor's state: one env and policy (as a process-pool worker has), reused for its chunks."""
-
-    def __init__(self, env_id: str, policy_name: str, config: Mapping[str, Any], policy_kwargs: Mapping[str, Any] | None) -> None:
-        import ray
-
-        _init_worker(env_id, policy_name, config, policy_kwargs)
-        self.node = ray.get_runtime_context().get_node_id()
-
-    def run_chunk(self, index: int, chunk: Sequence[tuple[int, bool]]) -> tuple[int, str, list[EpisodeResult]]:
-        """The chunk's results, with its index and the id of the Ray node that ran it."""
-        return index, self.node, _worker_run_chunk(chunk)
-
-
-def require_ray() -> Any:
-    """The ``ray`` module, or ``ImportError`` with the install command (``--workers ray``)."""
-    try:
-        import ray
-    except ImportError as error:
-        raise ImportError(
-            "--workers ray needs the ray package: pip install 'ray>=2.60' (or teamgym's rllib extra, docs/scale_out.md)"
-        ) from error
-    import ray.util  # ActorPool
-
-    return ray
-
-
-#: What ``ray.init(address=...)`` takes for an existing cluster: ``auto``, ``HOST:PORT`` or ``ray://HOST:PORT``.
-_RAY_ADDRESS = re.compile(r"(ray://)?(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9_.-]+):(\d{1,5})")
-
-
-def check_ray_address(address: str) -> str:
-    """``address`` if it names an existing Ray cluster (``HOST:PORT``, ``ray://HOST:PORT`` or ``auto``), else ``ValueError``."""
-    match = _RAY_ADDRESS.fullmatch(address)
-    if address != "auto" and not (match and 1 <= int(match.group(3)) <= 65535):
-        raise ValueError(f"a Ray address is HOST:PORT, ray://HOST:PORT or auto, got {address!r}")
-    return address
-
-
-def _pool_context():
-    """``fork`` where the platform has it and torch is not loaded (forking after torch's threads start
-    can hang); ``spawn`` otherwise. Forked workers start in milliseconds instead of re-importing."""
-    import multiprocessing
-
-    methods = multiprocessing.get_all_start_methods()
-    return multiprocessing.get_context("fork" if "fork" in methods and "torch" not in sys.modules else "spawn")
-
-
-class _Episodes(Sequence[tuple[int, bool]]):
-    """The ``(seed, keep trajectories)`` pairs of a run's episodes ``indices``, made on demand (a slice is another)."""
-
-    def __init__(self, seed: int, keep_all: bool, indices: range) -> None:
-        self.seed, self.keep_all, self.indices = seed, keep_all, indices
-
-    def __len__(self) -> int:
-        return len(self.indices)
-
-    def __iter__(self) -> Iterator[tuple[int, bool]]:
-        return ((self.seed + i, self.keep_all or i == 0) for i in self.indices)
-
-    def __getitem__(self, item: Any) -> Any:
-        if isinstance(item, slice):
-            return _Episodes(self.seed, self.keep_all, self.indices[item])
-        index = self.indices[item]
-        return self.seed + index, self.keep_all or index == 0
-
-
-def _chunks(items: Sequence[Any], workers: int) -> list[Sequence[Any]]:
-    """``items`` in consecutive slices, about four per worker, so that the load still balances."""
-    size = max(1, math.ceil(len(items) / (4 * workers)))
-    return [items[i : i + size] for i in range(0, len(items), size)]
 
 
 def evaluate(
@@ -295,10 +173,10 @@ def evaluate(
     identical to a sequential run. ``workers="ray"`` runs the chunks on Ray actors, one per CPU of
     the running Ray session or of ``ray.init(address=ray_address)`` (by default ``RAY_ADDRESS``,
     else a new local cluster; shut down after); results are again identical, and ``ray_nodes``
-    (a dict, if given) gets the number of episodes each Ray node ran. Trajectories are kept for
-    the first episode only unless ``keep_trajectories``. ``policy_kwargs`` go to
-    :func:`baselines.registry.make_policy` (e.g. ``{"deterministic": False}`` for an
-    ``sb3:PATH`` policy). Config, env-id and policy errors
+    (a dict, if given) gets the number of episodes each Ray node ran (:func:`baselines.runners.run_episodes`).
+    Trajectories are kept for the first episode only unless ``keep_trajectories``. ``policy_kwargs``
+    go to :func:`baselines.registry.make_policy` (e.g. ``{"deterministic": False}`` for an
+    ``sb3:PATH`` or ``rllib:PATH`` policy). Config, env-id and policy errors
     (including a policy that does not fit the env) raise (``ConfigError``/``ValueError``/
     ``KeyError``/``FileNotFoundError``) before any episode runs.
     """
@@ -319,333 +197,82 @@ def evaluate(
     from tqdm import tqdm
 
     config = dict(config or {})
-    runner = _Runner(env_id, policy_name, config, policy_kwargs=policy_kwargs)  # validates env id, config and policy here
-    items = _Episodes(seed, keep_trajectories, range(episodes))  # episode i: seed + i, trajectories of the first
+    runner = EpisodeRunner(env_id, policy_name, config, policy_kwargs=policy_kwargs)  # validates env id, config and policy
+    items = Episodes(seed, keep_trajectories, range(episodes))  # episode i: seed + i, trajectories of the first
     bar = tqdm(total=episodes, desc=f"{env_id} {policy_name}", unit="ep", disable=not progress, leave=False)
     try:
-        if workers == 1 or (episodes == 1 and workers != "ray"):
-            results = []
-            for s, k in items:
-                results.append(runner.run(s, record_trajectories=k))
-                bar.update(1)
-            return results
-        runner.close()
-        if workers == "ray":
-            return _ray_results(env_id, policy_name, config, policy_kwargs, items, bar.update, ray_address, ray_nodes)
-        assert isinstance(workers, int)
-        from concurrent.futures import ProcessPoolExecutor, as_completed
-
-        chunks = _chunks(items, workers)
-        slots: list[list[EpisodeResult] | None] = [None] * len(chunks)
-        with ProcessPoolExecutor(
-            max_workers=min(workers, episodes),
-            mp_context=_pool_context(),
-            initializer=_init_worker,
-            initargs=(env_id, policy_name, config, policy_kwargs),
-        ) as pool:
-            futures = {pool.submit(_worker_run_chunk, chunk): i for i, chunk in enumerate(chunks)}
-            for future in as_completed(futures):
-                slots[futures[future]] = future.result()
-                bar.update(len(chunks[futures[future]]))
-        return [r for chunk in slots if chunk is not None for r in chunk]
+        serial = workers == 1 or (episodes == 1 and workers != "ray")
+        if not serial:
+            runner.close()  # the workers build their own
+        return run_episodes(
+            env_id,
+            policy_name,
+            config,
+            items,
+            workers,
+            policy_kwargs=policy_kwargs,
+            runner=runner if serial else None,
+            on_done=bar.update,
+            ray_address=ray_address,
+            ray_nodes=ray_nodes,
+        )
     finally:
         bar.close()
         runner.close()
 
 
-def _stats(values: Sequence[float]) -> dict[str, float | int]:
-    array = np.asarray(values, dtype=float)
-    if array.size == 0:
-        return {"mean": math.nan, "std": math.nan, "min": math.nan, "max": math.nan, "count": 0}
-    with np.errstate(invalid="ignore"):
-        return {
-            "mean": float(np.mean(array)),
-            "std": float(np.std(array)),
-            "min": float(np.min(array)),
-            "max": float(np.max(array)),
-            "count": int(array.size),
-        }
-
-
-def summarise(results: Sequence[EpisodeResult]) -> dict[str, Any]:
-    """Aggregate episode results.
-
-    Returns ``episodes``, ``success_rate``, ``mean_episode_length``, ``mean_return`` (mean
-    over robots and episodes), ``mean_<metric>`` for every numeric metric (pooled over
-    every robot of every episode that reports it) and ``metrics``: per metric (plus
-    ``episode_length``, ``return`` and ``success``) its ``mean``, ``std``, ``min``, ``max``
-    and ``count``. ``success`` is the episode's (the contract's), so ``mean_success`` equals
-    ``success_rate``; it is kept because BoxPushing-v0 summaries had it as a metric.
-    """
-    if not results:
-        raise ValueError("summarise() needs at least one episode result")
-    names = metric_names(results)
-    stats: dict[str, dict[str, float | int]] = {
-        "episode_length": _stats([r.length for r in results]),
-        "return": _stats([v for r in results for v in r.returns.values()]),
-        "success": _stats([float(r.success) for r in results]),
-    }
-    for name in names:
-        stats[name] = _stats([v for r in results for v in r.metric_values(name)])
-    summary: dict[str, Any] = {
-        "episodes": len(results),
-        "success_rate": float(np.mean([r.success for r in results])),
-        "mean_episode_length": stats["episode_length"]["mean"],
-        "mean_return": stats["return"]["mean"],
-    }
-    summary["mean_success"] = stats["success"]["mean"]
-    for name in names:
-        summary[f"mean_{name}"] = stats[name]["mean"]
-    summary["metrics"] = stats
-    return summary
-
-
-def markdown_table(rows: Sequence[Mapping[str, Any]]) -> str:
-    """A Markdown table of dict rows (keys of the first row as columns; floats to 3 significant digits)."""
-    keys = list(rows[0])
-    lines = ["| " + " | ".join(keys) + " |", "|" + "---|" * len(keys)]
-    for row in rows:
-        cells = [f"{row[k]:.3g}" if isinstance(row[k], float) else str(row[k]) for k in keys]
-        lines.append("| " + " | ".join(cells) + " |")
-    return "\n".join(lines)
-
-
-def summary_table(summary: Mapping[str, Any], title: str | None = None) -> str:
-    """A plain-text, column-aligned table of a :func:`summarise` result."""
-
-    def fmt(value: Any) -> str:
-        if isinstance(value, int):
-            return str(value)
-        if value is None or (isinstance(value, float) and math.isnan(value)):
-            return "-"
-        return f"{value:.4g}"
-
-    rows = [
-        ("metric", "mean", "std", "min", "max", "n"),
-        ("success_rate", fmt(summary["success_rate"]), "", "", "", fmt(summary["episodes"])),
-    ]
-    for name, s in summary["metrics"].items():
-        rows.append((name, fmt(s["mean"]), fmt(s["std"]), fmt(s["min"]), fmt(s["max"]), fmt(s["count"])))
-    widths = [max(len(row[c]) for row in rows) for c in range(len(rows[0]))]
-    lines = [title] if title else []
-    for i, row in enumerate(rows):
-        cells = [row[0].ljust(widths[0])] + [cell.rjust(w) for cell, w in zip(row[1:], widths[1:])]
-        lines.append("  ".join(cells).rstrip())
-        if i == 0:
-            lines.append("  ".join("-" * w for w in widths))
-    return "\n".join(lines)
-
-
-def _json_safe(value: Any) -> Any:
-    """Replace non-finite floats with ``None`` (strict JSON) and numpy scalars/tuples with Python ones."""
-    if isinstance(value, Mapping):
-        return {str(k): _json_safe(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_json_safe(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return _json_safe(value.tolist())
-    if isinstance(value, (np.bool_, bool)):
-        return bool(value)
-    if isinstance(value, (np.integer, int)):
-        return int(value)
-    if isinstance(value, (np.floating, float)):
-        return float(value) if math.isfinite(value) else None
-    return value
-
-
-def write_summary_json(path: str | Path, summary: Mapping[str, Any]) -> Path:
-    """Write ``summary`` as strict JSON (non-finite numbers become ``null``)."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(_json_safe(summary), indent=2, allow_nan=False) + "\n")
-    return path
-
-
-def write_episodes_csv(path: str | Path, results: Sequence[EpisodeResult]) -> Path:
-    """One row per episode: ``episode, seed, length, success, return`` and the mean of every metric."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    names = metric_names(results)
-    with path.open("w", newline="") as handle:
-        writer = csv.writer(handle)
-        writer.writerow(["episode", "seed", "length", "success", "return", *names])
-        for i, result in enumerate(results):
-            means = result.metric_means()
-            cells = [repr(means[n]) if n in means else "" for n in names]
-            writer.writerow([i, result.seed, result.length, int(result.success), repr(result.mean_return), *cells])
-    return path
-
-
-# -- command line -----------------------------------------------------------------------
-
-
-class _UsageError(ValueError):
-    """A command-line or configuration mistake: reported in one line, exit code 2."""
-
-
-class _Parser(argparse.ArgumentParser):
-    """An argument parser that reports a bad command line in one line (``error: ...``), exit code 2.
-
-    With ``named`` the line starts with the program's name (``prog: error: ...``, as argparse's does).
-    """
-
-    def __init__(self, *args: Any, named: bool = False, **kwargs: Any) -> None:
-        super().__init__(*args, **kwargs)
-        self.named = named
-
-    def error(self, message: str) -> NoReturn:
-        lead = f"{self.prog}: error" if self.named else "error"
-        self.exit(2, f"{lead}: {_one_line(message)} (see --help)\n")
-
-
-def _at_least(minimum: int, maximum: int | None = None) -> Callable[[str], int]:
-    """An argparse ``type``: an integer ``>= minimum`` (and ``<= maximum``)."""
-
-    def parse(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
-        if value < minimum:
-            raise argparse.ArgumentTypeError(f"must be >= {minimum}, got {value}")
-        if maximum is not None and value > maximum:
-            raise argparse.ArgumentTypeError(f"must be <= {maximum}, got {value}")
-        return value
-
-    return parse
-
-
-def _nonblank(what: str) -> Callable[[str], str]:
-    """An argparse ``type``: a ``what`` that is not empty or blank (an empty value would fall back to a default)."""
-
-    def parse(text: str) -> str:
-        if not text.strip():
-            raise argparse.ArgumentTypeError(f"expected {what}, got {text!r}")
-        if text.startswith("sb3:") and not text[4:].strip():
-            raise argparse.ArgumentTypeError(f"expected a model path or shipped agent after sb3:, got {text!r}")
-        return text
-
-    return parse
-
-
-def _ray_address(text: str) -> str:
-    """An argparse ``type``: a Ray cluster address (:func:`check_ray_address`)."""
-    try:
-        return check_ray_address(text)
-    except ValueError as error:
-        raise argparse.ArgumentTypeError(str(error)) from None
-
-
-def _workers(text: str) -> int | str:
-    """An argparse ``type``: a number of worker processes ``>= 1``, or ``ray``."""
-    if text.strip().lower() == "ray":
-        return "ray"
-    try:
-        return _at_least(1)(text)
-    except argparse.ArgumentTypeError:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 1 or 'ray', got {text!r}") from None
-
-
-def _parse_sets(items: Sequence[str] | None) -> dict[str, str]:
-    config: dict[str, str] = {}
-    for item in items or []:
-        key, sep, value = item.partition("=")
-        if not sep or not key.strip():
-            raise _UsageError(f"--set expects key=value, got {item!r}")
-        config[key.strip()] = value.strip()
-    return config
-
-
-def _check_out(out: Path, flag: str = "--out", *, file: bool = False) -> None:
-    """Raise :class:`_UsageError` (a ``ValueError``) if ``out`` cannot be made an output directory.
-
-    It cannot when it is an existing file, lies under a file, or when it (if it exists) or its
-    nearest existing ancestor is a directory this process may not write into. With ``file``,
-    ``out`` names a file to write: it must not be a directory, and its directory is checked.
-    """
-    shown = repr(str(out))
-    try:
-        if file and out.is_dir():
-            raise _UsageError(f"{flag} {shown} is a directory, not a file")
-        for path in out.parents if file else (out, *out.parents):
-            if not path.exists():
-                continue
-            if not path.is_dir():
-                where = "is an existing file" if path == out else f"is under {str(path)!r}, which is a file"
-                raise _UsageError(f"{flag} {shown} {where}, not a directory")
-            if not os.access(path, os.W_OK | os.X_OK):
-                where = "" if path == out else f" under {str(path)!r}"
-                raise _UsageError(f"{flag} {shown}: cannot write{where} (permission denied)")
-            return
-    except _UsageError:
-        raise
-    except (OSError, ValueError) as error:  # e.g. a NUL byte or a name too long
-        raise _UsageError(f"{flag} {shown} is not a usable path: {error}") from None
-
-
 def _model_defaults(
     policy: str, env_id: str | None, config: Mapping[str, str]
 ) -> tuple[str, dict[str, str], Path | None, str | None]:
-    """Env id and config for ``policy``, completed from an ``sb3:PATH`` model's sidecar.
+    """Env id and config for ``policy``, completed from a learned policy's sidecar (:mod:`baselines.learned`).
 
-    Returns ``(env_id, config, sidecar path or None, env the model was trained on or None)``.
+    Returns ``(env_id, config, sidecar path or None, env the policy was trained on or None)``.
     The sidecar's overrides apply (explicit settings win) only when the env is the sidecar's.
     """
     config = dict(config)
     default = DEFAULT_ENV if env_id is None else env_id  # an empty --env is refused, never the default
-    if not policy.startswith("sb3:"):
-        return default, config, None, None
-    from baselines.rl.sb3_policy import read_sidecar, resolve_model
-
     try:
-        sidecar = read_sidecar(policy[4:])
+        found = policy_sidecar(policy)
     except ValueError as error:
-        raise _UsageError(str(error)) from error
-    trained_on = sidecar.get("env") if sidecar else None
-    if not isinstance(trained_on, str):
+        raise UsageError(str(error)) from error
+    if found is None or found[0].get("env") is None:
         return default, config, None, None
-    path = resolve_model(policy[4:]).with_suffix(".json")
+    sidecar, path = found
+    trained_on = sidecar["env"]
     if env_id is not None and env_id != trained_on:
         return env_id, config, path, trained_on
-    overrides = sidecar.get("overrides") if isinstance(sidecar.get("overrides"), dict) else {}
-    return trained_on, {**{str(k): str(v) for k, v in overrides.items()}, **config}, path, trained_on
+    return trained_on, {**sidecar.get("overrides", {}), **config}, path, trained_on
 
 
 def _slug(text: str) -> str:
-    if text.startswith("sb3:"):
-        text = "sb3-" + Path(text[4:]).stem
+    split = split_scheme(text)
+    if split is not None:
+        text = f"{split[0]}-{Path(split[1]).stem}"
     return re.sub(r"[^A-Za-z0-9_.-]+", "-", text).strip("-") or "policy"
-
-
-def _one_line(text: str) -> str:
-    return " ".join(text.split())
-
-
-def _message(error: BaseException) -> str:
-    if isinstance(error, KeyError) and error.args:
-        return _one_line(str(error.args[0]))
-    return _one_line(str(error)) or type(error).__name__
 
 
 def build_parser() -> argparse.ArgumentParser:
     """The ``python -m baselines.evaluate`` argument parser (a bad command line exits 2 with a one-line error)."""
-    parser = _Parser(
+    parser = Parser(
         prog="python -m baselines.evaluate",
         description="Evaluate a policy on a teamgym env over seeded episodes.",
     )
-    seed = _at_least(0)  # numpy rejects negative seeds
+    seed = at_least(0)  # numpy rejects negative seeds
     parser.add_argument(
         "--env",
-        type=_nonblank("an env id"),
+        type=nonblank("an env id"),
         default=None,
-        help=f"env id (default: an sb3:PATH model's, from its sidecar <model>.json; else {DEFAULT_ENV})",
+        help=f"env id (default: a learned policy's, from its sidecar; else {DEFAULT_ENV})",
     )
     parser.add_argument(
-        "--policy", type=_nonblank("a policy name or sb3:PATH"), default="goto", help="policy name or sb3:PATH (default: goto)"
+        "--policy",
+        type=nonblank("a policy name, sb3:PATH or rllib:PATH"),
+        default="goto",
+        help="policy name, sb3:PATH (a Stable-Baselines3 model) or rllib:PATH (an RLlib checkpoint) (default: goto)",
     )
     parser.add_argument(
         "--episodes",
-        type=_at_least(1, MAX_EPISODES),
+        type=at_least(1, MAX_EPISODES),
         default=10,
         help=f"number of episodes, 1 to {MAX_EPISODES} (default: 10)",
     )
@@ -653,26 +280,28 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="env config override (repeatable)")
     parser.add_argument("--max-cycles", type=int, default=None, help="shorthand for --set max_cycles=M")
     parser.add_argument(
-        "--out", type=_nonblank("a directory"), default=None, help="output directory (default: results/<env>_<policy>/)"
+        "--out", type=nonblank("a directory"), default=None, help="output directory (default: results/<env>_<policy>/)"
     )
     parser.add_argument("--gif", action="store_true", help="also write an animated GIF of the first episode")
     parser.add_argument("--no-plot", action="store_true", help="do not draw trajectories.png (matplotlib is then not loaded)")
     parser.add_argument(
         "--workers",
-        type=_workers,
+        type=workers_or_ray,
         default=1,
         help="parallel worker processes, >= 1, or 'ray': Ray actors, one per cluster CPU (RAY_ADDRESS; default: 1)",
     )
     parser.add_argument(
         "--ray-address",
-        type=_ray_address,
+        type=cluster_address,
         default=None,
         metavar="ADDR",
         help="with --workers ray: the Ray cluster to run on, HOST:PORT of its head (default: RAY_ADDRESS, else a new local one)",
     )
     parser.add_argument("--quiet", action="store_true", help="no progress bar or table")
     parser.add_argument(
-        "--stochastic", action="store_true", help="sample an sb3:PATH model's actions instead of taking the most likely"
+        "--stochastic",
+        action="store_true",
+        help="sample a learned policy's actions (sb3:PATH, rllib:PATH) instead of taking the most likely",
     )
     parser.add_argument("--list", action="store_true", help="list env ids and policy names and exit")
     return parser
@@ -685,33 +314,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     bad command line, env id, config, policy, policy/env mismatch or ``--out``; 1, with
     one line, for a failure while running (``TEAMGYM_TRACEBACK=1`` re-raises it instead).
     """
-    try:
-        args = build_parser().parse_args(argv)
-    except SystemExit as done:  # --help, or a usage error already reported in one line
-        return 0 if done.code is None else done.code if isinstance(done.code, int) else 2
+    args = parse_args(build_parser(), argv)
+    if isinstance(args, int):
+        return args
 
     def body() -> int:
         try:
             return _run(args)
-        except _UsageError as error:
-            print(f"error: {_one_line(str(error))}", file=sys.stderr)
+        except UsageError as error:
+            print(f"error: {one_line(str(error))}", file=sys.stderr)
             return 2
 
     return guarded(body)
-
-
-def guarded(body: Callable[[], int]) -> int:
-    """Run a command's work: Ctrl-C exits 130, any failure prints one line and exits 1 (``TEAMGYM_TRACEBACK=1`` re-raises)."""
-    try:
-        return body()
-    except KeyboardInterrupt:
-        print("error: interrupted", file=sys.stderr)
-        return 130
-    except Exception as error:  # noqa: BLE001 - no traceback reaches a command-line user
-        if os.environ.get("TEAMGYM_TRACEBACK"):
-            raise
-        print(f"error: {type(error).__name__}: {_message(error)} (TEAMGYM_TRACEBACK=1 shows where)", file=sys.stderr)
-        return 1
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -721,33 +335,33 @@ def _run(args: argparse.Namespace) -> int:
 
     if args.list:
         print("envs:     " + " ".join(teamgym.envs()))
-        print("policies: " + " ".join(policies()) + " sb3:PATH")
+        print("policies: " + " ".join(policies()) + " sb3:PATH rllib:PATH")
         return 0
-    config = _parse_sets(args.set)
+    config = parse_pairs(args.set, "--set")
     if args.max_cycles is not None:
         config["max_cycles"] = str(args.max_cycles)
-    if args.stochastic and not args.policy.startswith("sb3:"):
-        raise _UsageError(f"--stochastic applies to sb3:PATH policies only, not {args.policy!r}")
+    if args.stochastic and not is_learned(args.policy):
+        raise UsageError(f"--stochastic applies to learned policies (sb3:PATH, rllib:PATH) only, not {args.policy!r}")
     if args.ray_address is not None and args.workers != "ray":
-        raise _UsageError(f"--ray-address applies to --workers ray only, not --workers {args.workers}")
+        raise UsageError(f"--ray-address applies to --workers ray only, not --workers {args.workers}")
     if args.workers == "ray":
         try:
             require_ray()
         except ImportError as error:
-            raise _UsageError(str(error)) from error
+            raise UsageError(str(error)) from error
     env_id, config, sidecar, trained_on = _model_defaults(args.policy, args.env, config)
     policy_kwargs = {"deterministic": False} if args.stochastic else {}
     name = _slug(args.policy) + ("-stochastic" if args.stochastic else "")
     out = Path(args.out) if args.out is not None else Path("results") / f"{_slug(env_id)}_{name}"
-    _check_out(out)
+    check_out(out)
     try:
-        probe = _Runner(env_id, args.policy, config, policy_kwargs=policy_kwargs)
+        probe = EpisodeRunner(env_id, args.policy, config, policy_kwargs=policy_kwargs)
     except (ValueError, TypeError, KeyError, FileNotFoundError, ImportError) as error:
         if trained_on is not None and trained_on != env_id:
-            raise _UsageError(
-                f"the model was trained on {trained_on} (per {str(sidecar)!r}), not {env_id}: {_message(error)}"
+            raise UsageError(
+                f"the model was trained on {trained_on} (per {str(sidecar)!r}), not {env_id}: {message(error)}"
             ) from error
-        raise _UsageError(_message(error)) from error
+        raise UsageError(message(error)) from error
     if trained_on is not None and trained_on != env_id:
         print(
             f"note: the model was trained on {trained_on} (per {str(sidecar)!r}); its spaces fit {env_id}, "
@@ -761,7 +375,7 @@ def _run(args: argparse.Namespace) -> int:
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as error:
-        raise _UsageError(f"cannot create --out {str(out)!r}: {error.strerror or error}") from error
+        raise UsageError(f"cannot create --out {str(out)!r}: {error.strerror or error}") from error
 
     nodes: dict[str, int] = {}
     results = evaluate(
@@ -806,7 +420,7 @@ def _run(args: argparse.Namespace) -> int:
     if args.gif:
         from teamgym.sim.render import save_gif
 
-        recorder = _Runner(env_id, args.policy, config, render_mode="rgb_array", policy_kwargs=policy_kwargs)
+        recorder = EpisodeRunner(env_id, args.policy, config, render_mode="rgb_array", policy_kwargs=policy_kwargs)
         try:
             replay = recorder.run(first.seed, record_frames=True)
             fps = float(recorder.env.metadata.get("render_fps") or 10)

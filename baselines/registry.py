@@ -5,6 +5,7 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
+from baselines.learned import split_scheme
 from baselines.policy import Policy
 from teamgym.envs.base import TeamEnv
 
@@ -38,20 +39,27 @@ def register_policy(name: str, entry_point: str, **kwargs: Any) -> None:
 
 
 def policies() -> list[str]:
-    """Registered policy names (plus ``sb3:PATH`` for saved SB3 models)."""
+    """Registered policy names (plus the learned policies ``sb3:PATH`` and ``rllib:PATH``, :mod:`baselines.learned`)."""
     return sorted(_POLICIES)
 
 
-def policy_class(name: str) -> type[Policy]:
-    """The class behind policy ``name`` (``sb3:PATH`` gives :class:`SB3Policy`)."""
-    if name.startswith("sb3:"):
-        from baselines.rl.sb3_policy import SB3Policy
+#: learned-policy scheme -> "module:Class" of its policy (built with ``Class.load(PATH, env, **kwargs)``)
+_LEARNED: dict[str, str] = {"sb3": "baselines.rl.sb3_policy:SB3Policy", "rllib": "baselines.rl.rllib:RLlibPolicy"}
 
-        return SB3Policy
-    if name not in _POLICIES:
-        raise KeyError(f"unknown policy {name!r}; available: {policies()} or sb3:PATH")
-    module_name, _, class_name = _POLICIES[name][0].partition(":")
+
+def _class(entry_point: str) -> Any:
+    module_name, _, class_name = entry_point.partition(":")
     return getattr(importlib.import_module(module_name), class_name)
+
+
+def policy_class(name: str) -> type[Policy]:
+    """The class behind policy ``name`` (``sb3:PATH`` gives :class:`SB3Policy`, ``rllib:PATH`` :class:`RLlibPolicy`)."""
+    split = split_scheme(name)
+    if split is not None:
+        return _class(_LEARNED[split[0]])
+    if name not in _POLICIES:
+        raise KeyError(f"unknown policy {name!r}; available: {policies()}, sb3:PATH or rllib:PATH")
+    return _class(_POLICIES[name][0])
 
 
 def required_config(name: str) -> dict[str, Any]:
@@ -60,13 +68,14 @@ def required_config(name: str) -> dict[str, Any]:
 
 
 def make_policy(name: str, env: TeamEnv, **kwargs: Any) -> Policy:
-    """Build policy ``name`` for ``env``; ``sb3:PATH`` loads a saved Stable-Baselines3 model.
+    """Build policy ``name`` for ``env``; ``sb3:PATH`` loads a saved Stable-Baselines3 model, ``rllib:PATH`` an RLlib checkpoint.
 
     Raises ``ValueError`` naming the policy, the env and what is missing when the policy
-    does not fit the env (:meth:`Policy.check_env`; an SB3 model's spaces must match the env's).
+    does not fit the env (:meth:`Policy.check_env`; a learned policy's spaces must match the env's).
     """
     cls = policy_class(name)
     cls.check_env(env, name)
-    if name.startswith("sb3:"):
-        return cls.load(name[4:], env, **kwargs)
+    split = split_scheme(name)
+    if split is not None:
+        return cls.load(split[1], env, **kwargs)
     return cls(env, **{**_POLICIES[name][1], **kwargs})

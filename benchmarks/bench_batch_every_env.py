@@ -5,10 +5,11 @@ PettingZoo API, and batches of K copies (``--copies``) stepped with arrays, in o
 interleaved in rounds; the best round of each case is kept (the least disturbed on a shared
 machine) and the ratios are taken within this one run. Actions: uniform in a Box space; for a
 discrete space the first admissible action of each robot (so masked types stay legal); the
-same rule for the lone env and the batch. Episodes that end are reset (lone) or auto-reset
-(batch) and count. ``--clock cpu`` (the default) times process CPU.
+same rule for the lone env and the batch. Every case steps ``--steps`` times from a reset (a
+batch's copies then cover the same stretch of their episodes as the lone env); episodes that
+end are reset (lone) or auto-reset (batch) and count. ``--clock cpu`` (the default) times process CPU.
 
-    python benchmarks/bench_batch_every_env.py [--envs ...] [--copies 1 16 64] [--steps 200] [--rounds 3] [--json FILE]
+    python benchmarks/bench_batch_every_env.py [--envs ...] [--copies 1 16 64] [--steps 64] [--rounds 3] [--json FILE]
 """
 
 from __future__ import annotations
@@ -74,7 +75,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--envs", nargs="+", default=teamgym.envs())
     parser.add_argument("--copies", nargs="+", type=int, default=[1, 16, 64])
-    parser.add_argument("--steps", type=int, default=200, help="steps per case per round")
+    parser.add_argument("--steps", type=int, default=64, help="steps from reset per copy, per case and round (the same for all)")
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--clock", choices=sorted(CLOCKS), default="cpu")
     parser.add_argument("--json", help="write the results here")
@@ -89,7 +90,7 @@ def main() -> None:
         for _ in range(args.rounds):
             cases = {"lone": lambda e=env_id: time_lone(e, args.steps, clock)}
             for k in args.copies:
-                cases[f"batch {k}"] = lambda e=env_id, k=k: time_batch(e, k, max(1, args.steps // k) * 4, clock)
+                cases[f"batch {k}"] = lambda e=env_id, k=k: time_batch(e, k, args.steps, clock)
             for name, run in cases.items():
                 best[name] = max(best.get(name, 0.0), run())
         results[env_id] = best

@@ -38,8 +38,9 @@ import numpy as np
 
 import teamgym
 from baselines.episode import Step, run_episode
-from baselines.evaluate import evaluate, markdown_table
+from baselines.evaluate import evaluate
 from baselines.registry import make_policy
+from baselines.summary import markdown_table
 from teamgym.control.behaviour import BEHAVIOURS, STOP, BehaviourController
 from teamgym.maps import load_map
 from teamgym.maps.build import build_world

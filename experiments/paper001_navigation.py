@@ -7,6 +7,15 @@ Subcommands (each writes JSON, a Markdown table and PNG plots into ``--out``):
 * ``delay`` (section 6.1, Fig. 5): 2 robots crossing, Δt = 0.1 s, true actuation delay
   T0_true = ½T0(1+δt) for T0 ∈ {0, 0.3, 0.6, 0.9}·Δt; the controller models T0 (eq. 17) or
   assumes T0 = 0. Success rate and time to goal for both; trajectories at T0 = 0.9Δt.
+* ``delay-long`` (section 6.1 carried on; not part of ``all``): the delays the paper's table
+  stops short of, over ``--seeds`` seeds (from ``--first-seed``). The paper's random true delay
+  ½T0(1+δt) for T0 ∈ {1, 1.25, 1.5, 1.75, 2}·Δt; then one fixed true delay T0 (``true_delay=
+  "fixed"``) from 0.9Δt to 8Δt (``LONG_FIXED``). Unmodelled (T0 = 0 in eq. 26) everywhere;
+  modelled only where T0 ≤ Δt (``nash`` refuses a larger T0: eq. 26's Δt − T0 turns negative),
+  which includes T0 = Δt, where eq. (26) drops the decision from the predicted heading. Arrival
+  rate with its Wilson interval, contact-free rate, collisions, time to goal, smoothness J.
+  ``--layout random`` (written as ``delay-long-random``): 2 robots with random starts, headings
+  and goals instead of Fig. 5's head-on crossing, whose seeds change only the circle's phase.
 * ``decision-set`` (section 6.2, Figs. 6–7): K = 3, 5, 9, 17 angular-velocity levels;
   smoothness J_1 of robot 1 and decision time per step.
 * ``obstacles`` (section 6.3, Figs. 8–9): 3 and 5 robots, 2 obstacles at 20 cm/s,
@@ -40,10 +49,16 @@ import numpy as np
 
 import teamgym
 from baselines.episode import Step, run_episode
-from baselines.evaluate import markdown_table
 from baselines.registry import make_policy, required_config
+from baselines.stats import wilson
+from baselines.summary import markdown_table
 
 DELAY_FRACTIONS = (0.0, 0.3, 0.6, 0.9)
+#: ``delay-long``: T0/Δt with the paper's random true delay, and the fixed true delays T0_true/Δt.
+LONG_RANDOM = (1.0, 1.25, 1.5, 1.75, 2.0)
+LONG_FIXED = (0.9, 0.95, 1.0, 1.25, 1.5, 1.75, 2.0, 3.0, 4.0, 5.0, 6.0, 8.0)
+#: The crossing of Fig. 5 (section 6.1), Δt = 0.1 s.
+CROSSING = {"n_robots": 2, "n_obstacles": 0, "layout": "circle", "dt": 0.1}
 DECISION_SETS = (3, 5, 9, 17)
 OBSTACLE_SETTING = {"dt": 0.2, "robot_radius": 0.05, "n_obstacles": 2, "obstacle_speed": 0.2}
 #: Workspaces of the obstacle experiment (Navigation-v0 config on top of OBSTACLE_SETTING).
@@ -193,7 +208,7 @@ def experiment_delay(out: Path, seeds: int) -> dict:
     rows = []
     examples = {}
     for fraction in DELAY_FRACTIONS:
-        config = {"n_robots": 2, "n_obstacles": 0, "layout": "circle", "dt": 0.1, "actuation_delay": fraction * 0.1}
+        config = {**CROSSING, "actuation_delay": fraction * 0.1}
         for modelled in (False, True):
             results = [run("Navigation-v0", "nash", s, config, {"model_delay": modelled}) for s in range(seeds)]
             rows.append(
@@ -210,6 +225,52 @@ def experiment_delay(out: Path, seeds: int) -> dict:
                 examples[modelled] = results[0]
     _plot_pair(out / "delay_trajectories.png", examples, "T0_true up to 0.9Δt: T0 not modelled (left) vs modelled (right)")
     return {"rows": rows}
+
+
+def experiment_delay_long(
+    out: Path,
+    seeds: int,
+    first_seed: int = 0,
+    layout: str = "circle",
+    random_fractions: tuple[float, ...] | None = None,
+    fixed_fractions: tuple[float, ...] | None = None,
+) -> dict:
+    """``delay-long``: delays from Δt on (random ½T0(1+δt), then fixed), modelled where eq. (26) allows.
+
+    ``layout="circle"`` is Fig. 5's head-on crossing (seeds change only the circle's phase);
+    ``"random"`` draws starts, headings and goals per seed (independent episodes). The
+    fractions of Δt default to ``LONG_RANDOM`` and ``LONG_FIXED``.
+    """
+    random_fractions = LONG_RANDOM if random_fractions is None else random_fractions
+    fixed_fractions = LONG_FIXED if fixed_fractions is None else fixed_fractions
+    cases = [("random", f, m) for f in random_fractions for m in ((False, True) if f <= 1.0 else (False,))]
+    cases += [("fixed", f, m) for f in fixed_fractions for m in ((False, True) if f <= 1.0 else (False,))]
+    rows = []
+    for true_delay, fraction, modelled in cases:
+        config = {**CROSSING, "layout": layout, "actuation_delay": fraction * CROSSING["dt"], "true_delay": true_delay}
+        kwargs = {"model_delay": modelled}
+        results = [run("Navigation-v0", "nash", s, config, kwargs) for s in range(first_seed, first_seed + seeds)]
+        rows.append(_delay_row(results, fraction, true_delay, modelled))
+    return {"rows": rows, "seeds": [first_seed, first_seed + seeds - 1], "layout": layout}
+
+
+def _delay_row(results: list[dict], fraction: float, true_delay: str, modelled: bool) -> dict:
+    """One row of ``delay-long``: arrival (Wilson 95 %), contact-free episodes, time to goal and J over ``results``."""
+    arrived = sum(r["arrived"] for r in results)
+    low, high = wilson(arrived, len(results))
+    return {
+        "T0/dt": fraction,
+        "true delay": "½T0(1+δt)" if true_delay == "random" else "T0",
+        "T0 modelled": modelled,
+        "episodes": len(results),
+        "arrived": arrived,
+        "arrived 95% CI": f"{low:.3f}–{high:.3f}",
+        "contact-free": sum(r["success"] for r in results),
+        "collisions": int(sum(r["collisions"] for r in results)),
+        "time_to_goal_s": float(np.nanmean([r["time_to_goal"] for r in results])) if arrived else float("nan"),
+        "J": float(np.mean([np.mean(r["smoothness"]) for r in results])),
+        "branches": ", ".join(f"{k} {v}" for k, v in sum((Counter(r["branches"]) for r in results), Counter()).most_common(2)),
+    }
 
 
 # -- experiment 2: decision-set size ---------------------------------------------------------
@@ -373,30 +434,61 @@ def _plot_nearest(path: Path, result: dict, n: int, workspace: str = "walled") -
 # -- tables and CLI ----------------------------------------------------------------------------
 EXPERIMENTS = {
     "delay": experiment_delay,
+    "delay-long": experiment_delay_long,
     "decision-set": experiment_decision_set,
     "obstacles": experiment_obstacles,
     "failures": experiment_failures,
 }
 #: Experiments that take ``--first-seed`` (the others always start at seed 0).
-SEEDED = ("obstacles", "failures")
+SEEDED = ("obstacles", "failures", "delay-long")
+#: Experiments that ``all`` leaves out.
+NOT_IN_ALL = ("failures", "delay-long")
+
+
+def _fractions(text: str) -> tuple[float, ...]:
+    """``--random-delays`` / ``--fixed-delays``: comma-separated T0/Δt in [0, 8] (the env's limit)."""
+    try:
+        values = tuple(float(v) for v in text.split(",") if v.strip())
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected comma-separated numbers, got {text!r}") from None
+    if not all(0.0 <= v <= 8.0 for v in values):
+        raise argparse.ArgumentTypeError(f"each T0/Δt must be in [0, 8], got {text!r}")
+    return values
 
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description="Reproduce paper 001's experiments with the nash baseline.")
     parser.add_argument("experiment", choices=[*EXPERIMENTS, "all"])
     parser.add_argument("--out", type=Path, default=Path("results/paper001"))
-    parser.add_argument("--seeds", type=int, default=100, help="seeds for the obstacle experiment (20 for the others)")
+    parser.add_argument("--seeds", type=int, default=100, help="seeds for obstacles, failures and delay-long (20 for the others)")
     parser.add_argument(
-        "--first-seed", type=int, default=0, help="first seed of obstacles/failures (100 = the held-out tuning seeds)"
+        "--first-seed",
+        type=int,
+        default=0,
+        help="first seed of obstacles, failures, delay-long (100: held-out tuning seeds)",
     )
+    parser.add_argument(
+        "--layout", choices=["circle", "random"], default="circle", help="delay-long: Fig. 5's crossing or random starts"
+    )
+    for kind, default in (("random", LONG_RANDOM), ("fixed", LONG_FIXED)):
+        parser.add_argument(
+            f"--{kind}-delays",
+            type=_fractions,
+            default=None,
+            help=f"delay-long: T0/Δt of the {kind} true delay, comma-separated ('' none; default {','.join(map(str, default))})",
+        )
     args = parser.parse_args(argv)
     if args.seeds < 1 or args.first_seed < 0:
         parser.error("--seeds must be >= 1 and --first-seed >= 0")
     args.out.mkdir(parents=True, exist_ok=True)
-    names = [n for n in EXPERIMENTS if n != "failures"] if args.experiment == "all" else [args.experiment]
+    names = [n for n in EXPERIMENTS if n not in NOT_IN_ALL] if args.experiment == "all" else [args.experiment]
     for name in names:
         seeds = args.seeds if name in SEEDED else min(args.seeds, 20)
-        if name in SEEDED:
+        if name == "delay-long":
+            result = experiment_delay_long(args.out, seeds, args.first_seed, args.layout, args.random_delays, args.fixed_delays)
+            label = f"seeds {args.first_seed}–{args.first_seed + seeds - 1}, layout {args.layout}"
+            name += "" if args.layout == "circle" else f"-{args.layout}"
+        elif name in SEEDED:
             result = EXPERIMENTS[name](args.out, seeds, args.first_seed)
             label = f"seeds {args.first_seed}–{args.first_seed + seeds - 1}"
         else:

@@ -39,10 +39,12 @@ from typing import Any
 import numpy as np
 
 import teamgym
+from baselines.cli import Parser, message, nonblank
 from baselines.episode import Step, run_episode
-from baselines.evaluate import _message, _nonblank, _Parser, evaluate, markdown_table
+from baselines.evaluate import evaluate
 from baselines.registry import make_policy, required_config
 from baselines.stats import mean_ci, wilson
+from baselines.summary import markdown_table
 
 THROUGHPUTS = (0.0, 0.25, 0.5, 0.75, 1.0)
 #: Sweeps: name -> (Foraging-v0 config, metrics reported).
@@ -226,14 +228,14 @@ def report(out: Path, suffix: str = "") -> str:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """The command line: a bad one (an empty or unknown ``--policy`` included) exits 2 with one line, before any output."""
-    parser = _Parser(description="Paper 002 (DMAPS): throughput sweeps on Foraging-v0.", named=True)
+    parser = Parser(description="Paper 002 (DMAPS): throughput sweeps on Foraging-v0.", named=True)
     parser.add_argument("experiment", choices=["consume", "surround", "search", "robots", "large", "all", "report"])
     parser.add_argument("--out", type=Path, default=Path("results/paper002"))
     parser.add_argument("--games", type=int, default=2000, help="games per setting (default 2000, as in the paper)")
     parser.add_argument("--first-seed", type=int, default=0)
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument(
-        "--policy", type=_nonblank("a policy name"), default="dmaps", help="dmaps (default), dmaps-nocomm or random-walk"
+        "--policy", type=nonblank("a policy name"), default="dmaps", help="dmaps (default), dmaps-nocomm or random-walk"
     )
     parser.add_argument("--quiet", action="store_true")
     args = parser.parse_args(argv)
@@ -246,7 +248,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         finally:
             env.close()
     except (KeyError, ValueError, TypeError, FileNotFoundError) as error:
-        parser.error(f"argument --policy: {_message(error)}")
+        parser.error(f"argument --policy: {message(error)}")
     args.out.mkdir(parents=True, exist_ok=True)
     suffix = "" if args.policy == "dmaps" else f"-{args.policy}"
     if args.experiment == "report":

@@ -47,11 +47,9 @@ import importlib
 import importlib.util
 import json
 import math
-import multiprocessing
 import sys
 import time
 from collections.abc import Callable, Iterable, Sequence
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
@@ -60,9 +58,10 @@ import numpy as np
 
 import teamgym
 from baselines.episode import run_episode
-from baselines.evaluate import write_summary_json
 from baselines.registry import make_policy, required_config
 from baselines.rendezvous.search import PLANNERS, SearchGraph
+from baselines.runners import pool_map
+from baselines.summary import write_summary_json
 from teamgym.envs.rendezvous.config import RendezvousConfig
 from teamgym.maps.graph import GraphMap, graph_map_from_dict, save_graph_map
 
@@ -285,14 +284,10 @@ def _parallel(task: Callable[..., Any], jobs: Sequence[tuple], workers: int) -> 
     Workers import this module by name: when it is loaded from its file with importlib, register
     it in ``sys.modules`` under its name first.
     """
-    if workers <= 1 or len(jobs) <= 1:
-        return [task(*job) for job in jobs]
     here = str(Path(__file__).resolve().parent)
-    if here not in sys.path:  # spawned workers import this module by name
+    if workers > 1 and here not in sys.path:  # spawned workers import this module by name
         sys.path.insert(0, here)
-    context = multiprocessing.get_context("spawn")
-    with ProcessPoolExecutor(max_workers=min(workers, len(jobs)), mp_context=context) as pool:
-        return list(pool.map(task, *zip(*jobs), chunksize=max(1, len(jobs) // (8 * workers))))
+    return pool_map(task, jobs, workers, star=True, start_method="spawn")
 
 
 def _mean(values: Iterable[float]) -> float:

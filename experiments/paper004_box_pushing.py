@@ -39,17 +39,18 @@ import json
 import shutil
 from collections import Counter
 from collections.abc import Sequence
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 import teamgym
+from baselines.cli import Parser, nonblank
 from baselines.episode import Step, run_episode
-from baselines.evaluate import _nonblank, _Parser, markdown_table
 from baselines.registry import make_policy, required_config
+from baselines.runners import pool_map
 from baselines.stats import mean_text, rate_text
+from baselines.summary import markdown_table
 from teamgym.envs.config import parse_value
 
 SITUATIONS = ("S1", "S2", "S3", "S4")
@@ -106,13 +107,6 @@ class _FirstDelivery:
             self.seconds = env.cycles * env.config.dt
 
 
-def _pool_map(fn, jobs: list, workers: int) -> list:
-    if workers <= 1:
-        return [fn(job) for job in jobs]
-    with ProcessPoolExecutor(workers) as pool:
-        return list(pool.map(fn, jobs))
-
-
 def experiment_static(
     out: Path,
     figures: Path | None,
@@ -127,7 +121,7 @@ def experiment_static(
     """Section 4.1 for every policy in ``situations`` on seeds ``first_seed`` …, ``seeds`` of them; files ``static{tag}.*``."""
     seed_range = range(first_seed, first_seed + seeds)
     jobs = [(s, p, seed, env) for s in situations for p in policies for seed in seed_range]
-    results = _pool_map(run_static, jobs, workers)
+    results = pool_map(run_static, jobs, workers)
     rows, activation_rows = static_rows(results, situations, policies)
     name = f"static{tag}"
     _write(
@@ -286,7 +280,7 @@ def experiment_dynamic(
 ) -> list[dict]:
     """Section 4.2 with ``sbs``: the changes triggered by the robots' own recognizers; files ``dynamic{tag}.*``."""
     jobs = [(s, seed, env) for s in ("add_heavy", "remove_robot") for seed in range(first_seed, first_seed + seeds)]
-    results = _pool_map(run_dynamic, jobs, workers)
+    results = pool_map(run_dynamic, jobs, workers)
     add = [r for r in results if r["scenario"] == "add_heavy" and r["event_step"] is not None]
     rem = [r for r in results if r["scenario"] == "remove_robot" and r["event_step"] is not None]
     switched = [r for r in add if all(v is not None for v in r["s3_after_s"].values())]
@@ -371,7 +365,7 @@ def experiment_dynamic_policies(
     """Every policy in both dynamic scenarios, the change at a fixed time; files ``dynamic_policies{tag}.*``."""
     seed_range = range(first_seed, first_seed + seeds)
     jobs = [(s, p, seed, env) for s in DYNAMIC_SCENARIOS for p in policies for seed in seed_range]
-    results = _pool_map(run_dynamic_policy, jobs, workers)
+    results = pool_map(run_dynamic_policy, jobs, workers)
     rows = []
     for scenario in DYNAMIC_SCENARIOS:
         for policy in policies:
@@ -450,7 +444,7 @@ def run_diagnose(args: tuple[int, int, EnvChoice]) -> dict[str, Any]:
 
 def experiment_diagnose(out: Path, seeds: int, first_seed: int, workers: int, env: EnvChoice = DEFAULT_ENV) -> list[dict]:
     jobs = [(i, seed, env) for i in range(len(DIAGNOSE_VARIANTS)) for seed in range(first_seed, first_seed + seeds)]
-    results = _pool_map(run_diagnose, jobs, workers)
+    results = pool_map(run_diagnose, jobs, workers)
     rows = []
     for label, _, _ in DIAGNOSE_VARIANTS:
         runs = [r for r in results if r["variant"] == label]
@@ -576,7 +570,7 @@ def _run_label(data: dict[str, Any]) -> str:
 
 def main(argv: Sequence[str] | None = None) -> None:
     """The command line: a bad one (an empty ``--env`` or ``--policies`` included) exits 2 with one line, before any run."""
-    parser = _Parser(description=__doc__.splitlines()[0], named=True)
+    parser = Parser(description=__doc__.splitlines()[0], named=True)
     parser.add_argument("experiment", choices=["static", "dynamic", "all", "diagnose", "report", "pool"])
     parser.add_argument("--out", type=Path, default=Path("results/paper004"))
     parser.add_argument("--figures", type=Path, default=None)
@@ -584,7 +578,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--first-seed", type=int, default=None, help="first seed (default: 0; `diagnose`: 100, held out)")
     parser.add_argument(
-        "--env", type=_nonblank("an env id"), default=DEFAULT_ENV[0], help="env id (BoxPushing-v0 or BoxPushing-v1)"
+        "--env", type=nonblank("an env id"), default=DEFAULT_ENV[0], help="env id (BoxPushing-v0 or BoxPushing-v1)"
     )
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="env config override (repeatable)")
     parser.add_argument("--policies", default=",".join(POLICIES), help="policies of `static` and `dynamic`, comma-separated")

@@ -7,7 +7,7 @@ page: the observation fields of ``env.layout`` (name, shape, dtype, bounds, and 
 and symbolic shape from the module docstring's table), the action space of every
 ``action_type`` the config allows, the docstring's action, reward and metrics paragraphs,
 the config keys with their defaults, and a picture: one ``render_mode="rgb_array"`` frame
-after ``reset(seed=0)``. The pages are committed; ``tests/test_env_pages.py`` regenerates
+after ``reset(seed=0)``. The pages are committed; ``tests/package/test_env_pages.py`` regenerates
 them into a temporary directory and compares. Run it after changing an env's layout,
 spaces, docstring or defaults.
 """

@@ -5,7 +5,7 @@
 # disk, as in setup_env.sh), then teamgym with the stack's extra and dev, the stack's package at
 # its floor from scripts/constraints-floors.txt, every install with -c scripts/constraints-torch.txt
 # (else pip may swap in a multi-GB CUDA torch); then the tests marked with the stack's name
-# (tests/test_<stack>.py; TEAMGYM_STACK makes a failed import an error instead of a skip). Prints
+# (tests/baselines/test_<stack>.py; TEAMGYM_STACK makes a failed import an error instead of a skip). Prints
 # each stack's install and test seconds. CI (.ci/run) runs one stack per call.
 # Usage: bash scripts/run_tests_integrations.sh [stack ...] [-- pytest arguments]   (default: all four)
 set -euo pipefail
@@ -38,7 +38,7 @@ for stack in "${stacks[@]}"; do
   "$venv/bin/python" -m pip install --quiet torch==2.13.0 -c "$constraints"
   "$venv/bin/python" -m pip install --quiet -e ".[$stack,dev]" "$pin" -c "$constraints"
   installed=$SECONDS
-  TEAMGYM_STACK="$stack" "$venv/bin/python" -m pytest -q -p no:cacheprovider -m "$stack" "tests/test_$stack.py" "$@" || status=1
+  TEAMGYM_STACK="$stack" "$venv/bin/python" -m pytest -q -p no:cacheprovider -m "$stack" "tests/baselines/test_$stack.py" "$@" || status=1
   echo "== $stack: install $((installed - start)) s, tests $((SECONDS - installed)) s"
 done
 exit "$status"

@@ -10,7 +10,7 @@ def _numpy_without_avx512_kernels() -> str:
 
     On CPUs with AVX-512, numpy dispatches float64 ``sin``, ``cos``, ``exp``, ... to kernels
     whose last bits differ from the AVX2/libm ones, and a rollout then drifts from the
-    recorded fixtures (tests/test_obs_hashes.py, tests/test_regression.py). The fixtures
+    recorded fixtures (tests/envs/test_obs_hashes.py, tests/envs/test_regression.py). The fixtures
     hold for the AVX2 kernels, so the suite runs on those on every x86 CPU. A probe process
     names the dispatched AVX-512 targets this numpy has and this CPU supports (the names
     differ between numpy versions). Set ``NPY_DISABLE_CPU_FEATURES`` yourself to override.

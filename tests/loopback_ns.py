@@ -1,4 +1,4 @@
-"""A private network and process namespace for tests that start servers (``tests/test_ray_cluster.py``).
+"""A private network and process namespace for tests that start servers (``tests/baselines/test_ray_cluster.py``).
 
 :class:`LoopbackNamespace` starts a holder process in new network, PID and mount namespaces
 (``unshare --net --pid --mount-proc``): the only network interface there is the loopback one

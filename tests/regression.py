@@ -10,7 +10,7 @@ out; keys added later are ignored, and so are metrics at their "not known yet" s
 
 ``python -m tests.regression record`` adds the cases missing from ``tests/data/regression_hashes.json``
 (a new env or action type; recorded hashes are never rewritten); the test
-``tests/test_regression.py`` recomputes every fingerprint with ``obs_format="flat"``.
+``tests/envs/test_regression.py`` recomputes every fingerprint with ``obs_format="flat"``.
 
 Observation hashes (issue 15, a second fixture recorded before the speed work): for every
 registered env, every ``action_type`` and both ``obs_format`` values, the learned message
@@ -22,7 +22,7 @@ terminations, truncations and every numeric info (as float64), so nothing depend
 or on ``space.sample``. ``python -m tests.regression obs-hashes --write`` rewrites
 ``tests/data/obs_hashes.json`` from the current code (only do that on purpose: the fixture
 is the reference the optimisations are checked against); without ``--write`` it lists the
-cases that differ. ``tests/test_obs_hashes.py`` recomputes every hash and never writes.
+cases that differ. ``tests/envs/test_obs_hashes.py`` recomputes every hash and never writes.
 
 Both fixtures hold for numpy's AVX2 kernels: on a CPU with AVX-512 the tests turn those
 kernels off (``tests/conftest.py``), and so does this module when run as a script (it

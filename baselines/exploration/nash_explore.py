@@ -16,7 +16,7 @@ so the game is handed to the shared solver (:func:`baselines.game.arbitrate`) wi
 I_i = I for all i: pure Nash equilibria (eq. 12), of which the arbiter's cost C = N·I picks
 the global minimum, eq. (13).
 
-Choices where the paper is silent (docs/exploration.md; tests/test_nash_explore.py):
+Choices where the paper is silent (docs/exploration.md; tests/baselines/test_nash_explore.py):
 
 * **The "nearest" unexplored object of eq. (11)** (the paper puts "nearest" in quotes). M_U
   is evaluated in the state the joint action leads to (sectors some robot enters in this

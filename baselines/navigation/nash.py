@@ -45,8 +45,11 @@ class NashNavigation(Policy):
         Model the actuation delay T0 in the predictions (eq. 17). With False, T0 = 0 is
         assumed whatever the env's delay (the "T0 not modelled" case of Fig. 5a).
     delay:
-        The modelled T0 in seconds; defaults to the env's ``actuation_delay`` (the
-        worst-case delay the system designer knows).
+        The modelled T0 in seconds, in [0, Δt]; defaults to the env's ``actuation_delay``
+        (the worst-case delay the system designer knows). At T0 = Δt eqs. (17) and (26)
+        give the same predicted pose for every decision (the decision acts for Δt − T0 = 0):
+        every loss ties and the robots cannot steer. Above Δt the decision's factor Δt − T0
+        turns negative; that is refused.
     selection:
         ``"arbiter"`` (eqs. 30–31) or ``"first"`` (first equilibrium found: the
         no-arbiter ablation).
@@ -79,6 +82,11 @@ class NashNavigation(Policy):
         self.heuristic = env.action_type.heuristic
         self.dt = float(env.config.dt)
         self.delay = 0.0 if not model_delay else float(env.config.actuation_delay if delay is None else delay)
+        if not 0.0 <= self.delay <= self.dt:
+            raise ValueError(
+                f"NashNavigation: the modelled delay T0={self.delay!r} s must be in [0, dt={self.dt!r}] (eq. 26 uses Δt − T0); "
+                "pass model_delay=False or a smaller delay"
+            )
         self.selection = selection
         self.n_robots = env.config.n_robots
         self._order = {agent: i for i, agent in enumerate(env.possible_agents)}

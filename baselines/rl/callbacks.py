@@ -6,7 +6,7 @@
 * :func:`evaluate_model`: the current model on held-out seeds through the episode loop of
   ``python -m baselines.evaluate`` (:func:`baselines.episode.run_episode` with an
   :class:`~baselines.rl.sb3_policy.SB3Policy`, aggregated by
-  :func:`baselines.evaluate.summarise`), so its numbers equal those of
+  :func:`baselines.summary.summarise`), so its numbers equal those of
   ``python -m baselines.evaluate --policy sb3:MODEL --seed S --episodes K`` on the saved model.
 * :class:`EvalLog`: the rows of those evaluations, kept in a CSV file (columns
   ``timesteps, success_rate, mean_return, mean_episode_length, mean_<metric>...``).
@@ -92,14 +92,14 @@ class EveryTimesteps(BaseCallback):
 
 
 def evaluate_model(model: Any, env: Any, episodes: int, seed: int, deterministic: bool = True) -> dict[str, Any]:
-    """:func:`baselines.evaluate.summarise` of ``episodes`` episodes (seeds ``seed, seed+1, ...``) of ``model`` on ``env``.
+    """:func:`baselines.summary.summarise` of ``episodes`` episodes (seeds ``seed, seed+1, ...``) of ``model`` on ``env``.
 
     The model acts for every robot through an :class:`SB3Policy`, episode by episode with
     :func:`baselines.episode.run_episode`, exactly as ``baselines.evaluate`` runs a saved model.
     """
     from baselines.episode import run_episode
-    from baselines.evaluate import summarise
     from baselines.rl.sb3_policy import SB3Policy
+    from baselines.summary import summarise
 
     policy = SB3Policy(env, model, deterministic=deterministic)
     results = [run_episode(env, policy, seed + i, record_trajectories=False) for i in range(episodes)]
@@ -136,7 +136,7 @@ class EvalLog:
     """Rows of periodic evaluations in the CSV file ``path`` (rewritten whole after every row).
 
     Columns: ``timesteps, success_rate, mean_return, mean_episode_length`` and the
-    ``mean_<metric>`` columns of :func:`baselines.evaluate.summarise` in first-seen order
+    ``mean_<metric>`` columns of :func:`baselines.summary.summarise` in first-seen order
     (``mean_success``, equal to ``success_rate``, is left out). A metric first reported in a
     later evaluation (such as ``time_to_goal`` once a robot arrives) adds a column; earlier
     rows leave it empty. Non-finite values are written as ``inf``/``nan``.

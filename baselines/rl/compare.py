@@ -8,10 +8,11 @@ Command line::
 Every policy plays the same seeds ``S .. S+K-1`` (never used to reset a training env: those
 start at the training seed, and held-out evaluation during training starts at 10 000) through
 :func:`baselines.evaluate.evaluate`. Scripted policies run on the env's default config plus
-``--set`` and what they require (``nash`` its heading actions); the agent runs on the config
-saved beside it plus ``--set``. The agent's config may change only how actions and observations
-are encoded and the reward weights (see :mod:`baselines.rl.presets`), never the task, so every row
-is judged on the same task.
+``--set`` and what they require (``nash`` its heading actions); the agent (``--agent``: a shipped
+agent's name, an SB3 model path or ``sb3:PATH``, or ``rllib:CHECKPOINT``) runs on the config
+overrides of its sidecar (:mod:`baselines.learned`) plus ``--set``. The agent's config may change
+only how actions and observations are encoded and the reward weights (see
+:mod:`baselines.rl.presets`), never the task, so every row is judged on the same task.
 
 The table (printed, and written to ``DIR/comparison.md`` and ``DIR/comparison.json``) gives per
 policy: success with its Wilson 95 % interval; *clean* success (success and no contact of any
@@ -44,7 +45,7 @@ import numpy as np
 from baselines.episode import EpisodeResult
 from baselines.stats import mean_ci, wilson
 
-__all__ = ["SCRIPTED", "compare", "main", "row_of"]
+__all__ = ["SCRIPTED", "agent_policy", "compare", "main", "row_of"]
 
 #: Per env: the paper's baseline first, then the simple ones and random (label, policy name).
 SCRIPTED: dict[str, list[tuple[str, str]]] = {
@@ -168,11 +169,11 @@ def compare(
     task: Mapping[str, Any] | None = None,
     policies: Sequence[tuple[str, str]] | None = None,
 ) -> list[dict[str, Any]]:
-    """Rows for the scripted policies of ``env_id`` (or ``policies``) and ``sb3:<agent>``, on seeds ``seed ..``."""
+    """Rows for the scripted policies of ``env_id`` (or ``policies``) and the agent (:func:`agent_policy`), seeds ``seed ..``."""
     import teamgym
     from baselines.evaluate import evaluate
+    from baselines.learned import is_learned, policy_sidecar
     from baselines.registry import required_config
-    from baselines.rl.sb3_policy import read_sidecar, resolve_model
 
     task = dict(task or {})
     if policies is None and env_id not in SCRIPTED:
@@ -180,20 +181,20 @@ def compare(
     entries = list(policies if policies is not None else SCRIPTED.get(env_id, [("random", "random")]))
     agent_config: dict[str, Any] = {}
     if agent is not None:
-        path = resolve_model(agent)
-        sidecar = read_sidecar(path) or {}
+        policy = agent_policy(agent)
+        found = policy_sidecar(policy)
+        sidecar = found[0] if found else {}
         if sidecar.get("env") not in (None, env_id):
             raise ValueError(f"agent {agent!r} was trained on {sidecar['env']}, not {env_id}")
         # The settings it was trained with (``overrides``), as ``baselines.evaluate`` applies them: the
         # resolved ``config`` would also pin keys a task option derives (BoxPushing's situation
         # sets the robot and box counts) and contradict a ``--set situation=...``.
-        overrides = sidecar.get("overrides")
-        agent_config = dict(overrides if isinstance(overrides, dict) else sidecar.get("config") or {})
-        entries.insert(-1 if entries and entries[-1][0] == "random" else len(entries), (f"trained: {agent}", f"sb3:{path}"))
+        agent_config = dict(sidecar["overrides"] if "overrides" in sidecar else sidecar.get("config") or {})
+        entries.insert(-1 if entries and entries[-1][0] == "random" else len(entries), (f"trained: {agent}", policy))
     dt = float(teamgym.make(env_id, **task).config.dt)
     rows = []
     for label, policy in entries:
-        config = {**agent_config, **task} if policy.startswith("sb3:") else {**required_config(policy), **task}
+        config = {**agent_config, **task} if is_learned(policy) else {**required_config(policy), **task}
         results = evaluate(env_id, policy, episodes=episodes, seed=seed, config=config, workers=workers)
         rows.append(row_of(label, policy, results, dt, OWN_METRICS.get(env_id, ())))
     return rows
@@ -201,27 +202,28 @@ def compare(
 
 def build_parser() -> argparse.ArgumentParser:
     """The ``python -m baselines.rl.compare`` argument parser (a bad command line exits 2 with a one-line error)."""
-    from baselines.evaluate import MAX_EPISODES, _at_least, _nonblank, _Parser
+    from baselines.cli import Parser, at_least, nonblank
+    from baselines.evaluate import MAX_EPISODES
 
-    parser = _Parser(prog="python -m baselines.rl.compare", description=__doc__.splitlines()[0])
-    parser.add_argument("--env", type=_nonblank("an env id"), default="Navigation-v0", help="env id (default: Navigation-v0)")
+    parser = Parser(prog="python -m baselines.rl.compare", description=__doc__.splitlines()[0])
+    parser.add_argument("--env", type=nonblank("an env id"), default="Navigation-v0", help="env id (default: Navigation-v0)")
     parser.add_argument(
         "--agent",
-        type=_nonblank("a shipped agent name or a model path"),
+        type=nonblank("a shipped agent name, a model path or rllib:CHECKPOINT"),
         default=None,
-        help="a shipped agent name or a model path (sb3); none: scripted only",
+        help="a shipped agent name, an SB3 model path (or sb3:PATH) or rllib:CHECKPOINT; none: scripted only",
     )
     parser.add_argument(
         "--episodes",
-        type=_at_least(1, MAX_EPISODES),
+        type=at_least(1, MAX_EPISODES),
         default=100,
         help=f"held-out episodes per policy, 1 to {MAX_EPISODES} (default: 100)",
     )
-    parser.add_argument("--seed", type=_at_least(0), default=20_000, help="first held-out seed, >= 0 (default: 20000)")
-    parser.add_argument("--workers", type=_at_least(1), default=1, help="worker processes, >= 1 (default: 1)")
+    parser.add_argument("--seed", type=at_least(0), default=20_000, help="first held-out seed, >= 0 (default: 20000)")
+    parser.add_argument("--workers", type=at_least(1), default=1, help="worker processes, >= 1 (default: 1)")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="task config for every policy")
     parser.add_argument(
-        "--out", type=_nonblank("a directory"), default=None, help="directory for comparison.md/.json (and curve.png)"
+        "--out", type=nonblank("a directory"), default=None, help="directory for comparison.md/.json (and curve.png)"
     )
     parser.add_argument("--curve", action="store_true", help="draw the agent's learning curve (needs its _eval.csv)")
     parser.add_argument(
@@ -241,11 +243,29 @@ CURVE_METRICS: dict[str, Callable[[Mapping[str, Any]], float]] = {
 }
 
 
-def _curve_csv(agent: str) -> Path:
-    """The agent's learning curve (``<model-stem>_eval.csv``); ``FileNotFoundError`` if there is none."""
+def agent_policy(agent: str) -> str:
+    """The policy name of ``--agent``: ``rllib:CHECKPOINT`` as given, else ``sb3:`` and the SB3 model it names.
+
+    ``FileNotFoundError`` if there is no such checkpoint or model (a shipped agent's name is one).
+    """
+    from baselines.learned import split_scheme
     from baselines.rl.sb3_policy import resolve_model
 
-    path = resolve_model(agent)
+    split = split_scheme(agent)
+    if split is not None and split[0] == "rllib":
+        from baselines.rl.rllib import module_path
+
+        module_path(split[1])
+        return agent
+    return f"sb3:{resolve_model(split[1] if split else agent)}"
+
+
+def _curve_csv(agent: str) -> Path:
+    """The agent's learning curve (``<model-stem>_eval.csv``); ``FileNotFoundError`` if there is none."""
+    policy = agent_policy(agent)
+    if not policy.startswith("sb3:"):
+        raise FileNotFoundError(f"--curve reads an SB3 model's _eval.csv; {agent!r} is an RLlib checkpoint")
+    path = Path(policy[4:])
     csv = path.with_name(f"{path.stem}_eval.csv")
     if not csv.is_file():
         raise FileNotFoundError(f"no learning curve beside the agent: {str(csv)!r}")
@@ -253,11 +273,12 @@ def _curve_csv(agent: str) -> Path:
 
 
 def _curve(agent: str, rows: Sequence[Mapping[str, Any]], out: Path, metric: str = "success_rate") -> Path:
+    from baselines.learned import is_learned
     from baselines.rl.plot_curves import load_curves, plot_curves
 
     curves = load_curves({f"trained: {agent}": [_curve_csv(agent)]}, metric)
     value = CURVE_METRICS[metric]
-    lines = [(row["label"], value(row), "") for row in rows if not row["policy"].startswith("sb3:")]
+    lines = [(row["label"], value(row), "") for row in rows if not is_learned(row["policy"])]
     return plot_curves(curves, out / "curve.png", metric, lines, title=f"{agent}: {metric} on held-out seeds while training")
 
 
@@ -265,27 +286,24 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run the comparison CLI: exit 2 with one line for bad arguments (``--out`` included) before any
     episode, 1 for a failure while playing."""
     import teamgym
-    from baselines.evaluate import _check_out, _message, guarded
-    from baselines.rl.sb3_policy import resolve_model
-    from baselines.rl.train import _pairs
+    from baselines.cli import check_out, guarded, message, parse_args, parse_pairs
 
-    try:
-        args = build_parser().parse_args(argv)
-    except SystemExit as done:  # --help, or a usage error already reported in one line
-        return 0 if done.code is None else done.code if isinstance(done.code, int) else 2
+    args = parse_args(build_parser(), argv)
+    if isinstance(args, int):  # --help, or a usage error already reported in one line
+        return args
     try:
         if args.curve and (args.agent is None or args.out is None):
             raise ValueError("--curve needs --agent and --out")
         if args.out is not None:
-            _check_out(Path(args.out))
-        task = _pairs(args.set, "--set")
+            check_out(Path(args.out))
+        task = parse_pairs(args.set, "--set")
         teamgym.make(args.env, **task).close()  # a bad env id or task config fails here, before any episode
         if args.agent is not None:
-            resolve_model(args.agent)
+            agent_policy(args.agent)
         if args.curve:
             _curve_csv(args.agent)
     except (ValueError, KeyError, FileNotFoundError) as error:
-        print(f"error: {_message(error)}", file=sys.stderr)
+        print(f"error: {message(error)}", file=sys.stderr)
         return 2
     return guarded(lambda: _report(args, compare(args.env, args.agent, args.episodes, args.seed, args.workers, task)))
 

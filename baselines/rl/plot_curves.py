@@ -169,16 +169,16 @@ def interquartile_mean(values: Sequence[float]) -> float:
 
 
 def run_settings(csv_path: str | Path) -> dict[str, Any] | None:
-    """The model sidecar beside an eval CSV (``<stem>.json`` for ``<stem>_eval.csv``), or ``None``."""
+    """The model sidecar beside an eval CSV (``<stem>.json`` for ``<stem>_eval.csv``), or ``None`` if there is none.
+
+    Read as :mod:`baselines.learned` reads sidecars (``ValueError`` naming the file and field for a bad one).
+    """
+    from baselines.learned import read_sidecar_file
+
     csv_path = Path(csv_path)
     if not csv_path.name.endswith("_eval.csv"):
         return None
-    sidecar = csv_path.with_name(csv_path.name[: -len("_eval.csv")] + ".json")
-    try:
-        data = json.loads(sidecar.read_text())
-    except (OSError, ValueError):
-        return None
-    return data if isinstance(data, dict) else None
+    return read_sidecar_file(csv_path.with_name(csv_path.name[: -len("_eval.csv")] + ".json"), "sb3")
 
 
 def _eval_settings(settings: Mapping[str, Any]) -> tuple[str, dict[str, str], int, int] | None:
@@ -218,7 +218,8 @@ def baseline_value(
         return name, math.nan if value is None else float(value), summary_path
     if settings is None:
         raise ValueError(f"--baseline {name}: the runs have no model sidecar with evaluation settings; give {name}=SUMMARY.json")
-    from baselines.evaluate import evaluate, summarise
+    from baselines.evaluate import evaluate
+    from baselines.summary import summarise
 
     env, overrides, seed, episodes = settings
     summary = summarise(evaluate(env, name, episodes, seed, overrides, workers))
@@ -353,9 +354,9 @@ def plot_curves(
 
 def build_parser() -> argparse.ArgumentParser:
     """The ``python -m baselines.rl.plot_curves`` argument parser (a bad command line exits 2 with a one-line error)."""
-    from baselines.evaluate import _at_least, _Parser
+    from baselines.cli import Parser, at_least
 
-    parser = _Parser(prog="python -m baselines.rl.plot_curves", description="Plot learning curves across seeds.")
+    parser = Parser(prog="python -m baselines.rl.plot_curves", description="Plot learning curves across seeds.")
     parser.add_argument("runs", nargs="+", metavar="RUN_DIR", help="run directory (or *_eval.csv); one curve each")
     parser.add_argument("--metric", default="success_rate", help="eval CSV column to plot (default: success_rate)")
     parser.add_argument(
@@ -368,18 +369,17 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--ci", choices=("t", "bootstrap"), default="t", help="95%% interval across seeds (default: t)")
     parser.add_argument("--out", default="curve.png", help="PNG file to write (default: curve.png)")
     parser.add_argument("--title", default=None, help="plot title")
-    parser.add_argument("--workers", type=_at_least(1), default=1, help="processes for baseline evaluations (default: 1)")
+    parser.add_argument("--workers", type=at_least(1), default=1, help="processes for baseline evaluations (default: 1)")
     return parser
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI; returns the exit code (2 with one line for a bad command line or input, 1 for a failure)."""
-    from baselines.evaluate import _message
+    from baselines.cli import message, parse_args
 
-    try:
-        args = build_parser().parse_args(argv)
-    except SystemExit as done:
-        return 0 if done.code is None else done.code if isinstance(done.code, int) else 2
+    args = parse_args(build_parser(), argv)
+    if isinstance(args, int):  # --help, or a usage error already reported in one line
+        return args
     try:
         out = Path(args.out)
         if out.is_dir():
@@ -394,12 +394,12 @@ def main(argv: Sequence[str] | None = None) -> int:
             print(f"note: the runs were not all evaluated alike; baselines use the settings of {first}", file=sys.stderr)
         baselines = [baseline_value(spec, args.metric, eval_settings, args.workers) for spec in args.baseline]
     except (ValueError, KeyError, FileNotFoundError, TypeError, ImportError) as error:
-        print(f"error: {_message(error)}", file=sys.stderr)
+        print(f"error: {message(error)}", file=sys.stderr)
         return 2
     except Exception as error:  # noqa: BLE001 - no traceback reaches a command-line user
         if os.environ.get("TEAMGYM_TRACEBACK"):
             raise
-        print(f"error: {type(error).__name__}: {_message(error)} (TEAMGYM_TRACEBACK=1 shows where)", file=sys.stderr)
+        print(f"error: {type(error).__name__}: {message(error)} (TEAMGYM_TRACEBACK=1 shows where)", file=sys.stderr)
         return 1
     path = plot_curves(curves, out, args.metric, baselines, args.ci, args.title)
     print(format_table(summary_rows(curves, baselines, args.ci), args.metric, args.ci))

@@ -8,12 +8,15 @@ Command line::
         [--evaluate CHECKPOINT]
 
 Trains PPO with one RLModule (``"shared"``) that every robot maps to, saves an RLlib
-checkpoint to ``--out`` (default ``results/rllib/<env>_ppo``) with ``teamgym.json`` beside it
-(env id, config overrides, PPO settings, per-iteration results) and, with ``--eval-episodes``,
+checkpoint to ``--out`` (default ``results/rllib/<env>_ppo``) with its sidecar ``teamgym.json`` in it
+(the one sidecar format of :mod:`baselines.learned`: env id, config overrides, resolved config, PPO
+settings, per-iteration results) and, with ``--eval-episodes``,
 evaluates the trained module greedily on held-out seeds through :func:`baselines.episode.run_episode`
 (the loop of ``baselines.evaluate``). ``--hp`` sets :meth:`PPOConfig.training` keywords (e.g.
 ``lr=1e-4``); ``--defaults`` starts from RLlib's own PPO defaults instead of :data:`TESTED_SETTINGS`.
-``--evaluate CHECKPOINT`` only evaluates a saved checkpoint (env and config from its ``teamgym.json``).
+``--evaluate CHECKPOINT`` only evaluates a saved checkpoint (env and config from its ``teamgym.json``);
+``python -m baselines.evaluate --policy rllib:CHECKPOINT`` evaluates one with the evaluation CLI's
+options and outputs.
 ``--ray-address`` trains on an existing Ray cluster (the env runners anywhere on it, the learner here).
 
 Pieces, for use from Python (see docs/scale_out.md):
@@ -23,7 +26,8 @@ Pieces, for use from Python (see docs/scale_out.md):
   limits are reported so that RLlib bootstraps truncated robots, and Discrete action masks
   become a ``Dict(observations=..., action_mask=...)`` observation (:class:`MaskedPPOTorchRLModule`).
 * :func:`ppo_config`: a ``PPOConfig`` with one shared module and the tested settings.
-* :class:`RLlibPolicy`: a trained module (from a checkpoint) as a :class:`baselines.Policy`.
+* :class:`RLlibPolicy`: a trained module (from a checkpoint) as a :class:`baselines.Policy`
+  (the policy name ``rllib:CHECKPOINT`` of :func:`baselines.registry.make_policy`).
 
 Needs the ``rllib`` extra (``ray[rllib]``, which pins gymnasium 1.2.2: use its own venv, as
 ``scripts/run_tests_rllib.sh`` does). Bad arguments exit with code 2 and one ``error: ...``
@@ -35,7 +39,6 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import importlib.util
-import json
 import math
 import sys
 import time
@@ -335,6 +338,11 @@ class RLlibPolicy(Policy):
 
     name = "rllib"
 
+    @classmethod
+    def load(cls, checkpoint: str | Path, env: Any, deterministic: bool = True) -> RLlibPolicy:
+        """The policy of the checkpoint directory ``checkpoint`` for ``env`` (what ``rllib:CHECKPOINT`` builds)."""
+        return cls(env, checkpoint, deterministic=deterministic)
+
     def __init__(self, env: Any, checkpoint: str | Path, deterministic: bool = True) -> None:
         super().__init__(env)
         require_rllib()
@@ -419,17 +427,13 @@ def evaluate_checkpoint(
 ) -> list[Any]:
     """Play ``episodes`` episodes (seeds ``seed ..``) with the checkpoint's shared module; ``EpisodeResult`` per episode.
 
-    The loop is :func:`baselines.episode.run_episode`, so :func:`baselines.evaluate.summarise` applies.
+    This is :func:`baselines.evaluate.evaluate` of the policy ``rllib:CHECKPOINT`` in this process, so
+    :func:`baselines.summary.summarise` applies.
     """
-    import teamgym
-    from baselines.episode import run_episode
+    from baselines.evaluate import evaluate
 
-    env = teamgym.make(env_id, **dict(config or {}))
-    try:
-        policy = RLlibPolicy(env, checkpoint, deterministic=deterministic)
-        return [run_episode(env, policy, seed + i) for i in range(episodes)]
-    finally:
-        env.close()
+    policy_kwargs = {"deterministic": deterministic}
+    return evaluate(env_id, f"rllib:{checkpoint}", episodes, seed, dict(config or {}), policy_kwargs=policy_kwargs)
 
 
 def _init_ray(num_cpus: int | None, address: str | None = None) -> bool:
@@ -486,7 +490,7 @@ def train(
     if ray_address is not None:
         import ray
 
-        from baselines.evaluate import check_ray_address
+        from baselines.runners import check_ray_address
 
         check_ray_address(ray_address)
         if num_cpus is not None:
@@ -496,6 +500,9 @@ def train(
     out = Path(out) if out is not None else Path("results") / "rllib" / f"{env_id}_ppo"
     if out.exists() and not out.is_dir():
         raise ValueError(f"--out {str(out)!r} is an existing file, not a directory")
+    probe = _make_env(env_id, config)  # the resolved config, for the sidecar
+    resolved = probe.config.as_dict() if hasattr(probe.config, "as_dict") else dict(config or {})
+    probe.close()
     algo_config = ppo_config(
         env_id,
         config,
@@ -532,7 +539,8 @@ def train(
     model_settings = {key: model_config.get(key) for key in {**MODEL_SETTINGS, **dict(model or {})}}
     sidecar = {
         "env": env_id,
-        "config": {k: str(v) if not isinstance(v, (int, float, bool)) else v for k, v in dict(config or {}).items()},
+        "overrides": {k: str(v) for k, v in dict(config or {}).items()},
+        "config": resolved,
         "algo": "ppo",
         "module_id": MODULE_ID,
         "seed": seed,
@@ -549,20 +557,20 @@ def train(
 
 
 def _write_sidecar(out: Path, data: Mapping[str, Any]) -> Path:
-    from baselines.evaluate import write_summary_json
+    from baselines.learned import sidecar_path, write_sidecar
 
-    return write_summary_json(out / "teamgym.json", data)
+    return write_sidecar(sidecar_path("rllib", out), "rllib", data)
 
 
 def read_sidecar(checkpoint: str | Path) -> dict[str, Any]:
-    """The ``teamgym.json`` that :func:`train` wrote beside a checkpoint (``{}`` if there is none)."""
-    path = Path(checkpoint) / "teamgym.json"
-    if not path.is_file():
-        return {}
-    data = json.loads(path.read_text())
-    if not isinstance(data, dict):
-        raise ValueError(f"{str(path)!r} is not a JSON object")
-    return data
+    """The sidecar ``teamgym.json`` of a checkpoint in the format of :mod:`baselines.learned` (``{}`` if there is none).
+
+    A file written before that format (its ``config`` held the given settings) reads the same as a new
+    one (they are its ``overrides``); a field of the wrong type is a ``ValueError`` naming the file and field.
+    """
+    from baselines.learned import read_sidecar as read
+
+    return read("rllib", checkpoint) or {}
 
 
 # -- command line -----------------------------------------------------------------------
@@ -570,16 +578,16 @@ def read_sidecar(checkpoint: str | Path) -> dict[str, Any]:
 
 def build_parser() -> argparse.ArgumentParser:
     """The ``python -m baselines.rl.rllib`` argument parser (a bad command line exits 2 with a one-line error)."""
-    from baselines.evaluate import _at_least, _nonblank, _Parser, _ray_address
+    from baselines.cli import Parser, at_least, cluster_address, nonblank
 
-    parser = _Parser(
+    parser = Parser(
         prog="python -m baselines.rl.rllib",
         description="Train one shared PPO policy on a teamgym env with Ray RLlib (new API stack).",
     )
-    count, natural = _at_least(1), _at_least(0)
+    count, natural = at_least(1), at_least(0)
     parser.add_argument(
         "--env",
-        type=_nonblank("an env id"),
+        type=nonblank("an env id"),
         default=None,
         help=f"env id (default: {DEFAULT_ENV}; with --evaluate: the checkpoint's)",
     )
@@ -593,14 +601,14 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--defaults", action="store_true", help="start from RLlib's PPO defaults, not the tested settings")
     parser.add_argument("--seed", type=natural, default=0, help="random seed (default: 0)")
     parser.add_argument(
-        "--out", type=_nonblank("a directory"), default=None, help="checkpoint directory (default: results/rllib/<env>_ppo)"
+        "--out", type=nonblank("a directory"), default=None, help="checkpoint directory (default: results/rllib/<env>_ppo)"
     )
     parser.add_argument("--env-runners", type=natural, default=0, help="remote env runners; 0 samples in this process (default)")
     cluster = parser.add_mutually_exclusive_group()
     cluster.add_argument("--num-cpus", type=count, default=None, help="CPUs of the local Ray cluster (default: all)")
     cluster.add_argument(
         "--ray-address",
-        type=_ray_address,
+        type=cluster_address,
         default=None,
         metavar="ADDR",
         help="train on the existing Ray cluster whose head is HOST:PORT (default: RAY_ADDRESS, else a new local one)",
@@ -614,7 +622,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument(
         "--evaluate",
-        type=_nonblank("a checkpoint"),
+        type=nonblank("a checkpoint"),
         default=None,
         metavar="CHECKPOINT",
         help="evaluate a saved checkpoint instead of training",
@@ -640,24 +648,23 @@ def _training_keywords(pairs: Mapping[str, str]) -> dict[str, Any]:
 
 
 def _report(summary: Mapping[str, Any], title: str) -> None:
-    from baselines.evaluate import summary_table
+    from baselines.summary import summary_table
 
     print(summary_table(summary, title=title))
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI; returns the exit code (2: bad arguments or missing ray[rllib]; 1: failure while training)."""
-    from baselines.evaluate import _message, guarded, summarise
-    from baselines.rl.train import _pairs
+    from baselines.cli import guarded, message, parse_args, parse_pairs
+    from baselines.summary import summarise
 
-    try:
-        args = build_parser().parse_args(argv)
-    except SystemExit as done:  # --help, or a usage error already reported in one line
-        return 0 if done.code is None else done.code if isinstance(done.code, int) else 2
+    args = parse_args(build_parser(), argv)
+    if isinstance(args, int):
+        return args
     try:
         require_rllib()
-        config: dict[str, Any] = _pairs(args.set, "--set")
-        training = _training_keywords(_pairs(args.hp, "--hp"))
+        config: dict[str, Any] = parse_pairs(args.set, "--set")
+        training = _training_keywords(parse_pairs(args.hp, "--hp"))
         if args.evaluate is not None:
             if args.ray_address is not None:
                 raise ValueError("--ray-address applies to training; --evaluate plays its episodes in this process")
@@ -665,14 +672,14 @@ def main(argv: Sequence[str] | None = None) -> int:
             saved = read_sidecar(args.evaluate)
             env_id = args.env if args.env is not None else saved.get("env") or DEFAULT_ENV
             if env_id == saved.get("env"):
-                config = {**(saved.get("config") or {}), **config}
+                config = {**saved.get("overrides", {}), **config}
             import teamgym
 
             teamgym.make(env_id, **config).close()  # a bad id or config fails here, in one line
         else:
             env_id = DEFAULT_ENV if args.env is None else args.env
     except (ValueError, TypeError, KeyError, FileNotFoundError, ImportError) as error:
-        print(f"error: {_message(error)}", file=sys.stderr)
+        print(f"error: {message(error)}", file=sys.stderr)
         return 2
     import torch
 
@@ -718,7 +725,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                     data["eval"] = {"seed": args.eval_seed, "episodes": episodes, **summary}
                     _write_sidecar(checkpoint, data)
         except (ValueError, FileNotFoundError) as error:
-            print(f"error: {_message(error)}", file=sys.stderr)
+            print(f"error: {message(error)}", file=sys.stderr)
             return 2
         return 0
 

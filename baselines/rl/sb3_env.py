@@ -52,7 +52,7 @@ observations, no render mode, ``fixed_agents=False``), its copies are one
 :class:`~teamgym.envs.batch.TeamBatch` (:meth:`~teamgym.envs.base.TeamEnv.make_batch`) and
 are stepped together (``batched=None``, the default; ``True`` insists, ``False`` refuses):
 one array of actions for all copies. Slots, refills, seeding and what a finishing robot's
-``info`` holds are exactly the PettingZoo path's (tests/test_sb3_batched.py, on every env);
+``info`` holds are exactly the PettingZoo path's (tests/baselines/test_sb3_batched.py, on every env);
 a slot whose robot goes on gets an empty ``info`` instead of the robot's per-step metrics.
 Wrapped envs (and dict observations) are stepped one by one through the PettingZoo API.
 

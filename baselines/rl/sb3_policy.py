@@ -6,7 +6,8 @@ stacked and passed to one ``model.predict`` call (deterministic unless
 ``deterministic=False``); a maskable model (sb3-contrib's ``MaskablePPO``) also gets the
 live agents' action masks, so it never picks a masked action. ``python -m baselines.train``
 writes a sidecar ``<model>.json`` beside every model it saves (env id, config, algorithm,
-settings); :func:`read_sidecar` reads it.
+settings; the one sidecar format of :mod:`baselines.learned`, shared with RLlib checkpoints);
+:func:`read_sidecar` reads it. The policy name ``sb3:PATH`` builds an :class:`SB3Policy`.
 
 Stable-Baselines3 (and torch, and sb3-contrib for ``maskable_ppo``) are imported only when
 a model is loaded, so ``import baselines`` works without them.
@@ -153,22 +154,13 @@ def resolve_model(path: str | Path) -> Path:
 def read_sidecar(path: str | Path) -> dict[str, Any] | None:
     """The settings ``baselines.train`` saved beside the model at ``path`` (``<model>.json``), or ``None``.
 
-    ``None`` when the model or its sidecar does not exist; ``ValueError`` naming the file
-    when the sidecar is not a JSON object.
+    In the sidecar format of :mod:`baselines.learned` (a file written before it reads the same).
+    ``None`` when the model or its sidecar does not exist; ``ValueError`` naming the file (and the
+    field) when the sidecar is not a JSON object or a field has the wrong type.
     """
-    try:
-        sidecar = resolve_model(path).with_suffix(".json")
-    except FileNotFoundError:
-        return None
-    if not sidecar.is_file():
-        return None
-    try:
-        data = json.loads(sidecar.read_text())
-    except (OSError, ValueError) as error:
-        raise ValueError(f"cannot read the model's sidecar {str(sidecar)!r}: {error}") from None
-    if not isinstance(data, dict):
-        raise ValueError(f"the model's sidecar {str(sidecar)!r} is not a JSON object")
-    return data
+    from baselines.learned import read_sidecar as read
+
+    return read("sb3", path)
 
 
 def detect_algorithm(path: str | Path) -> str | None:
@@ -179,14 +171,12 @@ def detect_algorithm(path: str | Path) -> str | None:
     and, for actor-critic policies, PPO-only hyperparameters to tell PPO from A2C.
     """
     path = resolve_model(path)
-    sidecar = path.with_suffix(".json")
-    if sidecar.is_file():
-        try:
-            algo = json.loads(sidecar.read_text()).get("algo")
-        except (OSError, ValueError, AttributeError):
-            algo = None
-        if isinstance(algo, str) and algo.lower() in ALGORITHMS:
-            return algo.lower()
+    try:
+        algo = (read_sidecar(path) or {}).get("algo")
+    except ValueError:  # a damaged sidecar: the zip still tells
+        algo = None
+    if isinstance(algo, str) and algo.lower() in ALGORITHMS:
+        return algo.lower()
     try:
         with zipfile.ZipFile(path) as archive:
             data = json.loads(archive.read("data"))

@@ -57,7 +57,6 @@ from __future__ import annotations
 
 import argparse
 import importlib.util
-import json
 import math
 import os
 import re
@@ -133,11 +132,9 @@ def _saved_hyperparameters(sidecar: Mapping[str, Any]) -> dict[str, Any]:
 
 
 def _write_json(path: Path, data: Mapping[str, Any]) -> Path:
-    from baselines.evaluate import _json_safe
+    from baselines.summary import write_json
 
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(_json_safe(data), indent=2, allow_nan=False, default=repr) + "\n")
-    return path
+    return write_json(path, data, default=repr)
 
 
 class Training:
@@ -388,9 +385,11 @@ class Training:
 
     def save(self, path: Path, kind: str = "final", **extra: Any) -> Path:
         """Save the model at ``path`` (``.zip``) with its sidecar ``.json``."""
+        from baselines.learned import write_sidecar
+
         path.parent.mkdir(parents=True, exist_ok=True)
         self.model.save(str(path))
-        _write_json(path.with_suffix(".json"), {**self.meta(kind), **extra})
+        write_sidecar(path.with_suffix(".json"), "sb3", {**self.meta(kind), **extra})
         return path
 
     def _checkpoint(self, timesteps: int) -> None:
@@ -628,13 +627,13 @@ def _algorithm_arg(text: str) -> str:
 
 def build_parser() -> argparse.ArgumentParser:
     """The ``python -m baselines.train`` argument parser (a bad command line exits 2 with a one-line error)."""
-    from baselines.evaluate import _at_least, _nonblank, _Parser
+    from baselines.cli import Parser, at_least, nonblank
     from baselines.rl.sb3_policy import ALGORITHMS
 
-    parser = _Parser(prog="python -m baselines.train", description="Train a parameter-shared SB3 policy on a teamgym env.")
-    count, natural = _at_least(1), _at_least(0)
+    parser = Parser(prog="python -m baselines.train", description="Train a parameter-shared SB3 policy on a teamgym env.")
+    count, natural = at_least(1), at_least(0)
     resumed = "; with --resume: the saved run's"
-    parser.add_argument("--env", type=_nonblank("an env id"), default=None, help=f"env id (default: {DEFAULT_ENV}{resumed})")
+    parser.add_argument("--env", type=nonblank("an env id"), default=None, help=f"env id (default: {DEFAULT_ENV}{resumed})")
     parser.add_argument(
         "--algo",
         default=None,
@@ -656,7 +655,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--jobs", type=count, default=1, help="with --seeds: parallel training processes (default: 1)")
     parser.add_argument(
         "--out",
-        type=_nonblank("a path"),
+        type=nonblank("a path"),
         default=None,
         help="model path (.zip; default: results/models/<env>_<algo>.zip); with --seeds a directory "
         "(default: results/models/<env>_<algo>/)",
@@ -673,7 +672,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--verbose", type=int, choices=(0, 1, 2), default=1, help="SB3 verbosity (default: 1)")
     parser.add_argument(
         "--tensorboard",
-        type=_nonblank("a directory"),
+        type=nonblank("a directory"),
         default=None,
         metavar="DIR",
         help=f"write TensorBoard logs under DIR{resumed}",
@@ -687,7 +686,7 @@ def build_parser() -> argparse.ArgumentParser:
         help=f"save <out-stem>_<steps>_steps.zip every N timesteps (0: off; default: off{resumed})",
     )
     parser.add_argument(
-        "--resume", type=_nonblank("a model path"), default=None, metavar="PATH", help="continue training the model saved at PATH"
+        "--resume", type=nonblank("a model path"), default=None, metavar="PATH", help="continue training the model saved at PATH"
     )
     parser.add_argument(
         "--eval-every",
@@ -708,7 +707,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument(
         "--preset",
-        type=_nonblank("a preset name"),
+        type=nonblank("a preset name"),
         default=None,
         metavar="NAME",
         help="train with a shipped RL preset (env, config, algo, hyper-parameters, budget; see docs/training.md); "
@@ -719,7 +718,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument(
         "--bc-expert",
-        type=_nonblank("a scripted policy name"),
+        type=nonblank("a scripted policy name"),
         default=None,
         metavar="NAME",
         help="behaviour-clone this scripted policy before training (ppo, a2c)",
@@ -738,16 +737,6 @@ def build_parser() -> argparse.ArgumentParser:
         help="then R rounds of DAgger: the clone drives, the expert labels, the clone is refitted on all data (default: 0)",
     )
     return parser
-
-
-def _pairs(items: Sequence[str], flag: str) -> dict[str, str]:
-    pairs = {}
-    for item in items:
-        key, sep, value = item.partition("=")
-        if not sep or not key.strip():
-            raise ValueError(f"{flag} expects key=value, got {item!r}")
-        pairs[key.strip()] = value.strip()
-    return pairs
 
 
 def _preset_settings(name: str, env_id: str | None) -> dict[str, Any]:
@@ -783,7 +772,7 @@ def _pick(given: Any, saved: Any, default: Any) -> Any:
 
 def _plan(args: argparse.Namespace) -> tuple[dict[str, Any], list[int] | None]:
     """Keyword arguments of :class:`Training` (without ``seed``/``out`` for ``--seeds``) and the seeds, from the command line."""
-    from baselines.evaluate import _check_out
+    from baselines.cli import check_out, parse_pairs
     from baselines.rl.sb3_policy import detect_algorithm, read_sidecar, resolve_model
     from teamgym.envs.config import parse_value
 
@@ -801,10 +790,10 @@ def _plan(args: argparse.Namespace) -> tuple[dict[str, Any], list[int] | None]:
         raise ValueError(f"--bc-dagger must be >= 0, got {args.bc_dagger}")
     if args.bc_expert is not None and args.resume:
         raise ValueError("--bc-expert pre-trains a new model; it cannot be combined with --resume")
-    sets: dict[str, Any] = _pairs(args.set, "--set")
+    sets: dict[str, Any] = parse_pairs(args.set, "--set")
     if args.max_cycles is not None:
         sets["max_cycles"] = str(args.max_cycles)
-    hyperparameters = {k: parse_value(v) for k, v in _pairs(args.hp, "--hp").items()}
+    hyperparameters = {k: parse_value(v) for k, v in parse_pairs(args.hp, "--hp").items()}
     saved: dict[str, Any] = {}
     if args.preset is not None:
         if args.resume:
@@ -868,7 +857,7 @@ def _plan(args: argparse.Namespace) -> tuple[dict[str, Any], list[int] | None]:
         out_dir = Path(args.out) if args.out is not None else Path("results") / "models" / f"{env_id}_{algo}"
         if out_dir.suffix == ".zip" or out_dir.is_file():
             raise ValueError(f"with --seeds, --out names a directory, not {str(out_dir)!r}")
-        _check_out(out_dir)
+        check_out(out_dir)
         kwargs["out"] = out_dir
         return kwargs, args.seeds
     if args.resume:
@@ -877,7 +866,7 @@ def _plan(args: argparse.Namespace) -> tuple[dict[str, Any], list[int] | None]:
         out = Path(args.out) if args.out is not None else continued_path(resolve_model(args.resume))
     else:
         out = Path(args.out) if args.out is not None else Path("results") / "models" / f"{env_id}_{algo}.zip"
-    _check_out(_zip_path(out), file=True)
+    check_out(_zip_path(out), file=True)
     kwargs["out"] = out
     kwargs["seed"] = _pick(args.seed, saved.get("seed"), 0)
     return kwargs, None
@@ -895,12 +884,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     trained); 1 with one line for any other failure (``TEAMGYM_TRACEBACK=1`` re-raises it); 130
     on Ctrl-C (the model trained so far is saved).
     """
-    from baselines.evaluate import _message, guarded
+    from baselines.cli import guarded, message, parse_args
 
-    try:
-        args = build_parser().parse_args(argv)
-    except SystemExit as done:  # --help, or a usage error already reported in one line
-        return 0 if done.code is None else done.code if isinstance(done.code, int) else 2
+    args = parse_args(build_parser(), argv)
+    if isinstance(args, int):  # --help, or a usage error already reported in one line
+        return args
 
     def body() -> int:
         run: Training | None = None
@@ -912,7 +900,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 out_dir = kwargs.pop("out")
                 Training(**kwargs, seed=seeds[0], out=seed_run_path(out_dir, seeds[0], kwargs["env_id"], kwargs["algo"])).close()
         except _BAD_INPUT as error:
-            print(f"error: {_message(error)}", file=sys.stderr)
+            print(f"error: {message(error)}", file=sys.stderr)
             return 2
         try:
             if run is not None:

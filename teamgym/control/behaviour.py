@@ -7,7 +7,7 @@ a_i ∈ (0, 1) by sigmoid functions; a fixed-priority arbiter picks the behaviou
 
 and the winner alone sets the controls from its activation, ``[v, ω] = f_k(a_k)`` (6).
 The paper gives neither the sigmoids nor f_k (it refers to [Skrzypczyk 2002]); our choices
-(documented in docs/exploration.md and tested in tests/test_behaviour.py):
+(documented in docs/exploration.md and tested in tests/envs/test_behaviour.py):
 
 ============== ========================================= ===================================
 behaviour      activation a_i                            control f_i(a_i)
@@ -39,11 +39,28 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from teamgym.sim.robot import wrap_angle
-
 BEHAVIOURS = ("avoid_left", "avoid_right", "avoid_front", "goal_tracking", "stop", "stroll", "narrow_passage")
 AVOID_LEFT, AVOID_RIGHT, AVOID_FRONT, GOAL_TRACKING, STOP, STROLL, NARROW_PASSAGE = range(7)
 DEFAULT_PRIORITIES = (0.8, 0.8, 0.9, 0.6, 1.0, 0.3, 0.85)
+
+
+def _wrap(angle: float) -> float:
+    """:func:`teamgym.sim.robot.wrap_angle` of one float: the same floored modulo (numpy's and Python's agree)."""
+    return math.pi - (math.pi - angle) % math.tau
+
+
+def _first_max(values: list[float]) -> int:
+    """``np.argmax(values)``: the first largest value, or the first NaN."""
+    best, k = values[0], 0
+    if best != best:
+        return 0
+    for i in range(1, len(values)):
+        value = values[i]
+        if value != value:
+            return i
+        if value > best:
+            best, k = value, i
+    return k
 
 
 def sigmoid(z: float) -> float:
@@ -86,12 +103,24 @@ class BehaviourParameters:
 
 @dataclass
 class BehaviourStep:
-    """One control step: every behaviour's activation, the winner k of eq. (5), and (v, ω) of eq. (6)."""
+    """One control step: every behaviour's activation, the winner k of eq. (5), and (v, ω) of eq. (6).
 
-    activations: np.ndarray
-    weighted: np.ndarray
+    ``levels`` and ``weighted_levels`` are the activations a_i and a_i q_i as lists;
+    ``activations`` and ``weighted`` give them as arrays.
+    """
+
+    levels: list[float]
+    weighted_levels: list[float]
     winner: int
     command: tuple[float, float]
+
+    @property
+    def activations(self) -> np.ndarray:
+        return np.array(self.levels)
+
+    @property
+    def weighted(self) -> np.ndarray:
+        return np.array(self.weighted_levels)
 
     @property
     def winner_name(self) -> str:
@@ -120,7 +149,7 @@ class BehaviourController:
         if not self.history:
             return np.zeros((0, len(BEHAVIOURS))), np.zeros(0, dtype=int), np.zeros((0, 2))
         return (
-            np.array([h.activations for h in self.history]),
+            np.array([h.levels for h in self.history]),
             np.array([h.winner for h in self.history]),
             np.array([h.command for h in self.history]),
         )
@@ -129,23 +158,29 @@ class BehaviourController:
         self, pose: tuple[float, float, float], proximity: np.ndarray, target: tuple[float, float] | None, collided: bool = False
     ) -> np.ndarray:
         """The seven activation levels a_i (order of :data:`BEHAVIOURS`)."""
+        return np.array(self._levels([float(v) for v in proximity], self._rho(pose, target), collided))
+
+    @staticmethod
+    def _rho(pose: tuple[float, float, float], target: tuple[float, float] | None) -> float | None:
+        """Distance to the target (``None`` without one)."""
+        return None if target is None else math.hypot(target[0] - pose[0], target[1] - pose[1])
+
+    def _levels(self, d: list[float], rho: float | None, collided: bool) -> list[float]:
+        """:meth:`activations` from the ray distances ``d`` and the distance ``rho`` to the target (``None``: none)."""
         p = self.params
-        d = [float(v) for v in proximity]
         d_left = min(d[1], d[0] + p.side_offset)
         d_right = min(d[4], d[5] + p.side_offset)
         d_front = min(d[2], d[3])
-        a = np.zeros(len(BEHAVIOURS))
-        a[AVOID_LEFT] = sigmoid(p.steepness * (p.avoid_distance - d_left))
-        a[AVOID_RIGHT] = sigmoid(p.steepness * (p.avoid_distance - d_right))
-        a[AVOID_FRONT] = sigmoid(p.steepness * (p.front_distance - d_front))
-        a[STROLL] = sigmoid(p.steepness * (min(d_left, d_right, d_front) - p.avoid_distance))
-        a[NARROW_PASSAGE] = sigmoid(p.steepness * (p.passage_distance - d_left)) * sigmoid(
-            p.steepness * (p.passage_distance - d_right)
-        )
-        if target is None:
+        steep = p.steepness
+        a = [0.0] * len(BEHAVIOURS)
+        a[AVOID_LEFT] = sigmoid(steep * (p.avoid_distance - d_left))
+        a[AVOID_RIGHT] = sigmoid(steep * (p.avoid_distance - d_right))
+        a[AVOID_FRONT] = sigmoid(steep * (p.front_distance - d_front))
+        a[STROLL] = sigmoid(steep * (min(d_left, d_right, d_front) - p.avoid_distance))
+        a[NARROW_PASSAGE] = sigmoid(steep * (p.passage_distance - d_left)) * sigmoid(steep * (p.passage_distance - d_right))
+        if rho is None:
             a[STOP] = 1.0
         else:
-            rho = math.hypot(target[0] - pose[0], target[1] - pose[1])
             a[GOAL_TRACKING] = sigmoid(p.goal_steepness * (rho - p.goal_tolerance))
             a[STOP] = 1.0 if collided else sigmoid(p.goal_steepness * (p.goal_tolerance - rho))
         if collided:
@@ -165,15 +200,16 @@ class BehaviourController:
         Without a target the robot stops (the Wait() operator) unless ``stroll`` is set, in
         which case stop is inactive and the robot strolls, avoiding what it meets.
         """
-        p = self.params
-        a = self.activations(pose, proximity, target, collided)
+        d = proximity.tolist() if isinstance(proximity, np.ndarray) else [float(v) for v in proximity]
+        rho = self._rho(pose, target)
+        a = self._levels(d, rho, collided)
         if target is None and stroll and not collided:
             a[STOP] = 0.0
-        weighted = a * np.asarray(p.priorities)
-        k = int(np.argmax(weighted))
+        weighted = [x * q for x, q in zip(a, self.params.priorities)]
+        k = _first_max(weighted)
         if k != AVOID_FRONT:
             self._turn = 0.0
-        command = self._control(k, float(a[k]), pose, proximity, target)
+        command = self._command(k, a[k], pose, d, target, rho)
         out = BehaviourStep(a, weighted, k, command)
         if self.record:
             self.history.append(out)
@@ -183,13 +219,24 @@ class BehaviourController:
         self, k: int, a: float, pose: tuple[float, float, float], proximity: np.ndarray, target: tuple[float, float] | None
     ) -> tuple[float, float]:
         """f_k of eq. (6)."""
+        return self._command(k, a, pose, [float(v) for v in proximity], target, self._rho(pose, target))
+
+    def _command(
+        self,
+        k: int,
+        a: float,
+        pose: tuple[float, float, float],
+        d: list[float],
+        target: tuple[float, float] | None,
+        rho: float | None,
+    ) -> tuple[float, float]:
+        """:meth:`_control` from the ray distances ``d`` and the target distance ``rho``."""
         p = self.params
-        d = [float(v) for v in proximity]
         e = 0.0
-        rho = 0.0
-        if target is not None:
-            rho = math.hypot(target[0] - pose[0], target[1] - pose[1])
-            e = float(wrap_angle(math.atan2(target[1] - pose[1], target[0] - pose[0]) - pose[2]))
+        if target is None:
+            rho = 0.0
+        else:
+            e = _wrap(math.atan2(target[1] - pose[1], target[0] - pose[0]) - pose[2])
         forward = max(0.0, math.cos(e)) ** 2
         if k == AVOID_LEFT:
             return p.v_max * (1.0 - 0.8 * a), -p.omega_max * a

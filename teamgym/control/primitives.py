@@ -26,7 +26,7 @@ with the light on the right; only if the paper counts rotation clockwise-positiv
 001 counts its angles, see docs/simulator.md) do both rules turn the box towards the lamp,
 which is the task. We read it so: ``PUSH_CLOCKWISE`` turns box and robot to the robot's left
 (counter-clockwise seen from above in teamgym's frame), ``PUSH_COUNTERCLOCKWISE`` to its
-right. ``tests/test_box_pushing_physics.py`` checks both senses.
+right. ``tests/envs/test_box_pushing_physics.py`` checks both senses.
 
 Progress of programs is measured by odometry from the wheel encoders, as on the Khepera.
 """

@@ -39,12 +39,12 @@ class WayFollower:
     ) -> tuple[float, float]:
         """``(v, ω)`` that moves the robot at ``pose`` along ``start → end``."""
         x, y, theta = pose
-        if self.arrived(pose, end) or nearest_ahead < self.stop_distance:
+        remaining = math.hypot(end[0] - x, end[1] - y)
+        if remaining <= self.arrive_tolerance or nearest_ahead < self.stop_distance:  # arrived, or about to meet
             return 0.0, 0.0
         aim = self._aim(x, y, start, end)
         error = math.remainder(math.atan2(aim[1] - y, aim[0] - x) - theta, math.tau)
         omega = max(-self.omega_max, min(self.omega_max, self.k_turn * error))
-        remaining = math.hypot(end[0] - x, end[1] - y)
         v = self.speed * max(0.0, math.cos(error)) * min(1.0, remaining / self.brake)
         return v, omega
 

@@ -23,7 +23,7 @@ observation.
 
 The step itself is the env's own (:mod:`teamgym.envs.step_loop`), run over the group of
 copies that have an active robot; a copy steps exactly as a single env with the same seed
-and actions would, bit for bit (tests/test_batch.py). A task whose per-step state lives in
+and actions would, bit for bit (tests/envs/test_batch.py). A task whose per-step state lives in
 arrays over copies (Navigation) computes those phases in one numpy pass for all copies.
 
 ``auto_reset=True``: a copy whose robots are all done starts its next episode at the end of

@@ -4,7 +4,7 @@ Every observation field of every env has finite bounds (:class:`~teamgym.envs.sp
 and :meth:`~teamgym.envs.spaces.ObservationLayout.clip` saturates what an env writes at them
 (a reading beyond its sensor's range reads the range), so ``observation_space(agent).contains``
 holds for every observation. Kinematic readings use the limits below; they are wide enough
-that the recorded rollouts of the default configs never reach them (``tests/test_obs_hashes.py``).
+that the recorded rollouts of the default configs never reach them (``tests/envs/test_obs_hashes.py``).
 
 * **Positions**: a walled world keeps every body in ``[0, w] × [0, h]``; without walls a body
   can travel at most ``SATURATION × body_speed × cycle_limit × dt`` beyond each edge.

@@ -222,7 +222,8 @@ class EnvConfig:
         Every key is range-checked here on its own, so an out-of-range value is reported under
         its own name before any check that ties keys together (:meth:`check_relations`) runs.
         """
-        require(self, "max_cycles", 1 <= self.max_cycles <= MAX_CYCLES, f"must be in [1, {MAX_CYCLES:.0e}]")
+        cycles = self.max_cycles
+        require(self, "max_cycles", cycles is None or 1 <= cycles <= MAX_CYCLES, f"must be in [1, {MAX_CYCLES:.0e}]")
         require(self, "dt", MIN_DT <= self.dt <= 10, f"must be in [{MIN_DT}, 10] s")
         require(self, "substeps", 1 <= self.substeps <= 1000, "must be in [1, 1000]")
         require(self, "coarse_substeps", 0 <= self.coarse_substeps <= 1000, "must be in [0, 1000] (0: off)")

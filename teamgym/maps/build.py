@@ -6,15 +6,20 @@ from collections.abc import Mapping
 
 from teamgym.maps.geometry import wall_layout
 from teamgym.maps.model import OfficeMap
+from teamgym.maps.walls import JoinedWalls
 from teamgym.sim.entity import Entity
 from teamgym.sim.objects import Door, StaticPolygon, Wall
 from teamgym.sim.world import World
 
 
-def map_entities(office: OfficeMap, door_open: Mapping[str, bool] | None = None, furniture: bool = True) -> list[Entity]:
+def map_entities(
+    office: OfficeMap, door_open: Mapping[str, bool] | None = None, furniture: bool = True, join_walls: bool = False
+) -> list[Entity]:
     """The map's walls, doors (open or closed per ``door_open``, default open) and furniture, in that order.
 
-    Entity names are the door and furniture ids, and ``wall_<k>`` for walls.
+    Entity names are the door and furniture ids, and ``wall_<k>`` for walls; with
+    ``join_walls`` the walls are one :class:`~teamgym.maps.walls.JoinedWalls` entity named
+    ``"walls"`` (the same shapes in the same order, on one static body).
     """
     door_open = dict(door_open or {})
     unknown = sorted(set(door_open) - set(office.door_ids))
@@ -23,6 +28,8 @@ def map_entities(office: OfficeMap, door_open: Mapping[str, bool] | None = None,
     walls, door_segments = wall_layout(office)
     t = office.wall_thickness
     entities: list[Entity] = [Wall(seg.name, seg.a, seg.b, t) for seg in walls]
+    if join_walls and entities:
+        entities = [JoinedWalls("walls", entities)]
     entities += [Door(seg.name, seg.a, seg.b, t, is_open=door_open.get(seg.name, True)) for seg in door_segments]
     if furniture:
         entities += [StaticPolygon(f.id, f.vertices) for f in office.furniture]

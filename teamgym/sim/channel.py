@@ -6,10 +6,14 @@ Robots exchange :class:`Message` records through a :class:`Channel`. Messages ca
 env-generated (e.g. shared perception tuples) or agent-chosen (a learned ``comm_dim`` float
 vector). Per control step, the environment
 
-1. calls :meth:`Channel.send` any number of times (the message is queued for this step),
+1. calls :meth:`Channel.send` any number of times (the message is queued for this step;
+   :meth:`Channel.send_array` queues an env's own float32 array without copying it),
 2. calls :meth:`Channel.deliver` once with the robots' positions, its own
-   ``np.random.Generator`` and the step number, then reads :meth:`Channel.inbox` or
-   :meth:`Channel.inbox_array` to build observations.
+   ``np.random.Generator`` and the step number, then reads :meth:`Channel.inbox`,
+   :meth:`Channel.inbox_array` or :meth:`Channel.inbox_payloads` to build observations.
+
+Inside, queued and delivered messages are plain tuples; :meth:`Channel.inbox` builds the
+:class:`Message` records when it is read.
 
 A message reaches a receiver (every *other* present robot for a broadcast, the recipient
 otherwise) only if
@@ -63,6 +67,7 @@ import numpy as np
 DROP_REASONS = ("budget", "range", "loss", "inbox", "absent")
 
 _TRAFFIC = ("bytes_sent", "bytes_delivered", "messages_sent", "messages_delivered")
+_DROPPED_KEYS = tuple(f"dropped_{reason}" for reason in DROP_REASONS)
 
 
 def _as_int(value: Any, what: str) -> int:
@@ -166,6 +171,13 @@ class Message:
         object.__setattr__(clone, "sent_step", int(step))
         return clone
 
+    @classmethod
+    def _trusted(cls, sender: str, recipient: str | None, payload: np.ndarray, size: int, kind: str, sent_step: int) -> Message:
+        """A message from fields the channel has checked already (``payload`` read-only float32): no second check or copy."""
+        message = object.__new__(cls)
+        message.__dict__.update(sender=sender, recipient=recipient, payload=payload, size=size, kind=kind, sent_step=sent_step)
+        return message
+
     def __reduce__(self) -> tuple[Any, tuple[Any, ...]]:
         # Rebuild through __init__ so that copies and unpickled messages keep a read-only payload.
         return (Message, (self.sender, self.recipient, self.payload, self.size, self.kind, self.sent_step))
@@ -177,6 +189,12 @@ class PackedInbox(NamedTuple):
     payload: np.ndarray  #: (capacity, width) float32; payloads left-aligned, zero-padded
     mask: np.ndarray  #: (capacity,) int8; 1 for a message, 0 for padding
     sender: np.ndarray  #: (capacity,) int32; sender's index in ``Channel.agents``, -1 for padding
+
+
+#: A queued message inside the channel: (sender index, send order, recipient index or -1 for a
+#: broadcast, read-only float32 payload, size in bytes, kind). Plain tuples, not :class:`Message`
+#: records: the channel builds those only when :meth:`Channel.inbox` is read.
+_Entry = tuple[int, int, int, np.ndarray, int, str]
 
 
 class Channel:
@@ -203,24 +221,25 @@ class Channel:
     def reset(self) -> None:
         """Forget queued, in-flight and received messages and zero the episode counters."""
         n = len(self.agents)
-        self._outbox: list[tuple[int, int, Message]] = []  # (sender index, seq, message) sent this step
-        self._in_flight: dict[int, list[tuple[int, int, int, Message]]] = {}  # due step -> (sender, seq, receiver, msg)
-        self._inboxes: list[list[Message]] = [[] for _ in range(n)]
+        self._outbox: list[_Entry] = []  # sent this step, in send order
+        self._in_flight: dict[int, list[tuple[int, int, int, _Entry, int]]] = {}  # due -> (sender, seq, receiver, entry, step)
+        self._inboxes: list[list[tuple[_Entry, int]]] = [[] for _ in range(n)]  # (entry, sent step) per receiver
+        self._filled = False  # whether any inbox holds a message
         self._spent = [0] * n  # bytes queued this step, per sender
         self._seq = 0
         self._last_step: int | None = None
-        self._counts = {key: np.zeros(n, dtype=np.int64) for key in _TRAFFIC}
-        self._dropped = {reason: np.zeros(n, dtype=np.int64) for reason in DROP_REASONS}
+        self._counts = {key: [0] * n for key in _TRAFFIC}
+        self._dropped = {reason: [0] * n for reason in DROP_REASONS}
 
     @property
     def busy(self) -> bool:
         """Whether :meth:`deliver` has anything to do: messages queued or in flight, or inboxes to clear."""
-        return bool(self._outbox or self._in_flight or any(self._inboxes))
+        return bool(self._outbox or self._in_flight or self._filled)
 
     @property
     def used(self) -> bool:
         """Whether any message was sent (or refused) since the last :meth:`reset`."""
-        return bool(self._counts["messages_sent"].any() or self._dropped["budget"].any())
+        return any(self._counts["messages_sent"]) or any(self._dropped["budget"])
 
     # ------------------------------------------------------------------ sending
 
@@ -231,18 +250,44 @@ class Channel:
         size or kind, before changing anything.
         """
         s = self._agent_index(sender, "sender")
+        r = -1
         if recipient is not None:
-            self._agent_index(recipient, "recipient")
+            r = self._agent_index(recipient, "recipient")
             if recipient == sender:
                 raise ValueError(f"Channel.send: {sender!r} cannot address a message to itself")
         message = Message(sender, recipient, payload, size, kind)
-        if self._spent[s] + message.size > self.config.byte_budget:
+        return self._queue(s, r, message.payload, message.size, message.kind)
+
+    def send_array(self, sender: str, payload: np.ndarray, size: int, kind: str) -> bool:
+        """:meth:`send` of a broadcast whose ``payload`` is already a 1-D float32 array of finite values.
+
+        For env-generated messages in the step loop: the array is kept, not copied, and made
+        read-only (do not reuse it); its values are not checked (they must be finite).
+        ``size`` must be an int >= 0 and ``kind`` a str. Raises ``KeyError`` for an unknown
+        sender and ``TypeError``/``ValueError`` for a payload that is not such an array or a
+        bad size or kind, before changing anything.
+        """
+        s = self._agent_index(sender, "sender")
+        if type(payload) is not np.ndarray or payload.dtype.char != "f" or payload.ndim != 1:
+            got = f"{payload.dtype} array of shape {payload.shape}" if isinstance(payload, np.ndarray) else type(payload).__name__
+            raise TypeError(f"Channel.send_array: payload from {sender!r} must be a 1-D float32 numpy array, got {got}")
+        if type(size) is not int:
+            size = _as_int(size, f"Message size from {sender!r}")
+        if size < 0:
+            raise ValueError(f"Message size from {sender!r} must be >= 0, got {size}")
+        if not isinstance(kind, str):
+            raise TypeError(f"Message kind from {sender!r} must be a str, got {kind!r}")
+        payload.setflags(write=False)
+        return self._queue(s, -1, payload, size, kind)
+
+    def _queue(self, s: int, r: int, payload: np.ndarray, size: int, kind: str) -> bool:
+        if self._spent[s] + size > self.config.byte_budget:
             self._dropped["budget"][s] += 1
             return False
-        self._spent[s] += message.size
-        self._counts["bytes_sent"][s] += message.size
+        self._spent[s] += size
+        self._counts["bytes_sent"][s] += size
         self._counts["messages_sent"][s] += 1
-        self._outbox.append((s, self._seq, message))
+        self._outbox.append((s, self._seq, r, payload, size, kind))
         self._seq += 1
         return True
 
@@ -259,16 +304,19 @@ class Channel:
         if not isinstance(rng, np.random.Generator):
             raise TypeError(f"Channel.deliver: rng must be a numpy Generator, got {type(rng).__name__}")
         where = self._parse_positions(positions)
-        for inbox in self._inboxes:
-            inbox.clear()
-        self._dispatch(where, rng, step)
-        self._arrive(where, step)
+        if self._filled:
+            for inbox in self._inboxes:
+                inbox.clear()
+            self._filled = False
+        arrivals = self._dispatch(where, rng, step)
+        self._arrive(where, step, arrivals)
         self._outbox.clear()
         self._spent = [0] * len(self.agents)
         self._last_step = step
 
     def _check_step(self, step: Any) -> int:
-        step = _as_int(step, "Channel.deliver step")
+        if type(step) is not int:
+            step = _as_int(step, "Channel.deliver step")
         if self._last_step is not None and step <= self._last_step:
             raise ValueError(f"Channel.deliver: step={step} must be greater than the previous step {self._last_step}")
         return step
@@ -293,67 +341,94 @@ class Channel:
             where[i] = (x, y)
         return where
 
-    def _dispatch(self, where: list[tuple[float, float] | None], rng: np.random.Generator, step: int) -> None:
-        """Check presence, range and loss of every copy sent this step; schedule the survivors."""
+    def _dispatch(self, where: list[tuple[float, float] | None], rng: np.random.Generator, step: int) -> list:
+        """Check presence, range and loss of every copy sent this step; returns the copies due now, schedules the rest.
+
+        Copies are ``(sender, seq, receiver, entry, sent step)`` in (sender, seq, receiver) order.
+        """
         due = step + self.config.latency
-        for s, seq, message in sorted(self._outbox, key=lambda entry: entry[:2]):
+        limit, p = self.config.comm_range, self.config.throughput
+        unlimited = math.isinf(limit)
+        dropped = self._dropped
+        present = [r for r, xy in enumerate(where) if xy is not None]
+        survivors = []
+        outbox = self._outbox
+        if any(outbox[k][0] > outbox[k + 1][0] for k in range(len(outbox) - 1)):
+            outbox = sorted(outbox, key=lambda entry: entry[:2])  # by sender, then send order (seq grows)
+        for entry in outbox:
+            s = entry[0]
             origin = where[s]
             if origin is None:
-                self._dropped["absent"][s] += 1
+                dropped["absent"][s] += 1
                 continue
-            stamped = message.stamped(step)
-            for r in self._receivers(message, s, where):
-                if not self._in_range(origin, where[r]):  # type: ignore[arg-type]  # receivers are present
-                    self._dropped["range"][s] += 1
-                elif not self._survives(rng):
-                    self._dropped["loss"][s] += 1
-                else:
-                    self._in_flight.setdefault(due, []).append((s, seq, r, stamped))
-
-    def _receivers(self, message: Message, s: int, where: list[tuple[float, float] | None]) -> list[int]:
-        """Indices of present receivers; an absent addressed recipient counts as an ``absent`` drop."""
-        if message.recipient is None:
-            return [r for r in range(len(self.agents)) if r != s and where[r] is not None]
-        r = self._index[message.recipient]
-        if where[r] is None:
-            self._dropped["absent"][s] += 1
-            return []
-        return [r]
-
-    def _in_range(self, a: tuple[float, float], b: tuple[float, float]) -> bool:
-        limit = self.config.comm_range
-        return math.isinf(limit) or math.hypot(a[0] - b[0], a[1] - b[1]) <= limit
-
-    def _survives(self, rng: np.random.Generator) -> bool:
-        p = self.config.throughput
-        if p >= 1:
-            return True
-        if p <= 0:
-            return False
-        return bool(rng.random() < p)
-
-    def _arrive(self, where: list[tuple[float, float] | None], step: int) -> None:
-        """Move copies due at or before ``step`` into the receivers' inboxes, up to ``inbox_size`` each."""
-        arrivals: list[tuple[int, int, int, Message]] = []
-        for due in sorted(d for d in self._in_flight if d <= step):
-            arrivals.extend(self._in_flight.pop(due))
-        arrivals.sort(key=lambda entry: entry[:2])
-        for s, _seq, r, message in arrivals:
-            inbox = self._inboxes[r]
-            if where[r] is None:
-                self._dropped["absent"][s] += 1
-            elif len(inbox) >= self.config.inbox_size:
-                self._dropped["inbox"][s] += 1
+            if entry[2] < 0:
+                receivers = [r for r in present if r != s]
+            elif where[entry[2]] is None:
+                dropped["absent"][s] += 1
+                continue
             else:
-                inbox.append(message)
-                self._counts["messages_delivered"][r] += 1
-                self._counts["bytes_delivered"][r] += message.size
+                receivers = [entry[2]]
+            for r in receivers:
+                if not unlimited:
+                    x, y = where[r]  # type: ignore[misc]  # receivers are present
+                    if math.hypot(origin[0] - x, origin[1] - y) > limit:
+                        dropped["range"][s] += 1
+                        continue
+                if p >= 1 or (p > 0 and rng.random() < p):
+                    survivors.append((s, entry[1], r, entry, step))
+                else:
+                    dropped["loss"][s] += 1
+        if due == step:
+            return survivors
+        if survivors:
+            self._in_flight.setdefault(due, []).extend(survivors)
+        return []
+
+    def _arrive(self, where: list[tuple[float, float] | None], step: int, arrivals: list) -> None:
+        """Move the copies due by ``step`` (``arrivals`` and those in flight) into the inboxes, up to ``inbox_size`` each."""
+        if self._in_flight:
+            for due in sorted(d for d in self._in_flight if d <= step):
+                arrivals.extend(self._in_flight.pop(due))
+            arrivals.sort(key=lambda copy: copy[:2])
+        if not arrivals:
+            return
+        capacity, inboxes = self.config.inbox_size, self._inboxes
+        delivered, received = self._counts["messages_delivered"], self._counts["bytes_delivered"]
+        absent, full = self._dropped["absent"], self._dropped["inbox"]
+        for s, _seq, r, entry, sent in arrivals:
+            inbox = inboxes[r]
+            if where[r] is None:
+                absent[s] += 1
+            elif len(inbox) >= capacity:
+                full[s] += 1
+            else:
+                inbox.append((entry, sent))
+                delivered[r] += 1
+                received[r] += entry[4]
+                self._filled = True
 
     # ------------------------------------------------------------------ reading
 
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        """Unpickled or deep-copied: the payloads (new arrays) are made read-only again."""
+        self.__dict__.update(state)
+        entries = [*self._outbox, *(c[3] for copies in self._in_flight.values() for c in copies)]
+        entries += [entry for inbox in self._inboxes for entry, _sent in inbox]
+        for entry in entries:
+            entry[3].setflags(write=False)
+
+    def _message(self, entry: _Entry, sent: int) -> Message:
+        s, _seq, r, payload, size, kind = entry
+        return Message._trusted(self.agents[s], None if r < 0 else self.agents[r], payload, size, kind, sent)
+
     def inbox(self, agent: str) -> list[Message]:
         """Messages that arrived at ``agent`` in the last :meth:`deliver`, by sender index then send order."""
-        return list(self._inboxes[self._agent_index(agent, "agent")])
+        return [self._message(entry, sent) for entry, sent in self._inboxes[self._agent_index(agent, "agent")]]
+
+    def inbox_payloads(self, agent: str, kind: str) -> list[tuple[int, np.ndarray]]:
+        """``(sender index, payload)`` of the ``kind`` messages of :meth:`inbox`, in its order (payloads read-only)."""
+        inbox = self._inboxes[self._agent_index(agent, "agent")]
+        return [(entry[0], entry[3]) for entry, _sent in inbox if entry[5] == kind]
 
     def inbox_array(self, agent: str, width: int, capacity: int, kind: str | None = None) -> PackedInbox:
         """The first ``capacity`` messages of :meth:`inbox` (only ``kind`` ones if given) as arrays.
@@ -363,51 +438,53 @@ class Channel:
         width, capacity = _as_int(width, "inbox_array width"), _as_int(capacity, "inbox_array capacity")
         if width < 0 or capacity < 0:
             raise ValueError(f"Channel.inbox_array: width={width} and capacity={capacity} must be >= 0")
-        messages = [m for m in self.inbox(agent) if kind is None or m.kind == kind][:capacity]
+        inbox = self._inboxes[self._agent_index(agent, "agent")]
+        entries = [entry for entry, _sent in inbox if kind is None or entry[5] == kind][:capacity]
         packed = PackedInbox(
             payload=np.zeros((capacity, width), dtype=np.float32),
             mask=np.zeros(capacity, dtype=np.int8),
             sender=np.full(capacity, -1, dtype=np.int32),
         )
-        for row, message in enumerate(messages):
-            if len(message.payload) > width:
+        for row, entry in enumerate(entries):
+            payload = entry[3]
+            if len(payload) > width:
                 raise ValueError(
-                    f"Channel.inbox_array: payload of length {len(message.payload)} from {message.sender!r} exceeds width={width}"
+                    f"Channel.inbox_array: payload of length {len(payload)} from {self.agents[entry[0]]!r} exceeds width={width}"
                 )
-            packed.payload[row, : len(message.payload)] = message.payload
+            packed.payload[row, : len(payload)] = payload
             packed.mask[row] = 1
-            packed.sender[row] = self._index[message.sender]
+            packed.sender[row] = entry[0]
         return packed
 
     @property
     def bytes_sent(self) -> np.ndarray:
         """Bytes of accepted sends per agent (index order of ``agents``), this episode."""
-        return self._counts["bytes_sent"].copy()
+        return np.array(self._counts["bytes_sent"], dtype=np.int64)
 
     @property
     def bytes_delivered(self) -> np.ndarray:
         """Bytes received into each agent's inbox, this episode."""
-        return self._counts["bytes_delivered"].copy()
+        return np.array(self._counts["bytes_delivered"], dtype=np.int64)
 
     @property
     def messages_sent(self) -> np.ndarray:
         """Accepted sends per agent, this episode (one per message, whatever the receivers)."""
-        return self._counts["messages_sent"].copy()
+        return np.array(self._counts["messages_sent"], dtype=np.int64)
 
     @property
     def messages_delivered(self) -> np.ndarray:
         """Messages received into each agent's inbox, this episode."""
-        return self._counts["messages_delivered"].copy()
+        return np.array(self._counts["messages_delivered"], dtype=np.int64)
 
     @property
     def dropped(self) -> dict[str, np.ndarray]:
         """Dropped copies (refused sends for ``"budget"``) per reason, counted on the sender."""
-        return {reason: counts.copy() for reason, counts in self._dropped.items()}
+        return {reason: np.array(counts, dtype=np.int64) for reason, counts in self._dropped.items()}
 
     @property
     def messages_dropped(self) -> np.ndarray:
         """All drops per sender, summed over the reasons."""
-        return sum(self._dropped.values(), np.zeros(len(self.agents), dtype=np.int64))
+        return np.array([sum(per) for per in zip(*self._dropped.values())], dtype=np.int64)
 
     @staticmethod
     def stat_keys() -> tuple[str, ...]:
@@ -417,9 +494,10 @@ class Channel:
     def stats(self, agent: str) -> dict[str, int]:
         """The agent's episode counters as plain ints, for env infos."""
         i = self._agent_index(agent, "agent")
-        out = {key: int(counts[i]) for key, counts in self._counts.items()}
-        out["messages_dropped"] = int(self.messages_dropped[i])
-        out.update({f"dropped_{reason}": int(counts[i]) for reason, counts in self._dropped.items()})
+        out = {key: counts[i] for key, counts in self._counts.items()}
+        drops = [counts[i] for counts in self._dropped.values()]
+        out["messages_dropped"] = sum(drops)
+        out.update(zip(_DROPPED_KEYS, drops))
         return out
 
     def _agent_index(self, name: Any, role: str) -> int:

@@ -4,12 +4,14 @@ pymunk's public property setters cost about 2 µs each in Python (a mixin ``__se
 an assert and the cffi call); driving five robots needs some fifty of them per control
 step. These helpers call the same Chipmunk functions through pymunk's cffi handles
 (``Body._body``, ``Constraint._constraint``, ``Space._space``), which are stable across
-pymunk 7.x (the version range pinned in ``pyproject.toml``). ``tests/test_sim_chipmunk.py``
+pymunk 7.x (the version range pinned in ``pyproject.toml``). ``tests/sim/test_sim_chipmunk.py``
 checks them against the public API; ``test_ring_skip_gives_same_readings_as_casting_every_ray``
-in ``tests/test_sim_sensors.py`` checks the proximity ring built on :class:`RayCaster`.
+in ``tests/sim/test_sim_sensors.py`` checks the proximity ring built on :class:`RayCaster`.
 """
 
 from __future__ import annotations
+
+from typing import ClassVar
 
 import numpy as np
 import pymunk
@@ -117,6 +119,7 @@ class BodyReader:
         self._get = self._batch_data(_BODY_FIELDS)
         self._set = self._batch_data(_MOTION_FIELDS)
         self._all_ids: np.ndarray | None = None
+        self._direct: bool | None = None  # read body by body (decided at the first read)
         #: Rows of every body of the space after the last read (see the class docstring).
         self.every = np.zeros((0, 6))
 
@@ -127,8 +130,19 @@ class BodyReader:
         data.intArray = self._arrays._int_arr
         return data
 
+    #: A space with more bodies than this many per chosen body (plus :data:`DIRECT_SLACK`) is read
+    #: body by body: one batch pass visits every body of the space, static walls included (a
+    #: Rendezvous map holds hundreds), and costs more than a few getter calls per chosen body.
+    DIRECT_RATIO: ClassVar[int] = 4
+    DIRECT_SLACK: ClassVar[int] = 16
+
     def read(self, space: pymunk.Space) -> np.ndarray:
         """Array of shape ``(len(bodies), 6)``: x, y, angle, vx, vy, angular velocity."""
+        direct = self._direct
+        if direct is None:
+            direct = self._direct = len(space.bodies) > self.DIRECT_RATIO * len(self.bodies) + self.DIRECT_SLACK
+        if direct:
+            return self._read_direct()
         arrays = self._arrays
         arrays.clear()
         _lib.cpSpaceEachBody(space._space, _GET_BODIES, self._get)
@@ -143,6 +157,15 @@ class BodyReader:
                 raise KeyError("BodyReader: some bodies are not in the space")
             self._rows, self._all_ids = rows, ids
         return values[self._rows]
+
+    def _read_direct(self) -> np.ndarray:
+        """The chosen bodies' rows through Chipmunk's getters (the doubles a batch pass copies); :attr:`every` stays empty."""
+        rows = []
+        for body in self.bodies:
+            handle = body._body
+            p, v = _lib.cpBodyGetPosition(handle), _lib.cpBodyGetVelocity(handle)
+            rows.append((p.x, p.y, _lib.cpBodyGetAngle(handle), v.x, v.y, _lib.cpBodyGetAngularVelocity(handle)))
+        return np.array(rows, dtype=np.float64).reshape(-1, 6)
 
     def rows_of(self, bodies: list[pymunk.Body]) -> np.ndarray:
         """Rows of ``bodies`` in :attr:`every` (after the first read); ``KeyError`` for a body not in the space."""

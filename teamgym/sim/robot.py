@@ -216,6 +216,7 @@ class DiffDriveRobot(Entity):
         self.command = (0.0, 0.0)
         self.applied_command = (0.0, 0.0)
         self.actuation_delay = 0.0
+        self.given_commands: tuple[tuple[float, float], ...] = ()  # newest last; see lag_commands
         self._encoder_values = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
         self.odometer = 0.0
         self.enabled = True
@@ -238,6 +239,29 @@ class DiffDriveRobot(Entity):
     def set_wheel_speeds(self, v_left: float, v_right: float) -> None:
         """Command the wheel rim speeds directly (m/s), converted by eq. (6) of paper 001."""
         self.set_command(*body_command(v_left, v_right, self.spec.wheel_base))
+
+    def lag_commands(self, given: tuple[float, float], delay: float, dt: float, depth: int) -> None:
+        """Set up this control step to follow the given commands ``delay`` s late, ``delay`` possibly above Δt.
+
+        Paper 001, section 6.1 (true delay T0_true), carried past one step with a command
+        queue: the command given at t_j acts from t_j + ``delay`` on. With ``delay`` = m·Δt + r
+        (m whole steps, 0 ≤ r < Δt), step n (from t_n) runs the command given at t_{n−m−1} for
+        r seconds, then the one given at t_{n−m} (before the first command: (0, 0)). For m = 0
+        that is the one-step model (previous command for r, then ``given``). ``given`` is this
+        step's command; the last ``depth`` (≥ m + 2) are kept in ``given_commands``. Sets
+        ``applied_command``, ``command`` (what the world runs; the world splits the step at
+        ``actuation_delay`` = r).
+        """
+        steps = math.floor(delay / dt + 1e-9)
+        if depth < steps + 2:
+            raise ValueError(f"robot {self.name!r}: a delay of {delay!r} s needs depth >= {steps + 2}, got {depth}")
+        queue = (*self.given_commands, given)[-depth:]
+        self.given_commands = queue
+        rest = delay - steps * dt
+        first, second = (len(queue) - steps - 2, len(queue) - steps - 1)
+        self.applied_command = queue[first] if first >= 0 else (0.0, 0.0)
+        self.command = queue[second] if second >= 0 else (0.0, 0.0)
+        self.actuation_delay = rest if rest > 1e-9 * dt else 0.0
 
     def apply_command(self, command: tuple[float, float] | None = None, state: list[float] | None = None) -> None:
         """Re-anchor the control body so that the robot follows the arc of ``command``.

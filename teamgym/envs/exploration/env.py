@@ -61,6 +61,7 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
+from teamgym.control.poses import PoseRows
 from teamgym.control.watcher import TASK_REASONS, TaskWatcher, WatcherState
 from teamgym.envs.actions import ActionType, VelocityAction
 from teamgym.envs.base import EpisodeOverError, TeamEnv
@@ -106,13 +107,30 @@ class Exploration(TeamEnv):
         self._rects = np.array([[s.x_min, s.y_min, s.x_max, s.y_max] for s in office.sectors])
         self._door_centres = np.array([d.centre for d in office.doors]).reshape(-1, 2)
         self._door_radii = np.array([d.radius for d in office.doors])
+        eps = 1e-3  # m: a robot on a sector's border is in neither sector
+        #: Per sector ``(x_min + ε, x_max − ε, y_min + ε, y_max − ε)``; per door ``(x, y, radius)``; as floats.
+        self._sector_bounds = [(x0 + eps, x1 - eps, y0 + eps, y1 - eps) for x0, y0, x1, y1 in self._rects.tolist()]
+        bounds = self._sector_bounds
+        #: No point lies in two (shrunk) sectors, so a robot still in its sector needs no search.
+        self._sectors_disjoint = not any(
+            max(a[0], b[0]) < min(a[1], b[1]) and max(a[2], b[2]) < min(a[3], b[3])
+            for k, a in enumerate(bounds)
+            for b in bounds[k + 1 :]
+        )
+        self._door_discs = [(x, y, r) for (x, y), r in zip(self._door_centres.tolist(), self._door_radii.tolist())]
         # Walls, doors and furniture, built once and placed in every episode's world first (teamgym.sim.scene).
-        entities = map_entities(office, furniture=c.furniture)
+        entities = map_entities(office, furniture=c.furniture, join_walls=True)
         self._scene = StaticScene(entities)
         #: The doors by id (the scene's; their state is drawn at every reset).
         self.doors: dict[str, Door] = {e.name: e for e in entities if isinstance(e, Door)}
+        #: Bounding boxes ``(x_min, y_min, x_max, y_max)`` of the furniture, for the start checks.
+        self._furniture_boxes = [
+            (*np.min(f.vertices, axis=0).tolist(), *np.max(f.vertices, axis=0).tolist()) for f in office.furniture
+        ]
         goals = c.goal_sectors or tuple(office.sector_ids)
         self.goal = np.array([s in goals for s in office.sector_ids])
+        self._goal_list = self.goal.tolist()
+        self._n_goals = int(np.count_nonzero(self.goal))
         n, v = c.n_robots, self.n_sectors + self.n_doors
         size = 4 * n + 2 * self.n_sectors + 2 * self.n_doors
         self.state_space = spaces.Box(-np.inf, np.inf, shape=(size,), dtype=np.float32)
@@ -177,6 +195,10 @@ class Exploration(TeamEnv):
         self.model = TopologicalModel(office)
         self.clutter_estimate = ClutterEstimate(self.model.clutter, c.clutter_prior_weight)
         self.visited = np.zeros(self.n_sectors, dtype=bool)
+        self._explored_all = bool(np.all(self.visited[self.goal]))
+        self._explored_goals = 0  # goal sectors in visited
+        self._pose_rows = PoseRows()
+        self._any_hits = False
         self._sector = np.zeros(n, dtype=int)
         self._place = np.zeros(n, dtype=int)
         self._collisions = np.zeros(n, dtype=int)
@@ -260,7 +282,15 @@ class Exploration(TeamEnv):
             return False
         if any(math.dist(p, d.centre) < d.radius + r for d in office.doors):
             return False
-        return all(distance_to_polygon(f.vertices, p) > r + 0.01 for f in office.furniture)
+        reach = r + 0.01
+        x, y = p
+        for f, (x0, y0, x1, y1) in zip(office.furniture, self._furniture_boxes):
+            # Far outside the bounding box (by more than rounding could blur) is clear without measuring.
+            if x0 - x > reach + 1e-9 or x - x1 > reach + 1e-9 or y0 - y > reach + 1e-9 or y - y1 > reach + 1e-9:
+                continue
+            if not distance_to_polygon(f.vertices, p) > reach:
+                return False
+        return True
 
     # -- run-time events ---------------------------------------------------------------
     def set_door(self, door_id: str, is_open: bool) -> bool:
@@ -311,7 +341,7 @@ class Exploration(TeamEnv):
     def operator_command(self, agent: str) -> tuple[float, float]:
         """The behaviour-based controller's command for ``agent``'s current task."""
         i = self._index[agent]
-        pose = tuple(self.world.robot_states[i, :3].tolist())
+        pose = self._pose_rows(self.world.robot_states)[i]
         return self._watchers[i].control(pose, self._proximity[i], bool(self._collided[i]))
 
     def stage_over(self) -> bool:
@@ -344,9 +374,8 @@ class Exploration(TeamEnv):
         watcher = self._watchers[i]
         if not watcher.executing:
             return False
-        state = watcher.after_step(
-            self.world.time, self.world.robot_states[i, :2], self.robot_list[i].odometer, bool(self._collided[i])
-        )
+        position = self._pose_rows(self.world.robot_states)[i][:2]
+        state = watcher.after_step(self.world.time, position, self.robot_list[i].odometer, bool(self._collided[i]))
         if state == WatcherState.COMPLETED:
             self._completed[i] += 1
             report = watcher.report
@@ -361,39 +390,69 @@ class Exploration(TeamEnv):
         return False
 
     def _update_state(self) -> None:
-        """After a control step: sectors, places, door sightings, the explored set and contacts."""
-        states = self.world.robot_states
-        pos = states[:, :2]
-        eps = 1e-3
-        r = self._rects
-        inside = (
-            (pos[:, None, 0] > r[None, :, 0] + eps)
-            & (pos[:, None, 0] < r[None, :, 2] - eps)
-            & (pos[:, None, 1] > r[None, :, 1] + eps)
-            & (pos[:, None, 1] < r[None, :, 3] - eps)
-        )
-        found = inside.any(axis=1)
-        self._sector[found] = inside[found].argmax(axis=1)
-        beliefs = self.model.door_open
+        """After a control step: sectors, places, door sightings, the explored set and contacts.
+
+        A robot is in the first sector whose rectangle, shrunk by 1 mm, holds its centre (else it
+        keeps its sector); it sees the doors whose disc holds its centre (their belief becomes
+        their state) and is at the nearest of those it believes open, else at its sector.
+        Distances are ``sqrt(dx² + dy²)``, as ``np.linalg.norm`` computes them.
+        """
+        poses = self._pose_rows(self.world.robot_states)
+        sectors, bounds = self._sector.tolist(), self._sector_bounds
+        for i, (x, y, _) in enumerate(poses):
+            left, right, bottom, top = bounds[sectors[i]]
+            if self._sectors_disjoint and left < x < right and bottom < y < top:
+                continue  # still in its sector, which no other sector overlaps
+            for s, (x0, x1, y0, y1) in enumerate(bounds):
+                if x > x0 and x < x1 and y > y0 and y < y1:
+                    sectors[i] = s
+                    break
+        self._sector[:] = sectors
+        places = sectors
         if self.n_doors:
-            distance = np.linalg.norm(pos[:, None, :] - self._door_centres[None, :, :], axis=2)
-            near = distance < self._door_radii[None, :]
-            for j in np.flatnonzero(near.any(axis=0)).tolist():
+            near = [self._doors_near(x, y) for x, y, _ in poses]
+            beliefs = self.model.door_open
+            for j in sorted({j for seen in near for j, _ in seen}):
                 beliefs[j] = 1.0 if self.doors[self.map.doors[j].id].is_open else 0.0
-            usable = near & (beliefs[None, :] > 0)
-            masked = np.where(usable, distance, np.inf)
-            at_door = usable.any(axis=1)
-            self._place = np.where(at_door, self.n_sectors + masked.argmin(axis=1), self._sector)
-        else:
-            self._place = self._sector.copy()
-        newly = np.zeros(self.n_sectors, dtype=bool)
-        newly[self._place[self._place < self.n_sectors]] = True
-        newly &= ~self.visited
-        self.visited |= newly
-        self._newly_explored = int(np.count_nonzero(newly & self.goal))
-        self._hits = self.world.contacts_per(self.possible_agents)
-        self._collisions += self._hits
-        self._collided[:] = self._hits > 0
+            places = list(sectors)
+            for i, seen in enumerate(near):
+                best, door = math.inf, -1
+                for j, d in seen:
+                    if d < best and beliefs[j] > 0:
+                        best, door = d, j
+                if door >= 0:
+                    places[i] = self.n_sectors + door
+        self._place = np.array(places, dtype=self._sector.dtype)
+        fresh = [p for p in sorted(set(places)) if p < self.n_sectors and not self.visited[p]]  # newly explored sectors
+        if fresh:
+            self.visited[fresh] = True
+            self._explored_all = bool(np.all(self.visited[self.goal]))
+        self._newly_explored = sum(self._goal_list[p] for p in fresh)
+        self._explored_goals += self._newly_explored
+        if self.world.contacts:
+            self._hits = self.world.contacts_per(self.possible_agents)
+            self._collisions += self._hits
+            self._collided[:] = self._hits > 0
+            self._any_hits = True
+        elif self._any_hits:  # no contact this step: every count 0
+            self._hits = np.zeros_like(self._hits)
+            self._collided[:] = False
+            self._any_hits = False
+
+    def _doors_near(self, x: float, y: float) -> list[tuple[int, float]]:
+        """``(door index, distance)`` of the doors whose disc holds ``(x, y)``, in door order.
+
+        A door with ``|dx| >= r`` or ``|dy| >= r`` is skipped unmeasured: its distance is at least
+        that (a rounded square's root gives back ``|dx|``, and adding ``dy²`` cannot lower it).
+        """
+        near = []
+        for j, (cx, cy, r) in enumerate(self._door_discs):
+            dx, dy = x - cx, y - cy
+            if -r < dx < r and -r < dy < r:
+                d = math.sqrt(dx * dx + dy * dy)
+                if d < r:
+                    near.append((j, d))
+        return near
 
     def _check_goals(self) -> None:
         if self._newly_explored and self._all_explored() and math.isnan(self._explore_time):
@@ -403,6 +462,8 @@ class Exploration(TeamEnv):
         """``explore_reward`` per newly explored goal sector − ``time_penalty``, shared; − ``collision_penalty`` per contact."""
         c = self.config
         total += c.explore_reward * self._newly_explored - c.time_penalty
+        if not self._any_hits:
+            return
         for i in np.flatnonzero(self._hits).tolist():
             for _ in range(int(self._hits[i])):  # once per contact, as a running sum
                 total[i] -= c.collision_penalty
@@ -412,37 +473,46 @@ class Exploration(TeamEnv):
         self.ring.read_rows(self.world, self.robot_list, self.world.robot_states, self.np_random, self._proximity)
 
     def _all_explored(self) -> bool:
-        return bool(np.all(self.visited[self.goal]))
+        """Every goal sector explored (kept up to date by :meth:`_update_state`)."""
+        return self._explored_all
 
     def _terminations(self) -> dict[str, bool]:
         return dict.fromkeys(self.live_agents, self._all_explored())
 
     # -- observations, metrics -------------------------------------------------------
     def _observe(self, out: np.ndarray) -> None:
-        layout = self.layout
-        states = self.world.robot_states
+        fields = self.layout.slices
+        at = {name: fields[name].start for name in ("velocity", "sector", "place", "mates_sector", "mates_place")}
+        at.update(task_status=fields["task_status"].start, task=fields["task"].start)
+        s, v = self.n_sectors, self.n_sectors + self.n_doors
+        shared = [(fields[name], value) for name, value in self._shared_fields()]
+        sectors, places = self._sector.tolist(), self._place.tolist()
         for row, agent in enumerate(self.live_agents):
             i = self._index[agent]
             buffer = out[row]
-            buffer[0:3] = states[i, :3]
-            buffer[2] = math.remainder(float(states[i, 2]), 2 * math.pi)
-            theta = float(states[i, 2])
-            layout.view(buffer, "velocity")[:] = (states[i, 3] * math.cos(theta) + states[i, 4] * math.sin(theta), states[i, 5])
-            layout.view(buffer, "sector")[self._sector[i]] = 1.0
-            layout.view(buffer, "place")[self._place[i]] = 1.0
-            layout.view(buffer, "proximity")[:] = self._proximity[i]
-            mates_sector = layout.view(buffer, "mates_sector")
-            mates = layout.view(buffer, "mates_place")
+            x, y, theta, vx, vy, omega = self.world.robot_states[i].tolist()
+            buffer[0:3] = (x, y, math.remainder(theta, 2 * math.pi))
+            buffer[at["velocity"] : at["velocity"] + 2] = (vx * math.cos(theta) + vy * math.sin(theta), omega)
+            buffer[at["sector"] + sectors[i]] = 1.0
+            buffer[at["place"] + places[i]] = 1.0
+            buffer[fields["proximity"]] = self._proximity[i]
             for row_m, j in enumerate(self._others[i].tolist()):
-                mates_sector[row_m, self._sector[j]] = 1.0
-                mates[row_m, self._place[j]] = 1.0
-            layout.view(buffer, "visited")[:] = self.visited
-            layout.view(buffer, "goal")[:] = self.goal
-            layout.view(buffer, "door_belief")[:] = self.model.door_open
-            layout.view(buffer, "clutter")[:] = self.model.clutter
+                buffer[at["mates_sector"] + row_m * s + sectors[j]] = 1.0
+                buffer[at["mates_place"] + row_m * v + places[j]] = 1.0
+            for where, value in shared:
+                buffer[where] = value
             watcher = self._watchers[i]
-            layout.view(buffer, "task_status")[int(watcher.state)] = 1.0
-            layout.view(buffer, "task")[0] = watcher.task.key if watcher.task is not None else -1
+            buffer[at["task_status"] + int(watcher.state)] = 1.0
+            buffer[at["task"]] = watcher.task.key if watcher.task is not None else -1
+
+    def _shared_fields(self) -> list[tuple[str, np.ndarray]]:
+        """The fields every robot observes alike: explored sectors, goals, door beliefs, clutter."""
+        return [
+            ("visited", self.visited),
+            ("goal", self.goal),
+            ("door_belief", self.model.door_open),
+            ("clutter", self.model.clutter),
+        ]
 
     def _info_keys(self) -> dict[str, InfoKey]:
         """Counts from reset on, ``explore_time`` (s) NaN until every goal sector is explored; ``sector``, ``place``
@@ -462,10 +532,10 @@ class Exploration(TeamEnv):
 
     def _metrics_of(self, agents: list[str]) -> dict[str, dict[str, Any]]:
         """Per-robot metrics; the team-wide ones (explored set, team path, explore time) computed once."""
-        explored = int(np.count_nonzero(self.visited & self.goal))
+        explored = self._explored_goals  # np.count_nonzero(self.visited & self.goal), kept by _update_state
         team: dict[str, Any] = {
             "explored": explored,
-            "explored_fraction": explored / int(np.count_nonzero(self.goal)),
+            "explored_fraction": explored / self._n_goals,
             "explored_all": self._all_explored(),
         }
         team_path = float(sum(r.odometer for r in self.robot_list))

@@ -10,7 +10,10 @@ from teamgym.envs.config import EnvConfig, require, require_together
 from teamgym.envs.foraging.grid import GridSpec
 from teamgym.sim.robot import RobotSpec
 
-__all__ = ["ForagingConfig"]
+__all__ = ["DERIVED_CYCLES_CAP", "ForagingConfig"]
+
+#: The most control steps an episode derived from ``time_limit`` may last (``max_cycles=None``).
+DERIVED_CYCLES_CAP = 10**6
 
 
 @dataclass(frozen=True)
@@ -21,8 +24,10 @@ class ForagingConfig(EnvConfig):
     within ``reach_radius`` of it for ``consume_time`` s; success when every target is
     consumed. ``task="surround"``: a target is done when ``robots_per_target`` robots are
     within ``reach_radius`` of it at once; success when every target is done. An episode
-    lasts at most ``time_limit`` s (``max_cycles`` caps the control steps as well; the
-    smaller limit applies).
+    lasts at most ``time_limit`` s: :attr:`cycle_limit` = ⌈``time_limit`` / ``dt``⌉ control
+    steps (2,000 by default), at most 10⁶. ``max_cycles`` is ``None`` by default (the length
+    derives from ``time_limit``); an int caps the control steps as well (the smaller limit
+    applies).
 
     Field (section 4.3): a walled ``field_size`` rectangle (the RoboCup small-size field,
     3.0 m × 2.4 m) with a world-model grid of ``cell_size`` cells; landmarks every
@@ -47,7 +52,7 @@ class ForagingConfig(EnvConfig):
     cycle_limit_keys: ClassVar[tuple[str, ...]] = ("max_cycles", "time_limit", "dt")
     default_body_speed: ClassVar[float] = 0.0
 
-    max_cycles: int = 1_000_000
+    max_cycles: int | None = None
     substeps: int = 10
     task: Literal["consume", "surround"] = "consume"
     n_robots: int = 2
@@ -74,7 +79,7 @@ class ForagingConfig(EnvConfig):
     time_penalty: float = 0.001
 
     def check(self) -> None:
-        super().check()
+        super().check()  # max_cycles=None (derived from time_limit) passes EnvConfig's range check
         width, height = self.field_size
         require(self, "field_size", 0.5 <= width <= 50 and 0.5 <= height <= 50, "must be (width, height) in [0.5, 50] m")
         require(self, "n_robots", 1 <= self.n_robots <= 16, "must be in [1, 16]")
@@ -138,8 +143,9 @@ class ForagingConfig(EnvConfig):
 
     @property
     def cycle_limit(self) -> int:
-        """Control steps an episode may last: ``time_limit / dt``, capped by ``max_cycles``."""
-        return min(self.max_cycles, math.ceil(self.time_limit / self.dt - 1e-9))
+        """Control steps an episode may last: ⌈``time_limit / dt``⌉, capped by ``max_cycles`` (by 10⁶ when it is None)."""
+        cap = DERIVED_CYCLES_CAP if self.max_cycles is None else self.max_cycles
+        return min(cap, math.ceil(self.time_limit / self.dt - 1e-9))
 
     @property
     def grid(self) -> GridSpec:

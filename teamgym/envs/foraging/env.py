@@ -47,6 +47,7 @@ Reset options fix a scene: ``{"targets": [(x, y), ...], "starts": [(x, y, θ), .
 from __future__ import annotations
 
 import math
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -59,16 +60,8 @@ from teamgym.envs.config import ConfigError
 from teamgym.envs.foraging.actions import GoToCellAction
 from teamgym.envs.foraging.config import ForagingConfig
 from teamgym.envs.foraging.controller import GoToController
-from teamgym.envs.foraging.perception import (
-    ROBOT,
-    SENDER,
-    TARGET,
-    Odometry,
-    VisionModel,
-    landmark_positions,
-    packet_bytes,
-    visibility,
-)
+from teamgym.envs.foraging.perception import ROBOT, SENDER, Odometry, VisionModel, landmark_positions, packet_bytes
+from teamgym.envs.foraging.sensing import POLAR, TARGET_CELL, TUPLE, Cameras, perceive
 from teamgym.envs.infos import InfoKey, metrics, unknown
 from teamgym.envs.reset_input import scene_points
 from teamgym.envs.spaces import Field, ObservationLayout
@@ -108,6 +101,12 @@ class Foraging(TeamEnv):
         n = c.n_robots
         self.n_detections = c.n_targets + n - 1
         self.n_received = max(1, (n - 1) * (1 + self.n_detections))
+        self.cameras = Cameras(n, self.landmarks, c.camera_range, c.camera_fov, self.spec.radius)
+        self._cell_xy = self.grid.cell_at(np.arange(self.grid.n_cells))  # go-to cell -> (gx, gy)
+        self._cell_centre = self.grid.centre_of(self._cell_xy)  # go-to cell -> its centre (m)
+        self._packet_sizes = [packet_bytes(m, self.grid) for m in range(self.n_detections + 1)]
+        self._slot_index = np.arange(self.n_detections)
+        self._live_mask_rows: np.ndarray | None = None
         self.state_space = spaces.Box(-np.inf, np.inf, shape=(3 * n + 3 * c.n_targets,), dtype=np.float32)
 
     @property
@@ -147,7 +146,12 @@ class Foraging(TeamEnv):
         ]
         if c.observe_world_model:
             fields.append(Field("world_model", (2, *self.grid.shape), 0.0, 1.0))
-        return ObservationLayout(fields)
+        layout = ObservationLayout(fields)
+        slices = layout.slices
+        head = slice(slices["pose_estimate"].start, slices["localisation_certainty"].stop)
+        self._fields = SimpleNamespace(head=head, **slices)  # where _observe writes each field of a flat row
+        self._pose_low, self._pose_high = np.array([-w, -h]), np.array([2 * w, 2 * h])
+        return layout
 
     # -- a new episode ------------------------------------------------------------------------
     def _draw_scene(self, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray] | None:
@@ -195,23 +199,23 @@ class Foraging(TeamEnv):
             self.world.add(Target(name, tuple(xy), radius=0.04))
         n, t = c.n_robots, c.n_targets
         self.target_live = np.ones(t, dtype=bool)
+        self._live_targets = np.arange(t)
         self.target_done_at = np.full(t, np.nan)
         self._done_order: list[float] = []
         self._first_seen = math.nan
-        self._timer = np.zeros(n)
-        self._at = np.full(n, -1)
+        self._no_target, self._zero_timer = np.full(n, -1), np.zeros(n)  # shared, never written to
+        self._timer, self._at = self._zero_timer, self._no_target
         self._travelled = np.zeros(n)
         self._finished_now = 0
         self.world.read_states()
         self._pose = self._read_pose()
         self.odometry = Odometry(self._pose, c.rotational_certainty, c.odometry_rotation_noise, c.odometry_distance_noise)
-        self._nearest = self._nearest_target_distance()
+        self._heading_trig = (np.cos(self._pose[:, 2]), np.sin(self._pose[:, 2]))
+        self._points = self.cameras.points(self.targets)
+        self._geometry = self.cameras.view(self._pose, self._points)
         self._update_presence()
+        self._nearest = self._nearest_target_distance()
         self._success = False
-        d = self.n_detections
-        self._detections = np.zeros((n, d, 4), dtype=np.float32)
-        self._polar = np.zeros((n, d, 2), dtype=np.float32)
-        self._target_rows = np.zeros((n, d), dtype=bool)
         self.models = {}
         if c.observe_world_model:
             from teamgym.envs.foraging.world_model import GridWorldModel, ViewSector
@@ -233,196 +237,219 @@ class Foraging(TeamEnv):
         pose[:, 2] = (pose[:, 2] + math.pi) % (2 * math.pi) - math.pi
         return pose
 
+    def _rows_of(self, agents: list[str]) -> tuple[np.ndarray, bool]:
+        """Rows (``possible_agents`` order) of ``agents`` and whether they are every robot in order."""
+        if agents == self.live_agents:
+            self._live_mask()
+            return self._live_rows(), self._everyone
+        rows = np.fromiter((self._row[a] for a in agents), dtype=np.int64, count=len(agents))
+        return rows, len(rows) == self.config.n_robots and bool(np.all(rows == np.arange(len(rows))))
+
+    def _live_mask(self) -> np.ndarray:
+        """(n,) bool: the robots in ``live_agents`` (rebuilt only when they change)."""
+        rows = self._live_rows()
+        if self._live_mask_rows is not rows:
+            self._live_mask_rows = rows
+            self._live_flags = np.zeros(self.config.n_robots, dtype=bool)
+            self._live_flags[rows] = True
+            self._everyone = len(rows) == self.config.n_robots and bool(np.all(rows == np.arange(len(rows))))
+        return self._live_flags
+
     def goto_commands(self, cells: dict[str, int]) -> dict[str, tuple[float, float]]:
         """Control phase of ``goto_cell``: every acting robot's ``(v, ω)`` for its go-to cell."""
-        rows = np.fromiter((self._row[a] for a in cells), dtype=np.int64, count=len(cells))
-        goal = self.grid.cell_at(np.fromiter(cells.values(), dtype=np.int64, count=len(cells)))
-        estimate = self.odometry.estimate[rows]
+        agents = list(cells)
+        rows, everyone = self._rows_of(agents)
+        index = np.fromiter(cells.values(), dtype=np.int64, count=len(agents))
+        goal = self._cell_xy[index]
+        pose, estimate, at, (c, s) = self._pose, self.odometry.estimate, self._at, self._heading_trig
+        table = self._sightings.table
+        if not everyone:
+            pose, estimate, at, c, s, table = pose[rows], estimate[rows], at[rows], c[rows], s[rows], table[rows]
         # Homing: the detected target nearest (in cells) to the go-to cell, if within one cell of it.
-        detections = self._detections[rows]
-        gap = np.maximum(np.abs(detections[..., 1] - goal[:, None, 0]), np.abs(detections[..., 2] - goal[:, None, 1]))
-        gap[~self._target_rows[rows]] = np.inf
-        best = np.argmin(gap, axis=1)
-        picked = np.arange(len(rows))
-        homing = np.where((gap[picked, best] <= 1)[:, None], self._polar[rows, best], np.nan)
+        homing = None
+        if self._sightings.any_target:
+            gap = np.maximum.reduce(np.abs(table[:, 1:, TARGET_CELL] - goal[:, None, :]), axis=2)
+            close = np.minimum.reduce(gap, axis=1) <= 1
+            if np.count_nonzero(close):
+                homing = table[np.arange(len(table)), 1 + np.argmin(gap, axis=1), POLAR].astype(float)
+                homing[~close] = np.nan
         # Stop at a target when the go-to cell is within one cell of the robot's estimated cell.
-        own = self.grid.cell_of(estimate[:, :2])
-        stop = (self._at[rows] >= 0) & (np.max(np.abs(own - goal), axis=1) <= 1)
-        aim = self.grid.centre_of(goal)
-        commands = self.controller.commands(estimate, self._pose[rows], aim, homing, stop, self.grid_size)
-        return dict(zip(cells, map(tuple, commands.tolist())))
+        stop = None
+        present = at >= 0
+        if np.count_nonzero(present):  # (the own cell of the last packet is the estimated cell now)
+            stop = present & (np.maximum.reduce(np.abs(table[:, 0, 1:3] - goal), axis=1) <= 1)
+        commands = self.controller.commands(estimate, pose, self._cell_centre[index], homing, stop, self.grid_size, (c, s))
+        return dict(zip(agents, map(tuple, commands.tolist())))
 
     def _update_state(self) -> None:
         """State phase: true poses, odometry, distance travelled, who is at which target."""
-        before = self._pose
+        before, (c, s) = self._pose, self._heading_trig
         self._pose = self._read_pose()
-        self.odometry.advance(before, self._pose, self.np_random)
-        self._travelled += np.hypot(*(self._pose[:, :2] - before[:, :2]).T)
+        n = len(before)
+        angles = np.concatenate([self.odometry.estimate[:, 2], self._pose[:, 2]])
+        cos, sin = np.cos(angles), np.sin(angles)
+        self._heading_trig = (cos[n:], sin[n:])
+        step = self.odometry.advance(before, self._pose, self.np_random, (c, s, cos[:n], sin[:n]))
+        self._travelled += np.hypot(step[:, 0], step[:, 1])
+        self._geometry = self.cameras.view(self._pose, self._points)
         self._update_presence()
 
     def _update_presence(self) -> None:
-        """``_at[i]``: the live target robot i is within ``reach_radius`` of (nearest), −1 if none."""
-        gap = np.hypot(*(self._pose[:, None, :2] - self.targets[None, :, :]).transpose(2, 0, 1))
-        gap[:, ~self.target_live] = np.inf
-        nearest = np.argmin(gap, axis=1)
-        at = np.where(gap[np.arange(len(gap)), nearest] <= self.config.reach_radius, nearest, -1)
-        self._timer = np.where((at >= 0) & (at == self._at), self._timer, 0.0)
+        """``_at[i]``: the live target robot i is within ``reach_radius`` of (nearest), −1 if none; ``_nearest_live``
+        each robot's distance to its nearest live target."""
+        live = self._live_targets
+        if not len(live):
+            self._nearest_live = None
+            at = self._no_target
+        else:
+            gap = self._geometry.distance[:, : self.config.n_targets]
+            if len(live) < self.config.n_targets:
+                gap = gap[:, live]
+            self._nearest_live = nearest = np.minimum.reduce(gap, axis=1)
+            reached = nearest <= self.config.reach_radius
+            at = np.where(reached, live[np.argmin(gap, axis=1)], -1) if np.count_nonzero(reached) else self._no_target
+        if at is self._no_target:  # no robot at a target: every timer restarts
+            self._timer = self._zero_timer
+        else:
+            self._timer = np.where((at >= 0) & (at == self._at), self._timer, 0.0)
         self._at = at
 
     def _check_goals(self) -> None:
         """Goals phase: consume (a robot stayed ``consume_time``) or surround (enough robots at once)."""
         c, now = self.config, self.world.time
         self._finished_now = 0
-        live = np.array([a in self.live_agents for a in self.possible_agents])
+        present = self._at >= 0
+        if not np.count_nonzero(present):
+            self._success = not len(self._live_targets)
+            return
         if c.task == "consume":
-            self._timer[self._at >= 0] += c.dt
-            done = np.unique(self._at[(self._at >= 0) & (self._timer >= c.consume_time - 1e-9) & live])
+            self._timer[present] += c.dt
+            finished = present & (self._timer >= c.consume_time - 1e-9) & self._live_mask()
+            done = np.unique(self._at[finished]) if np.count_nonzero(finished) else ()
         else:
-            counts = np.bincount(self._at[(self._at >= 0) & live], minlength=c.n_targets)
+            counts = np.bincount(self._at[present & self._live_mask()], minlength=c.n_targets)
             done = np.flatnonzero(counts >= c.robots_per_target)
-        for j in done.tolist():
-            self._finish_target(j, now)
         if len(done):
+            for j in done.tolist():
+                self._finish_target(j, now)
             self._update_presence()
-        self._success = bool(not self.target_live.any())
+        self._success = not len(self._live_targets)
 
     def _finish_target(self, j: int, now: float) -> None:
         self.target_live[j] = False
+        self._live_targets = np.flatnonzero(self.target_live)
         self.target_done_at[j] = now
         self._done_order.append(now)
         self._finished_now += 1
         self.world.remove(self._target_names[j])
 
     def _nearest_target_distance(self) -> np.ndarray:
-        if not self.target_live.any():
-            return np.zeros(len(self._pose))
-        live = self.targets[self.target_live]
-        return np.min(np.hypot(*(self._pose[:, None, :2] - live[None]).transpose(2, 0, 1)), axis=1)
+        return np.zeros(len(self._pose)) if self._nearest_live is None else self._nearest_live
 
     def _accumulate_rewards(self, total: np.ndarray) -> None:
         c = self.config
         before, self._nearest = self._nearest, self._nearest_target_distance()
-        progress = np.where(self._finished_now > 0, 0.0, before - self._nearest)
-        rows = self._live_rows()
-        total[rows] += c.consume_reward * self._finished_now + c.progress_reward * progress[rows] - c.time_penalty
+        progress = 0.0 if self._finished_now else before - self._nearest
+        gain = c.consume_reward * self._finished_now + c.progress_reward * progress - c.time_penalty
+        self._live_mask()
+        if self._everyone:
+            total += gain
+        else:
+            rows = self._live_rows()
+            total[rows] += gain if np.ndim(gain) == 0 else gain[rows]
 
     def _sense(self) -> None:
         """Sensing phase: camera (targets, robots, landmarks), re-localisation, tuples; packets go on the radio."""
-        c, n = self.config, self.config.n_robots
-        live_targets = np.flatnonzero(self.target_live)
-        t = len(live_targets)
-        points = np.concatenate([self.targets[live_targets], self._pose[:, :2], self.landmarks])
-        skip = np.full((n, len(points)), -1)
-        skip[:, t : t + n] = np.arange(n)
-        seen, distance, bearing = visibility(
-            self._pose, points, c.camera_range, c.camera_fov, self._pose[:, :2], self.spec.radius, skip
+        self._sightings = perceive(
+            self.cameras,
+            self.grid,
+            self.vision,
+            self.odometry,
+            self._pose,
+            self._geometry,
+            self._live_targets,
+            self._live_mask(),
+            self.n_detections,
+            self.np_random,
         )
-        seen[np.arange(n), t + np.arange(n)] = False  # a robot does not see itself
-        if not math.isfinite(self._first_seen) and seen[:, :t].any():
+        if self._sightings.any_target and not math.isfinite(self._first_seen):
             self._first_seen = self.world.time
-        rows, cols = np.nonzero(seen[:, : t + n])  # row-major: per robot, targets before robots
-        d_true, b_true = distance[rows, cols], bearing[rows, cols]
-        pv = self.vision.pv(d_true, b_true)
-        measured_d, measured_b = self.vision.measure(d_true, b_true, pv, self.np_random)
-        self._relocalise(seen[:, t + n :], distance[:, t + n :], bearing[:, t + n :])
-        est = self.odometry.estimate
-        heading = est[rows, 2] + measured_b
-        x = est[rows, 0] + measured_d * np.cos(heading)
-        y = est[rows, 1] + measured_d * np.sin(heading)
-        cells = self.grid.cell_of(np.stack([x, y], axis=1))
-        slots = np.arange(len(rows)) - np.searchsorted(rows, rows)
-        self._detections[:] = 0.0
-        self._polar[:] = 0.0
-        self._target_rows[:] = False
-        self._detections[rows, slots, 0] = np.where(cols < t, TARGET, ROBOT)
-        self._detections[rows, slots, 1:3] = cells
-        self._detections[rows, slots, 3] = pv * self.odometry.certainty[rows]
-        self._polar[rows, slots, 0] = measured_d
-        self._polar[rows, slots, 1] = measured_b
-        self._target_rows[rows, slots] = cols < t
-        self._detection_count = np.bincount(rows, minlength=n)
         self._send_packets()
-
-    def _relocalise(self, seen: np.ndarray, distance: np.ndarray, bearing: np.ndarray) -> None:
-        """Landmark sightings: the nearest landmark in view re-localises a robot when its Pv ≥ Pl."""
-        odometry = self.odometry
-        for i in np.flatnonzero(seen.any(axis=1)).tolist():
-            if self.possible_agents[i] not in self.live_agents:
-                continue
-            visible = np.flatnonzero(seen[i])
-            k = visible[np.argmin(distance[i, visible])]
-            pv = float(self.vision.pv(distance[i, k], bearing[i, k]))
-            if pv < odometry.certainty[i]:
-                continue
-            d_m, b_m = self.vision.measure(np.array([distance[i, k]]), np.array([bearing[i, k]]), np.array([pv]), self.np_random)
-            # The pose implied by the measured landmark differs from the truth by the measurement error.
-            true = self._pose[i]
-            ray = true[2] + bearing[i, k]
-            measured_ray = true[2] + b_m[0]
-            dx = distance[i, k] * math.cos(ray) - d_m[0] * math.cos(measured_ray)
-            dy = distance[i, k] * math.sin(ray) - d_m[0] * math.sin(measured_ray)
-            odometry.relocalise(i, true, pv, (dx, dy, float(bearing[i, k] - b_m[0])))
 
     def _send_packets(self) -> None:
         """Every live robot broadcasts its location tuple and detections (section 4.3)."""
-        est, grid = self.odometry.estimate, self.grid
-        own_cells = grid.cell_of(est[:, :2])
-        for agent in self.live_agents:
-            i = self._row[agent]
-            m = int(self._detection_count[i])
-            payload = np.empty((1 + m, 4), dtype=np.float32)
-            payload[0] = (SENDER, own_cells[i, 0], own_cells[i, 1], self.odometry.certainty[i])
-            payload[1:] = self._detections[i, :m]
-            self.channel.send(agent, payload.ravel(), size=packet_bytes(m, grid), kind=PACKET_KIND)
+        sightings, sizes, send = self._sightings, self._packet_sizes, self.channel.send_array
+        count = sightings.count.tolist()
+        for agent, i in zip(self.live_agents, self._live_rows().tolist()):
+            send(agent, sightings.packet(i), sizes[count[i]], PACKET_KIND)
 
     def _received(self, agent: str) -> tuple[np.ndarray, np.ndarray]:
         """Tuples (m, 4) and their senders' indices (m,) delivered to ``agent`` this step."""
-        packets = [msg for msg in self.channel.inbox(agent) if msg.kind == PACKET_KIND]
+        packets = self.channel.inbox_payloads(agent, PACKET_KIND)
         if not packets:
             return np.zeros((0, 4), dtype=np.float32), np.zeros(0, dtype=np.int32)
-        tuples = [msg.payload.reshape(-1, 4) for msg in packets]
-        senders = [np.full(len(t), self._row[msg.sender], dtype=np.int32) for msg, t in zip(packets, tuples)]
-        return np.concatenate(tuples)[: self.n_received], np.concatenate(senders)[: self.n_received]
+        if len(packets) == 1:
+            sender, payload = packets[0]
+            tuples = payload.reshape(-1, 4)[: self.n_received]
+            return tuples, np.full(len(tuples), sender, dtype=np.int32)
+        tuples = np.concatenate([payload for _, payload in packets]).reshape(-1, 4)[: self.n_received]
+        senders = np.repeat(np.array([s for s, _ in packets], dtype=np.int32), [len(p) // 4 for _, p in packets])
+        return tuples, senders[: self.n_received]
 
     def _terminations(self) -> dict[str, bool]:
         return dict.fromkeys(self.live_agents, self._success)
 
     # -- outputs ------------------------------------------------------------------------------
     def _observe(self, out: np.ndarray) -> None:
-        view, c = self.layout.view, self.config
-        (w, h) = self.grid_size
-        for obs, agent in zip(out, self.live_agents):
-            i = self._row[agent]
-            estimate = self.odometry.estimate[i]
-            view(obs, "pose_estimate")[:] = (min(max(estimate[0], -w), 2 * w), min(max(estimate[1], -h), 2 * h), estimate[2])
-            view(obs, "localisation_certainty")[0] = self.odometry.certainty[i]
-            m = int(self._detection_count[i])
-            view(obs, "detections")[:m] = self._detections[i, :m]
-            view(obs, "detection_polar")[:m] = self._polar[i, :m]
-            view(obs, "detection_mask")[:m] = 1
+        c, fields = self.config, self._fields
+        rows = self._live_rows()
+        self._live_mask()
+        table, count, odometry = self._sightings.table, self._sightings.count, self.odometry
+        estimate, certainty, at, timer = odometry.estimate, odometry.certainty, self._at, self._timer
+        if not self._everyone:
+            table, count, estimate, certainty, at, timer = (
+                table[rows],
+                count[rows],
+                estimate[rows],
+                certainty[rows],
+                at[rows],
+                timer[rows],
+            )
+        head = out[:, fields.head]  # pose_estimate, localisation_certainty
+        head[:, :2] = np.minimum(np.maximum(estimate[:, :2], self._pose_low), self._pose_high)
+        head[:, 2] = estimate[:, 2]
+        head[:, 3] = certainty
+        n = len(out)
+        out[:, fields.detections].reshape(n, -1, 4)[:] = table[:, 1:, TUPLE]
+        out[:, fields.detection_polar].reshape(n, -1, 2)[:] = table[:, 1:, POLAR]
+        out[:, fields.detection_mask] = self._slot_index < count[:, None]
+        out[:, fields.at_target] = at[:, None] >= 0
+        if c.task == "consume":
+            out[:, fields.consume_progress] = np.minimum(1.0, timer[:, None] / c.consume_time)
+        out[:, fields.received_sender] = -1
+        for obs, agent, i in zip(out, self.live_agents, rows.tolist()):
             tuples, senders = self._received(agent)
             k = len(tuples)
-            view(obs, "received")[:k] = tuples
-            view(obs, "received_sender")[:] = -1
-            view(obs, "received_sender")[:k] = senders
-            view(obs, "received_mask")[:k] = 1
-            view(obs, "at_target")[0] = int(self._at[i] >= 0)
-            progress = self._timer[i] / c.consume_time if c.task == "consume" else 0.0
-            view(obs, "consume_progress")[0] = min(1.0, progress)
+            if k:
+                obs[fields.received][: 4 * k] = tuples.reshape(-1)
+                obs[fields.received_sender][:k] = senders
+                obs[fields.received_mask][:k] = 1
             if c.observe_world_model:
                 model = self.models[agent]
-                model.observe_own(self._detections[i, :m], self._sector(i), self.world.time)
+                m = int(self._sightings.count[i])
+                model.observe_own(self._sightings.detections[i, :m], self._sector(i), self.world.time)
                 for sender in np.unique(senders).tolist():
                     model.receive(sender, tuples[senders == sender], self.world.time)
-                view(obs, "world_model")[:] = model.fused()
+                self.layout.view(obs, "world_model")[:] = model.fused()
 
     def _sector(self, i: int) -> np.ndarray:
         """Cells robot i sees now by its estimate: the camera's sector minus the shadows of the robots in view."""
         x, y, theta = self.odometry.estimate[i]
         seen = self.grid.sector_mask(x, y, theta, self.config.camera_range, self.config.camera_fov)
-        robots = (self._detections[i, :, 0] == ROBOT) & (np.arange(self.n_detections) < self._detection_count[i])
+        detections = self._sightings.detections[i]
+        robots = (detections[:, 0] == ROBOT) & (self._slot_index < self._sightings.count[i])
         if robots.any():
-            seen &= ~self._view.shadow(x, y, theta, self._polar[i, robots], self.spec.radius)
+            seen &= ~self._view.shadow(x, y, theta, self._sightings.polar[i, robots], self.spec.radius)
         return seen
 
     def _info_keys(self) -> dict[str, InfoKey]:
@@ -432,19 +459,30 @@ class Foraging(TeamEnv):
         return {**unknown(*times), **metrics("DG", "targets_done", "localisation_certainty", "position_error")}
 
     def _metrics(self, agent: str) -> dict[str, Any]:
-        i = self._row[agent]
-        metrics: dict[str, Any] = {}
+        return self._metrics_of([agent])[agent]
+
+    def _metrics_of(self, agents: list[str]) -> dict[str, dict[str, Any]]:
+        team: dict[str, Any] = {}
         if math.isfinite(self._first_seen):
-            metrics["TL"] = self._first_seen
+            team["TL"] = self._first_seen
         for k, time in enumerate(self._done_order, start=1):
-            metrics[f"TT{k}"] = time
+            team[f"TT{k}"] = time
         if self._success:
-            metrics["TG"] = self._done_order[-1]
-        metrics["DG"] = float(self._travelled[i])
-        metrics["targets_done"] = len(self._done_order)
-        metrics["localisation_certainty"] = float(self.odometry.certainty[i])
-        metrics["position_error"] = float(np.hypot(*(self.odometry.estimate[i, :2] - self._pose[i, :2])))
-        return metrics
+            team["TG"] = self._done_order[-1]
+        offset = self.odometry.estimate[:, :2] - self._pose[:, :2]
+        errors = np.hypot(offset[:, 0], offset[:, 1]).tolist()
+        travelled, certainty = self._travelled.tolist(), self.odometry.certainty.tolist()
+        done, out = len(self._done_order), {}
+        for agent in agents:
+            i = self._row[agent]
+            out[agent] = {
+                **team,
+                "DG": travelled[i],
+                "targets_done": done,
+                "localisation_certainty": certainty[i],
+                "position_error": errors[i],
+            }
+        return out
 
     def episode_success(self) -> bool:
         """Every target consumed (``consume``) or surrounded (``surround``)."""

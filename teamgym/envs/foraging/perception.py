@@ -38,6 +38,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from teamgym.envs.foraging.frames import to_field, to_robot
 from teamgym.envs.foraging.grid import GridSpec
 
 __all__ = [
@@ -49,6 +50,8 @@ __all__ = [
     "VisionModel",
     "landmark_positions",
     "packet_bytes",
+    "in_view",
+    "occluded",
     "visibility",
 ]
 
@@ -111,28 +114,50 @@ def visibility(
     ignore for viewer i and point j (the point's own robot), −1 for none. Returns bool (n, m),
     distances (n, m), bearings (n, m).
     """
+    rel, distance, bearing, seen = in_view(poses, points, camera_range, camera_fov)
+    n, m, k = len(poses), len(points), len(occluders)
+    if not seen.any() or k < 2:
+        return seen, distance, bearing
+    counted = np.ones((n, m, k), dtype=bool)
+    if k == n:  # occluders are the viewers themselves: a robot does not hide its own view
+        counted[np.arange(n), :, np.arange(n)] = False
+    if skip is not None:
+        rows, cols = np.nonzero(skip >= 0)
+        counted[rows, cols, skip[rows, cols]] = False
+    return seen & ~occluded(poses, rel, distance, occluders, occluder_radius, counted), distance, bearing
+
+
+def in_view(
+    poses: np.ndarray, points: np.ndarray, camera_range: float, camera_fov: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Offsets (n, m, 2) of ``points`` from every camera, their distances and bearings (n, m), and whether
+    they lie in the camera's sector (n, m) bool, occlusion aside (see :func:`visibility`)."""
     rel = points[None, :, :] - poses[:, None, :2]
     distance = np.hypot(rel[..., 0], rel[..., 1])
     bearing = np.arctan2(rel[..., 1], rel[..., 0]) - poses[:, None, 2]
     bearing = (bearing + math.pi) % (2 * math.pi) - math.pi
     seen = (distance <= camera_range) & (np.abs(bearing) <= 0.5 * camera_fov)
-    if not seen.any() or len(occluders) < 2:
-        return seen, distance, bearing
-    # Occluder k relative to viewer i: projection on the sight line to point j.
+    return rel, distance, bearing, seen
+
+
+def occluded(
+    poses: np.ndarray, rel: np.ndarray, distance: np.ndarray, occluders: np.ndarray, radius: float, counted: np.ndarray
+) -> np.ndarray:
+    """Whether a disc of ``occluders`` (k, 2) whose ``counted[i, j, k]`` is set hides point j from camera i (n, m) bool.
+
+    ``rel`` and ``distance``: the points' offsets and distances from :func:`in_view`. Occluder k
+    blocks the sight line i → j if its centre projects onto the line between the camera and
+    ``radius`` short of the point and lies less than ``radius`` from it.
+    """
     ox = occluders[None, :, 0] - poses[:, 0, None]  # (n, k)
     oy = occluders[None, :, 1] - poses[:, 1, None]
     safe = np.maximum(distance, 1e-12)
     ux, uy = rel[..., 0] / safe, rel[..., 1] / safe  # (n, m)
     along = ux[:, :, None] * ox[:, None, :] + uy[:, :, None] * oy[:, None, :]
     across2 = (ox * ox + oy * oy)[:, None, :] - along**2
-    blocks = (along > 0) & (along < distance[..., None] - occluder_radius) & (across2 < occluder_radius**2)
-    n, k = len(poses), len(occluders)
-    if k == n:  # occluders are the viewers themselves: a robot does not hide its own view
-        blocks[np.arange(n), :, np.arange(n)] = False
-    if skip is not None:
-        rows, cols = np.nonzero(skip >= 0)
-        blocks[rows, cols, skip[rows, cols]] = False
-    return seen & ~blocks.any(axis=-1), distance, bearing
+    blocks = (along > 0) & (along < distance[..., None] - radius) & (across2 < radius**2)
+    blocks &= counted
+    return blocks.any(axis=-1)
 
 
 @dataclass(frozen=True)
@@ -164,11 +189,20 @@ class VisionModel:
         """
         if self.noise == 0.0:
             return np.asarray(distance, dtype=float), np.asarray(bearing, dtype=float)
-        spread = self.noise * (1.0 - pv)
         noise = rng.standard_normal((2, *np.shape(distance)))
-        measured = np.minimum(np.maximum(0.0, distance + DISTANCE_ERROR * spread * noise[0]), self.max_distance)
-        turned = bearing + BEARING_ERROR * spread * noise[1]
-        return measured, np.where(np.abs(turned) > math.pi, (turned + math.pi) % (2 * math.pi) - math.pi, turned)
+        return self.measure_with(distance, bearing, pv, noise[0], noise[1])
+
+    def measure_with(
+        self, distance: np.ndarray, bearing: np.ndarray, pv: np.ndarray, distance_noise: np.ndarray, bearing_noise: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`measure` with its standard normal draws given (``noise`` > 0)."""
+        spread = self.noise * (1.0 - pv)
+        measured = np.minimum(np.maximum(0.0, distance + DISTANCE_ERROR * spread * distance_noise), self.max_distance)
+        turned = bearing + BEARING_ERROR * spread * bearing_noise
+        beyond = np.abs(turned) > math.pi
+        if np.count_nonzero(beyond):
+            turned = np.where(beyond, (turned + math.pi) % (2 * math.pi) - math.pi, turned)
+        return measured, turned
 
 
 class Odometry:
@@ -181,24 +215,54 @@ class Odometry:
         self.rotation_noise = rotation_noise
         self.distance_noise = distance_noise
 
-    def advance(self, before: np.ndarray, after: np.ndarray, rng: np.random.Generator) -> None:
-        """Integrate one control step of the true motion ``before`` → ``after`` (rows x, y, θ)."""
-        turn = (after[:, 2] - before[:, 2] + math.pi) % (2 * math.pi) - math.pi
+    def advance(
+        self,
+        before: np.ndarray,
+        after: np.ndarray,
+        rng: np.random.Generator,
+        trig: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None,
+    ) -> np.ndarray:
+        """Integrate one control step of the motion ``before`` → ``after`` (rows x, y, θ); returns the displacements (n, 2).
+
+        ``trig``: cos and sin of the ``before`` headings and of the estimated headings, if known already.
+        """
+        turn = after[:, 2] - before[:, 2]
+        turn += math.pi
+        turn %= 2 * math.pi
+        turn -= math.pi
         step = after[:, :2] - before[:, :2]
-        c, s = np.cos(before[:, 2]), np.sin(before[:, 2])
-        forward, lateral = c * step[:, 0] + s * step[:, 1], -s * step[:, 0] + c * step[:, 1]
-        length = np.hypot(forward, lateral)
-        noise = rng.standard_normal((2, len(before)))
         est = self.estimate
-        scale = 1.0 + self.distance_noise * noise[1] * (length > 0)
-        ce, se = np.cos(est[:, 2]), np.sin(est[:, 2])
-        est[:, 0] += scale * (ce * forward - se * lateral)
-        est[:, 1] += scale * (se * forward + ce * lateral)
-        est[:, 2] = (est[:, 2] + turn + self.rotation_noise * np.abs(turn) * noise[0] + math.pi) % (2 * math.pi) - math.pi
-        self.certainty *= self.pe ** np.abs(turn)
+        if trig is None:
+            trig = (np.cos(before[:, 2]), np.sin(before[:, 2]), np.cos(est[:, 2]), np.sin(est[:, 2]))
+        c, s, ce, se = trig
+        travel = to_robot(step, c, s)  # (forward, lateral) in the robot's frame at the start
+        length = np.hypot(travel[:, 0], travel[:, 1])
+        noise = rng.standard_normal((2, len(before)))
+        scale = self.distance_noise * noise[1]
+        scale *= length > 0
+        scale += 1.0
+        moved = to_field(travel, ce, se)
+        moved *= scale[:, None]
+        est[:, :2] += moved
+        size = np.abs(turn)
+        heading = est[:, 2] + turn
+        heading += self.rotation_noise * size * noise[0]
+        heading += math.pi
+        heading %= 2 * math.pi
+        heading -= math.pi
+        est[:, 2] = heading
+        self.certainty *= self.pe**size
+        return step
 
     def relocalise(self, robot: int, true_pose: np.ndarray, pv: float, error: tuple[float, float, float]) -> None:
         """A landmark sighting: the estimate becomes the truth plus ``error`` (dx, dy, dθ) and Pl = Pv."""
         self.estimate[robot] = true_pose + np.asarray(error)
         self.estimate[robot, 2] = (self.estimate[robot, 2] + math.pi) % (2 * math.pi) - math.pi
         self.certainty[robot] = pv
+
+    def relocalise_rows(self, rows: np.ndarray, true_poses: np.ndarray, pv: np.ndarray, errors: np.ndarray) -> None:
+        """:meth:`relocalise` of the robots ``rows`` at once: ``true_poses`` and ``errors`` (k, 3), ``pv`` (k,)."""
+        estimate = true_poses + errors
+        estimate[:, 2] = (estimate[:, 2] + math.pi) % (2 * math.pi) - math.pi
+        self.estimate[rows] = estimate
+        self.certainty[rows] = pv

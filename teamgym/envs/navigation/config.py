@@ -20,12 +20,20 @@ class NavigationConfig(EnvConfig):
     the robot (in its own frame with ``local_features``, else world axes), the information
     that paper 001's central arbiter has and a robot's own observation lacks.
 
+    ``actuation_delay`` T0 is at most ``MAX_DELAY_STEPS`` · ``dt``; above ``dt`` a command acts in a
+    later control step (a command queue, see :meth:`Navigation._delay_actuation`). ``true_delay``:
+    ``"random"`` draws each robot's true delay ½ T0 (1 + δt) every step (section 6.1);
+    ``"fixed"`` makes it T0 in every step (to study one true delay, e.g. in (0.9Δt, Δt]).
+
     ``READING_LIMITS`` (the proximity ring): ``sensor_range`` and ``sensor_noise`` in [0, 10] m,
     and ``sensor_noise`` at most ``sensor_range`` (a larger std saturates every ray).
     """
 
     #: Own ranges of the keys that scale a sensor reading (see the class docstring).
     READING_LIMITS: ClassVar[dict[str, Limit]] = PROXIMITY_LIMITS
+
+    #: Largest ``actuation_delay`` in control steps (the delay study of issue 26 runs T0 up to 8Δt).
+    MAX_DELAY_STEPS: ClassVar[int] = 8
 
     body_speed_keys: ClassVar[tuple[str, ...]] = ("max_wheel_speed", "obstacle_speed")
     default_body_speed: ClassVar[float] = 0.0
@@ -51,6 +59,7 @@ class NavigationConfig(EnvConfig):
     walls: bool = True
     obstacle_motion: Literal["bounce", "straight"] = "bounce"
     actuation_delay: float = 0.0
+    true_delay: Literal["random", "fixed"] = "random"
     goal_tolerance: float = 0.03
     min_goal_distance: float = 0.6
     spawn_margin: float = 0.05
@@ -94,7 +103,12 @@ class NavigationConfig(EnvConfig):
         require_together(
             self, ("v_opt", "max_wheel_speed"), self.v_opt <= self.max_wheel_speed, "v_opt must not exceed max_wheel_speed"
         )
-        require_together(self, ("actuation_delay", "dt"), self.actuation_delay <= self.dt, "actuation_delay must be in [0, dt]")
+        require_together(
+            self,
+            ("actuation_delay", "dt"),
+            self.actuation_delay <= self.MAX_DELAY_STEPS * self.dt,
+            f"actuation_delay must be in [0, {self.MAX_DELAY_STEPS}·dt]",
+        )
         require_together(
             self,
             ("min_goal_distance", "arena_size"),

@@ -44,7 +44,9 @@ velocities with v from eqs. (12)–(13).
 
 Actuation delay (section 6.1): with ``actuation_delay`` = T0 > 0 every robot keeps its
 previous command for T0_true = ½ T0 (1 + δt) of each step. The paper calls δt ∈ [0, 1]
-normally distributed; we draw δt ~ N(0.5, 0.25²) clipped to [0, 1].
+normally distributed; we draw δt ~ N(0.5, 0.25²) clipped to [0, 1]; ``true_delay="fixed"``
+makes T0_true = T0. T0 may exceed Δt (up to 8Δt, beyond the paper's values): then a command
+given at t_j acts from t_j + T0_true, a later step (a command queue; ``_delay_actuation``).
 
 Reward per step: ``progress_reward`` × (decrease of the distance to the goal, m)
 − ``time_penalty`` − ``collision_penalty`` × (new contacts) + ``arrival_bonus`` on arrival.
@@ -326,11 +328,29 @@ class Navigation(TeamEnv):
         )
 
     def _delay_actuation(self, robots: list[DiffDriveRobot], rng: np.random.Generator) -> None:
-        """Section 6.1: each robot keeps its previous command for ½ T0 (1 + δt) of the step, δt ~ N(0.5, 0.25²) in [0, 1]."""
-        delay = self.config.actuation_delay
-        delta = np.clip(rng.normal(0.5, 0.25, size=len(robots)), 0.0, 1.0)
-        for robot, d in zip(robots, delta.tolist()):
-            robot.actuation_delay = 0.5 * delay * (1.0 + d)
+        """Section 6.1: each robot's true delay this step is ½ T0 (1 + δt), δt ~ N(0.5, 0.25²) in [0, 1].
+
+        With ``true_delay="fixed"`` it is T0 in every step (no δt is drawn).
+
+        T0 ≤ Δt: the robot keeps its previous command for the true delay, then runs the new
+        one. T0 > Δt (up to ``MAX_DELAY_STEPS``·Δt): a command queue, the command given at t_j
+        acts from t_j + delay (:meth:`~teamgym.sim.robot.DiffDriveRobot.lag_commands`); a robot
+        that left the episode was given (0, 0).
+        """
+        config = self.config
+        delay = config.actuation_delay
+        if config.true_delay == "fixed":
+            delays = [delay] * len(robots)
+        else:
+            delta = np.clip(rng.normal(0.5, 0.25, size=len(robots)), 0.0, 1.0)
+            delays = [0.5 * delay * (1.0 + d) for d in delta.tolist()]
+        if delay <= config.dt:
+            for robot, d in zip(robots, delays):
+                robot.actuation_delay = d
+            return
+        depth = math.floor(delay / config.dt + 1e-9) + 2
+        for robot, d, live in zip(robots, delays, self._live_mask()[0].tolist()):
+            robot.lag_commands(robot.command if live else (0.0, 0.0), d, config.dt, depth)
 
     def _terminations(self) -> dict[str, bool]:
         """A robot that arrives terminates, stops and stays in the world."""

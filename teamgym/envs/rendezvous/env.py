@@ -65,6 +65,7 @@ import networkx as nx
 import numpy as np
 from gymnasium import spaces
 
+from teamgym.control.poses import PoseRows
 from teamgym.control.way_following import WayFollower
 from teamgym.envs.actions import ActionType, VelocityAction
 from teamgym.envs.base import EpisodeOverError, TeamEnv
@@ -76,6 +77,7 @@ from teamgym.envs.rendezvous.config import RendezvousConfig
 from teamgym.envs.rendezvous.messages import MESSAGE_VALUE_MAX, Kind, decode
 from teamgym.envs.rendezvous.scene import blocker_vertices, corridor_walls
 from teamgym.envs.spaces import Field, ObservationLayout
+from teamgym.maps.walls import JoinedWalls
 from teamgym.sim.objects import StaticPolygon, Wall
 from teamgym.sim.render import Overlay, robot_colour
 from teamgym.sim.robot import DiffDriveRobot, RobotSpec
@@ -115,6 +117,12 @@ class Rendezvous(TeamEnv):
         for i, row in enumerate(neighbours):
             self.neighbour_table[i, : len(row)] = row
         self.way_index = {frozenset((self.place_index[w.a], self.place_index[w.b])): k for k, w in enumerate(self.map.ways)}
+        #: Per place, the way index behind each neighbour slot (−1 padding); ``_places``: ``places_xy`` as tuples.
+        self._slot_ways = [
+            [self.way_index[frozenset((p, q))] if q >= 0 else -1 for q in row]
+            for p, row in enumerate(self.neighbour_table.tolist())
+        ]
+        self._places = [tuple(xy) for xy in self.places_xy.tolist()]
         self.way_ends = [(self.place_index[w.a], self.place_index[w.b]) for w in self.map.ways]
         #: The map as a graph over place indices (map units): node ``pos``, edge ``length`` and ``way`` index.
         self.graph = nx.Graph()
@@ -129,8 +137,11 @@ class Rendezvous(TeamEnv):
         n, w = c.n_robots, len(self.way_ends)
         self.state_space = spaces.Box(-np.inf, np.inf, shape=(5 * n + w,), dtype=np.float32)
         walls = corridor_walls(self.map, c.scale, c.corridor_width, _MARGIN) if c.corridor_walls else []
-        #: The corridor walls, built once and placed in every episode's world first (see :mod:`teamgym.sim.scene`).
-        self._scene = StaticScene(Wall(f"wall_{k}", a, b, 0.01) for k, (a, b) in enumerate(walls))
+        #: The corridor walls as one entity (:mod:`teamgym.maps.walls`), built once and placed in every
+        #: episode's world first (see :mod:`teamgym.sim.scene`).
+        self._scene = StaticScene(
+            [JoinedWalls("walls", [Wall(f"wall_{k}", a, b, 0.01) for k, (a, b) in enumerate(walls)])] if walls else []
+        )
 
     def _make_action_type(self) -> ActionType:
         c = self.config
@@ -202,6 +213,11 @@ class Rendezvous(TeamEnv):
         self._stale_plans = 0
         self._expansions = 0
         self._proximity = np.full((n, self.ring.width), c.sensor_range, dtype=np.float32)
+        self._pose_rows = PoseRows()
+        self._distances: tuple[np.ndarray | None, list[float], float] = (None, [], 0.0)
+        self._nearest_seen: list[tuple] = [()] * n  # per robot: (x, y, nearest place, within reach) last computed
+        self._timeouts: dict[tuple[int, int, int], float] = {}
+        self._any_contact = False
         for a, b in c.blocked_ways:
             self._block(self.way_index[frozenset((self.place_index[a], self.place_index[b]))])
         self.world.read_states()
@@ -225,30 +241,33 @@ class Rendezvous(TeamEnv):
     def follow_way(self, agent: str) -> tuple[float, float]:
         """The way-following controller's command for ``agent`` (zero when standing)."""
         i = self._row[agent]
-        if self._target[i] < 0:
+        target = int(self._target[i])
+        if target < 0:
             return 0.0, 0.0
-        pose = tuple(self.world.robot_states[i, :3].tolist())
-        start, end = tuple(self.places_xy[self._from[i]]), tuple(self.places_xy[self._target[i]])
-        return self.followers[i].command(pose, start, end, self._nearest_ahead(i))
+        poses = self._poses()
+        places = self._places
+        return self.followers[i].command(poses[i], places[int(self._from[i])], places[target], self._nearest_ahead(i, poses))
 
     def moves_over(self) -> bool:
         """The stage ends on meeting, when no robot moves, or (``stage_end="any"``) when one reaches its next place."""
-        if self._met or not (self._target >= 0).any():
+        if self._met or max(self._target.tolist()) < 0:
             return True
-        return self.config.stage_end == "any" and bool(self._arrived_now.any())
+        return self.config.stage_end == "any" and True in self._arrived_now.tolist()
 
     def move_mask(self, agent: str) -> np.ndarray:
         """Admissible slots: unblocked ways from the robot's place (as it knows them) and "wait"."""
         i = self._row[agent]
         mask = np.zeros(self.max_degree + 1, dtype=np.int8)
         mask[self.max_degree] = 1
-        if self._target[i] >= 0:
-            row = self.neighbour_table[self._place[i]].tolist()
-            if int(self._target[i]) in row:  # a robot driving back from a way it could not pass has only "wait"
-                mask[row.index(int(self._target[i]))] = 1
+        place, target = int(self._place[i]), int(self._target[i])
+        if target >= 0:
+            row = self.neighbour_table[place].tolist()
+            if target in row:  # a robot driving back from a way it could not pass has only "wait"
+                mask[row.index(target)] = 1
             return mask
-        for k, q in enumerate(self.neighbour_table[self._place[i]].tolist()):
-            if q >= 0 and self.way_index[frozenset((int(self._place[i]), q))] not in self._known[i]:
+        known = self._known[i]
+        for k, way in enumerate(self._slot_ways[place]):
+            if way >= 0 and way not in known:
                 mask[k] = 1
         return mask
 
@@ -298,24 +317,31 @@ class Rendezvous(TeamEnv):
     # -- step phases ---------------------------------------------------------------------
     def _update_state(self) -> None:
         """Arrivals at places, contacts; obstacles waiting for a way to clear are put in place."""
-        states = self.world.robot_states
+        poses, time, places = self._poses(), self.world.time, self._places
         self._arrived_now[:] = False
-        for i, follower in enumerate(self.followers):
-            pose = tuple(states[i, :3].tolist())
-            if self._target[i] >= 0 and follower.arrived(pose, tuple(self.places_xy[self._target[i]])):
-                self._place[i], self._target[i] = self._target[i], -1
+        moves = zip(self.followers, self._target.tolist(), self._move_start.tolist())
+        for i, (follower, target, start) in enumerate(moves):
+            if target < 0:
+                self._place[i] = self._nearest_place(i, poses[i])
+            elif follower.arrived(poses[i], places[target]):
+                self._place[i], self._target[i] = target, -1
                 self._arrived_now[i] = True
-                self._on_arrival(int(self._place[i]))
-            elif self._target[i] >= 0 and self.world.time - self._move_start[i] > self._move_timeout(i):
+                self._on_arrival(target)
+            elif time - start > self._move_timeout(i):
                 self._abandon_move(i)
-            elif self._target[i] < 0:
-                self._place[i] = self._nearest_place(i)
-        hits = self.world.contacts_per(self.possible_agents)
-        self._collisions += hits
-        self._new_contacts = hits
-        self._robot_collisions += sum(1 for ct in self.world.contacts if ct.a in self._row and ct.b in self._row)
-        for k in [k for k in self._blocked if k not in self._blockers and not self._on_way(k)]:
-            self._place_blocker(k)
+        contacts = self.world.contacts
+        if contacts:
+            hits = self.world.contacts_per(self.possible_agents)
+            self._collisions += hits
+            self._new_contacts = hits
+            self._robot_collisions += sum(1 for ct in contacts if ct.a in self._row and ct.b in self._row)
+            self._any_contact = True
+        elif self._any_contact:  # the counts of the last step with contacts: 0 now
+            self._new_contacts = np.zeros_like(self._new_contacts)
+            self._any_contact = False
+        if self._blocked:
+            for k in [k for k in self._blocked if k not in self._blockers and not self._on_way(k)]:
+                self._place_blocker(k)
 
     def _apply_events(self) -> None:
         c, time = self.config, self.world.time
@@ -328,9 +354,8 @@ class Rendezvous(TeamEnv):
     def _check_goals(self) -> None:
         if self._met:
             return
-        pos = self.world.robot_states[:, :2]
-        d = np.linalg.norm(pos[:, None, :] - pos[None, :, :], axis=2)
-        if np.all(d <= self.config.meet_distance):
+        meet = self.config.meet_distance
+        if all(d <= meet for d in self._pair_distances()[1]):
             self._met = True
             self._meeting_time = self.world.time
 
@@ -341,18 +366,27 @@ class Rendezvous(TeamEnv):
         self._distance = distance
         if self._met and self._meeting_time == self.world.time:
             reward += c.meet_bonus
-        total += reward - c.collision_penalty * self._new_contacts
+        if self._any_contact:
+            total += reward - c.collision_penalty * self._new_contacts
+        else:  # the same values: every count is 0
+            total += reward - c.collision_penalty * 0.0
 
     def _sense(self) -> None:
-        """Proximity rings; a robot standing at a place detects that place's blocked ways."""
-        self.ring.read_rows(self.world, self.robot_list, self.world.robot_states, self.np_random, self._proximity)
-        for i in range(len(self.robot_list)):
-            if self._target[i] < 0:
-                place = int(self._place[i])
-                for q in self.neighbour_table[place].tolist():
-                    k = self.way_index.get(frozenset((place, q))) if q >= 0 else None
-                    if k is not None and k in self._blocked:
-                        self._known[i].add(k)
+        """Proximity rings; a robot standing at a place detects that place's blocked ways.
+
+        Only observations read the rings, so rings that draw no noise are read when the step
+        observes (:meth:`_read_rings`), once per macro step instead of every control step: no
+        body moves in between, so the readings are the same.
+        """
+        if self.ring.noiseless:
+            self._rings_due = True
+        else:
+            self._read_rings()
+        if not self._blocked:
+            return
+        for i, (place, target) in enumerate(zip(self._place.tolist(), self._target.tolist())):
+            if target < 0:
+                self._known[i].update(k for k in self._slot_ways[place] if k >= 0 and k in self._blocked)
 
     def _terminations(self) -> dict[str, bool]:
         return dict.fromkeys(self.live_agents, self._met)
@@ -362,11 +396,30 @@ class Rendezvous(TeamEnv):
         return self.world is not None and self._met and self._robot_collisions == 0
 
     # -- helpers -------------------------------------------------------------------------
+    def _poses(self) -> list[tuple[float, float, float]]:
+        """``(x, y, θ)`` of every robot as Python floats, read once per reading of ``world.robot_states``."""
+        return self._pose_rows(self.world.robot_states)
+
+    def _pair_distances(self) -> tuple[np.ndarray | None, list[float], float]:
+        """Centre distances of all ordered robot pairs (row-major, n × n) and their mean over pairs i ≠ j.
+
+        Computed once per reading of ``world.robot_states``; the values are those of
+        ``np.linalg.norm(pos[:, None] - pos[None], axis=2)`` (``sqrt(dx² + dy²)``) and of its
+        ``sum() / (n (n − 1))``, which for two robots is their one distance.
+        """
+        states = self.world.robot_states
+        if self._distances[0] is not states:
+            points = [(x, y) for x, y, _ in self._poses()]
+            n = len(points)
+            d = [math.sqrt((xi - xj) * (xi - xj) + (yi - yj) * (yi - yj)) for xi, yi in points for xj, yj in points]
+            if n == 2 and d[0] == 0.0 and d[3] == 0.0:  # the sum 0 + d + d + 0, halved, is d
+                self._distances = (states, d, d[1])
+            else:
+                self._distances = (states, d, float(np.array(d).reshape(n, n).sum() / (n * (n - 1))))
+        return self._distances
+
     def _mean_distance(self) -> float:
-        pos = self.world.robot_states[:, :2]
-        d = np.linalg.norm(pos[:, None, :] - pos[None, :, :], axis=2)
-        n = len(pos)
-        return float(d.sum() / (n * (n - 1)))
+        return self._pair_distances()[2]
 
     def _on_arrival(self, place: int) -> None:
         """``arrival_blockings``: ways that become blocked when a robot reaches a place for the n-th time."""
@@ -376,9 +429,13 @@ class Rendezvous(TeamEnv):
                 self._block(self.way_index[frozenset((self.place_index[a], self.place_index[b]))])
 
     def _move_timeout(self, i: int) -> float:
-        """Time allowed for a way: three times its length at the robot's speed, plus 5 s."""
-        length = float(np.linalg.norm(self.places_xy[self._target[i]] - self.places_xy[self._from[i]]))
-        return 3.0 * length / self.followers[i].speed + 5.0
+        """Time allowed for a way: three times its length at the robot's speed, plus 5 s (kept per robot and way)."""
+        key = (i, int(self._from[i]), int(self._target[i]))
+        timeout = self._timeouts.get(key)
+        if timeout is None:
+            length = float(np.linalg.norm(self.places_xy[key[2]] - self.places_xy[key[1]]))
+            timeout = self._timeouts[key] = 3.0 * length / self.followers[i].speed + 5.0
+        return timeout
 
     def _abandon_move(self, i: int) -> None:
         """A robot that cannot get through a way (an obstacle in its corridor): it drives back, and
@@ -391,16 +448,31 @@ class Rendezvous(TeamEnv):
         self._move_start[i] = self.world.time
         self._arrived_now[i] = True
 
-    def _nearest_place(self, i: int) -> int:
-        d = np.linalg.norm(self.places_xy - self.world.robot_states[i, :2], axis=1)
-        k = int(np.argmin(d))
-        return k if d[k] <= self.config.corridor_width / 2 else int(self._place[i])
+    def _nearest_place(self, i: int, pose: tuple[float, float, float]) -> int:
+        """The nearest place if it is within half a corridor width of robot ``i`` at ``pose``, else its place.
 
-    def _nearest_ahead(self, i: int) -> float:
+        Only places with ``|dx|, |dy| <= w / 2`` are measured: a distance ``sqrt(dx² + dy²)`` is
+        at least ``|dx|`` and ``|dy|``, so the others are farther than ``w / 2`` (and than any
+        place within it). A robot standing still is not looked up again.
+        """
+        x, y = pose[0], pose[1]
+        seen = self._nearest_seen[i]
+        if not seen or seen[0] != x or seen[1] != y:
+            half, best, k = self.config.corridor_width / 2, math.inf, -1
+            for j, (px, py) in enumerate(self._places):
+                dx = px - x
+                if -half <= dx <= half:
+                    dy = py - y
+                    if -half <= dy <= half and (d := math.sqrt(dx * dx + dy * dy)) < best:
+                        best, k = d, j
+            seen = self._nearest_seen[i] = (x, y, k, best <= half)
+        return seen[2] if seen[3] else int(self._place[i])
+
+    def _nearest_ahead(self, i: int, poses: list[tuple[float, float, float]]) -> float:
         """Distance to the nearest other robot within 60° of the heading (inf if none)."""
-        x, y, theta = self.world.robot_states[i, :3]
+        x, y, theta = poses[i]
         best = math.inf
-        for j, (xj, yj) in enumerate(self.world.robot_states[:, :2].tolist()):
+        for j, (xj, yj, _) in enumerate(poses):
             if j != i:
                 d = math.hypot(xj - x, yj - y)
                 if d < best and abs(math.remainder(math.atan2(yj - y, xj - x) - theta, math.tau)) < math.pi / 3:
@@ -448,22 +520,27 @@ class Rendezvous(TeamEnv):
             self._block(k)
 
     # -- state, metrics, rendering -------------------------------------------------------
+    def _read_rings(self) -> None:
+        self.ring.read_rows(self.world, self.robot_list, self.world.robot_states, self.np_random, self._proximity)
+        self._rings_due = False
+
     def _observe(self, out: np.ndarray) -> None:
-        layout, states = self.layout, self.world.robot_states
+        if self._rings_due:
+            self._read_rings()
+        layout, poses, fields = self.layout, self._poses(), self.layout.slices
+        place_at, target_at, progress_at = fields["place"], fields["target"], fields["progress"]
+        neighbours_at, blocked_at, proximity_at = fields["neighbours"], fields["blocked"], fields["proximity"]
         for row, agent in enumerate(self.live_agents):
             i, buffer = self._row[agent], out[row]
-            buffer[0:3] = states[i, :3]
-            buffer[2] = math.remainder(float(states[i, 2]), math.tau)
-            place = int(self._place[i])
-            layout.view(buffer, "place")[0] = place
-            layout.view(buffer, "target")[0] = self._target[i]
-            layout.view(buffer, "progress")[0] = self._progress(i)
-            neighbours = self.neighbour_table[place]
-            layout.view(buffer, "neighbours")[:] = neighbours
-            layout.view(buffer, "blocked")[:] = [
-                q >= 0 and self.way_index[frozenset((place, int(q)))] in self._known[i] for q in neighbours
-            ]
-            layout.view(buffer, "proximity")[:] = self._proximity[i]
+            x, y, theta = poses[i]
+            buffer[0:3] = (x, y, math.remainder(theta, math.tau))
+            place, known = int(self._place[i]), self._known[i]
+            buffer[place_at] = place
+            buffer[target_at] = int(self._target[i])
+            buffer[progress_at] = self._progress(i)
+            buffer[neighbours_at] = self.neighbour_table[place]
+            buffer[blocked_at] = [way >= 0 and way in known for way in self._slot_ways[place]]
+            buffer[proximity_at] = self._proximity[i]
             if self.config.protocol_messages:
                 packed = self.channel.inbox_array(agent, self.config.message_len, self.config.n_robots - 1, kind="protocol")
                 layout.view(buffer, "messages")[:] = packed.payload
