@@ -46,6 +46,7 @@ from gymnasium import spaces
 
 from teamgym.envs.base import EpisodeOverError, TeamEnv
 from teamgym.envs.config import ConfigError
+from teamgym.envs.reset_input import check_seed
 from teamgym.envs.spaces import ActionChecker, ActionRowsChecker
 from teamgym.envs.step_loop import step_group
 
@@ -161,8 +162,7 @@ class TeamBatch:
     # -- episodes --------------------------------------------------------------------
     def reset(self, seed: int | None = None, options: dict | None = None) -> Any:
         """Reset every copy (copy ``k`` with ``seed + k``); returns the observations of every copy."""
-        if seed is not None and (not isinstance(seed, int) or isinstance(seed, bool) or seed < 0):
-            raise ValueError(f"reset seed={seed!r} is invalid; it must be a non-negative int or None")
+        seed = check_seed(seed)
         for k in range(self.n_copies):
             self._start(k, None if seed is None else seed + k, options)
         return self._observations(slice(None))

@@ -43,6 +43,10 @@ ActionRows = tuple[np.ndarray, np.ndarray, np.ndarray]
 class CopyPhases:
     """The control-step phases over a group of ``copies`` (indices into the list); each copy's own hooks."""
 
+    #: Whether a world may take its last state read as the start of its next step
+    #: (``World.step(reuse_states=True)``): true for a task that moves no body between steps.
+    reuse_states: bool = False
+
     def __init__(self, copies: Sequence[TeamEnv]) -> None:
         self.copies = copies
 
@@ -54,18 +58,24 @@ class CopyPhases:
 
         ``rows``: the same actions as arrays when a batch has them (a task may use them instead of the dicts).
         """
+        self._act(group, actions)
+        for k in group:
+            self.copies[k]._before_physics()
+
+    def _act(self, group: list[int], actions: list[dict[str, Any]]) -> None:
+        """Each acting robot's body command from its action type's ``act``."""
         for k, joint in zip(group, actions):
             env = self.copies[k]
             act, robots = env.action_type.act, env.robots
             for agent, action in joint.items():
                 robots[agent].set_command(*act(env, agent, action))
-            env._before_physics()
 
     def physics(self, group: list[int]) -> None:
         """Physics phase: each copy's world steps Δt; its trails are recorded."""
+        reuse = self.reuse_states
         for k in group:
             env = self.copies[k]
-            env.world.step()
+            env.world.step(reuse_states=reuse)
             env.cycles += 1
             if env.records_trails:
                 env._record_trails()

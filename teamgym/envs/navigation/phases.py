@@ -26,6 +26,7 @@ class NavigationPhases(CopyPhases):
     """The phases of :class:`~teamgym.envs.step_loop.CopyPhases` for Navigation copies, over their ``NavigationArrays`` rows."""
 
     copies: list[Navigation]
+    reuse_states = True  # nothing moves a copy's bodies between its steps: its last read is the next start
 
     def __init__(self, copies: list[Navigation]) -> None:
         super().__init__(copies)
@@ -74,11 +75,7 @@ class NavigationPhases(CopyPhases):
             for k, i, (v, omega) in zip(rows[0].tolist(), rows[1].tolist(), commands.tolist()):
                 copies[k].robot_list[i].set_command(v, omega)
         else:
-            for k, joint in zip(group, actions):
-                env = copies[k]
-                act, robots = env.action_type.act, env.robots
-                for agent, action in joint.items():
-                    robots[agent].set_command(*act(env, agent, action))
+            self._act(group, actions)
         self._live = live = self._live_mask(group, ks)
         span = self._span(group, ks)
         team.command(ks, live, np.array([[robot.command for robot in env.robot_list] for env in span], dtype=float))
@@ -86,15 +83,6 @@ class NavigationPhases(CopyPhases):
             for k in group:
                 env = copies[k]
                 env._delay_actuation(env.robot_list, env.np_random)
-
-    def physics(self, group: list[int]) -> None:
-        """Each copy's world steps Δt (nothing moves a copy's bodies between its steps: its last read is reused)."""
-        for k in group:
-            env = self.copies[k]
-            env.world.step(reuse_states=True)
-            env.cycles += 1
-            if env.records_trails:
-                env._record_trails()
 
     def after_physics(self, group: list[int]) -> None:
         """Poses, distances, contacts, progress, smoothness (section 6.2), arrivals, rewards, then the rings."""
