@@ -62,6 +62,23 @@ class CopyPhases:
         for k in group:
             self.copies[k]._before_physics()
 
+    def _act_rows(self, rows: ActionRows | None) -> bool:
+        """The acting robots' body commands from the action type's vectorised ``commands`` of the batch's ``rows``.
+
+        False (nothing set) without rows or when the action type needs its env per robot (then :meth:`_act`).
+        """
+        if rows is None:
+            return False
+        copies = self.copies
+        first = copies[int(rows[0][0])] if len(rows[0]) else copies[0]
+        commands = first.action_type.commands(rows[2])
+        if commands is None:
+            return False
+        names = first.possible_agents
+        for k, i, (v, omega) in zip(rows[0].tolist(), rows[1].tolist(), commands.tolist()):
+            copies[k].robots[names[i]].set_command(v, omega)
+        return True
+
     def _act(self, group: list[int], actions: list[dict[str, Any]]) -> None:
         """Each acting robot's body command from its action type's ``act``."""
         for k, joint in zip(group, actions):

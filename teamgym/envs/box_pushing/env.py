@@ -60,13 +60,15 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
-from teamgym.control.primitives import PrimitiveExecutor, PrimitiveParams
+from teamgym.control.primitives import PrimitiveParams
 from teamgym.envs.actions import ActionType, WheelSpeedAction
 from teamgym.envs.base import EpisodeOverError, TeamEnv
 from teamgym.envs.bounds import wheel_rotation_limit
 from teamgym.envs.box_pushing.actions import PrimitiveAction
 from teamgym.envs.box_pushing.config import SITUATIONS, BoxPushingConfig, BoxPushingV1Config, Event
+from teamgym.envs.box_pushing.phases import BoxPushingPhases
 from teamgym.envs.box_pushing.scene import GoalWall, Placer
+from teamgym.envs.box_pushing.state import LEAVING, BoxPushingArrays
 from teamgym.envs.infos import InfoKey, metrics, unknown
 from teamgym.envs.spaces import Field, ObservationLayout
 from teamgym.sim.categories import OPAQUE, Category
@@ -98,6 +100,8 @@ class BoxPushing(TeamEnv):
     config_class = BoxPushingConfig
     config: BoxPushingConfig
     pixels_per_metre = 400.0
+    phases_class = BoxPushingPhases  # the step's phases over BoxPushingArrays rows, one numpy pass for a batch's copies
+    stall_cap = STALL_CAP
 
     def _setup(self) -> None:
         c = self.config
@@ -141,7 +145,8 @@ class BoxPushing(TeamEnv):
         self.box_capacity = c.n_light_boxes + c.n_heavy_boxes + c.n_spare_boxes
         n = len(self.possible_agents)
         self.state_space = spaces.Box(-np.inf, np.inf, shape=(5 * n + 6 * self.box_capacity,), dtype=np.float32)
-        self._index = {a: i for i, a in enumerate(self.possible_agents)}
+        self._noiseless = self.ring.noiseless and self.light.noiseless and encoders.noise_std == 0 and self.light.gain_spread == 0
+        self._use_rows(BoxPushingArrays(c, n, self.box_capacity, self.sensors.width, len(self.events)), 0)
 
     def _check_feasible(self) -> None:
         """Refuse at ``make()`` a config whose initial scene cannot be placed (tried on 32 seeds)."""
@@ -155,7 +160,7 @@ class BoxPushing(TeamEnv):
     def _make_action_type(self) -> ActionType:
         if self.config.action_type == "wheels":
             return WheelSpeedAction(self.spec_robot)
-        return PrimitiveAction()
+        return PrimitiveAction(self.primitive_params)
 
     def _make_layout(self) -> ObservationLayout:
         rays, c = len(KHEPERA_RING), self.config
@@ -174,35 +179,14 @@ class BoxPushing(TeamEnv):
         self.world = World((c.table_width, c.table_height), **c.world_options())
         self.world.add_boundary()
         self.world.add(Lamp("lamp", c.lamp))
-        n = len(self.possible_agents)
         self.robots = {}
-        self.executors = {a: PrimitiveExecutor(self.primitive_params) for a in self.possible_agents}
+        primitives = self._primitives
+        if primitives is not None:
+            primitives.begin(self.possible_agents)
         self.light.forget_calibrations()
         self.boxes: list[Box | None] = [None] * self.box_capacity
-        self._heavy = np.zeros(self.box_capacity, dtype=bool)
-        self._half = np.zeros(self.box_capacity)
-        self._gap = np.zeros(self.box_capacity)
-        self._delivered = np.zeros(self.box_capacity, dtype=bool)
-        self._n_boxes = 0
-        self._n_robots_used = 0
+        self._arrays.start(self._copy, self.sensors.slices["proximity"])
         self._joining: list[str] = []
-        self._leaving: dict[str, str] = {}
-        self._status = {a: "" for a in self.possible_agents}
-        # One row of readings per possible robot, in the suite's (and the observation's) order.
-        self._readings = np.zeros((n, self.sensors.width), dtype=np.float32)
-        self._readings[:, self.sensors.slices["proximity"]] = c.sensor_range
-        self._prox = self._readings[:, self.sensors.slices["proximity"]]
-        self._enc = self._readings[:, self.sensors.slices["encoders"]]
-        self._collisions = np.zeros(n, dtype=int)
-        self._stalled = np.zeros(n, dtype=int)
-        self._stall_run = np.zeros(n, dtype=int)
-        self._progress = 0.0
-        self._success = False
-        self._success_time = math.nan
-        self._next_event = 0
-        self._rows: dict[str, int] | None = None
-        #: Scheduled events of this episode that could not be applied (robot already gone, table full).
-        self.skipped_events: list[Event] = []
         boxes, robots = self._sample_initial(rng)
         for heavy, (x, y, angle) in boxes:
             self._place_box(heavy, x, y, angle)
@@ -212,6 +196,42 @@ class BoxPushing(TeamEnv):
         self._joining = []
         self.world.read_states()
         self._read_sensors(self.live_agents)
+
+    # -- per-episode state (this copy's rows of ``self._arrays``) -------------------------
+    def _use_rows(self, team: BoxPushingArrays, k: int) -> None:
+        """Keep this env's episode state in copy row ``k`` of ``team`` (a batch's; see :class:`BoxPushingArrays`)."""
+        self._arrays, self._copy = team, k
+
+    def _episode_state(self) -> dict[str, Any]:
+        """The base's, with this copy's rows of ``_arrays`` in place of the arrays (a batch's hold every copy)."""
+        state = super()._episode_state()
+        team, k = state.pop("_arrays"), state.pop("_copy")
+        state["_box_rows"] = team.row(k)
+        return state
+
+    def _adopt_episode_state(self, state: dict[str, Any]) -> None:
+        rows = state.pop("_box_rows", None)
+        if rows is None:  # a snapshot of a release that kept the episode in attributes
+            rows = _rows_of_attributes(self, state)
+        super()._adopt_episode_state(state)
+        self._arrays.set_row(self._copy, rows)
+
+    @property
+    def _primitives(self) -> PrimitiveAction | None:
+        """The primitive action type (inside a learned message's wrapper), or ``None`` with wheel speeds."""
+        action_type = getattr(self.action_type, "motion", self.action_type)
+        return action_type if isinstance(action_type, PrimitiveAction) else None
+
+    @property
+    def executors(self) -> dict:
+        """Each robot's primitive executor (owned by the action type; empty with wheel speeds)."""
+        primitives = self._primitives
+        return {} if primitives is None else primitives.executors
+
+    @property
+    def skipped_events(self) -> list[Event]:
+        """Scheduled events of this episode that could not be applied (robot already gone, table full)."""
+        return [event for event, skipped in zip(self.events, self._arrays.event_skipped[self._copy].tolist()) if skipped]
 
     def _before_physics(self) -> None:
         """Motor noise: each wheel's commanded speed is scaled by 1 + N(0, σ²), σ = ``noise`` × ``motor_noise``."""
@@ -228,50 +248,66 @@ class BoxPushing(TeamEnv):
     def _update_state(self) -> None:
         """Contacts, and the boxes' gaps to the goal wall (this step's progress)."""
         self._count_contacts()
-        self._step_progress = self._update_boxes()
-        self._progress += self._step_progress
+        team, k = self._arrays, self._copy
+        team.update_boxes(slice(k, k + 1), self.goal, self._box_poses()[None])
 
     def _apply_events(self) -> None:
         """Scheduled events (``events`` in the config) due at this control step."""
-        while self._next_event < len(self.events) and self.events[self._next_event].cycle <= self.cycles:
-            self._apply_event(self.events[self._next_event])
-            self._next_event += 1
+        events, team, k = self.events, self._arrays, self._copy
+        while team.next_event[k] < len(events) and events[team.next_event[k]].cycle <= self.cycles:
+            self._apply_event(int(team.next_event[k]))
+            team.next_event[k] += 1
 
     def _check_goals(self) -> None:
-        self._newly_successful = not self._success and self._goal_reached()
-        if self._newly_successful:
-            self._success = True
-            self._success_time = self.cycles * self.config.dt
+        k = self._copy
+        self._arrays.check_goals(slice(k, k + 1), np.array([self.cycles]))
 
     def _accumulate_rewards(self, total: np.ndarray) -> None:
         """The team's shared reward: progress of the boxes, time penalty, success bonus."""
-        c = self.config
-        reward = c.progress_reward * self._step_progress - c.time_penalty + (c.success_bonus if self._newly_successful else 0.0)
-        total[self._live_rows()] += reward
+        k = self._copy
+        total[self._live_rows()] += float(self._arrays.rewards(slice(k, k + 1))[0])
 
     def _sense(self) -> None:
         """Sensors of the robots that go on, including robots added by events in this step."""
-        going_on = [a for a in [*self.live_agents, *self._joining] if not (self._success or a in self._leaving)]
+        team, k = self._arrays, self._copy
+        if team.success[k]:
+            return
+        leaving, row = team.leaving[k], self._row
+        going_on = [a for a in [*self.live_agents, *self._joining] if not leaving[row[a]]]
         self._read_sensors(going_on)
 
     def _terminations(self) -> dict[str, bool]:
         """Every robot on success; removed and broken robots (their status is recorded)."""
-        terminations = {a: self._success or a in self._leaving for a in self.live_agents}
-        for agent, status in self._leaving.items():
-            self._status[agent] = status
-            self.executors[agent].cancel()
-        self._leaving = {}
+        team, k, row = self._arrays, self._copy, self._row
+        leaving = team.leaving[k]
+        if bool(team.success[k]):
+            terminations = dict.fromkeys(self.live_agents, True)
+        else:
+            terminations = {a: bool(leaving[row[a]]) for a in self.live_agents}
+        if leaving.any():
+            primitives = self._primitives
+            for i in np.flatnonzero(leaving).tolist():
+                if primitives is not None:
+                    primitives.cancel(self.possible_agents[i])
+            team.status[k] = np.where(leaving != 0, leaving, team.status[k])
+            leaving[:] = 0
         return terminations
 
     def _observe(self, out: np.ndarray) -> None:
         if not self.live_agents:
             return
-        rows = self._live_rows()
-        s = self.layout.slices
-        out[:, : self.sensors.width] = self._readings[rows]
-        out[:, s["busy"].start] = [float(self.executors[a].busy) for a in self.live_agents]
-        if "stall" in s:
-            out[:, s["stall"].start] = np.minimum(self._stall_run[rows], STALL_CAP) / STALL_CAP
+        every = np.empty((1, len(self.possible_agents), out.shape[1]), dtype=out.dtype)
+        self._arrays.observe(slice(self._copy, self._copy + 1), self.layout, self._busy_rows()[None], self.stall_cap, every)
+        out[:] = every[0, self._live_rows()]
+
+    def _busy_rows(self) -> np.ndarray:
+        """``(N,)``: 1 for robots whose primitive executor runs a multi-cycle program."""
+        busy = np.zeros(len(self.possible_agents))
+        primitives = self._primitives
+        if primitives is not None:
+            rows = self._live_rows()
+            busy[rows] = primitives.busy(self.live_agents)
+        return busy
 
     def _info_keys(self) -> dict[str, InfoKey]:
         """Counts from reset on; ``time_to_goal`` (s) NaN until the team succeeds."""
@@ -279,29 +315,42 @@ class BoxPushing(TeamEnv):
         return {**metrics(*keys), **unknown("time_to_goal")}
 
     def _metrics(self, agent: str) -> dict[str, Any]:
-        i = self._index[agent]
-        robot = self.robots.get(agent)
-        metrics = {
-            "success": bool(self._success),
-            "boxes_delivered": int(self._delivered.sum()),
-            "box_progress": float(self._progress),
-            "path_length": float(robot.odometer) if robot is not None else 0.0,
-            "collisions": int(self._collisions[i]),
-            "stalled_steps": int(self._stalled[i]),
-            "broken_down": self._status[agent] == "broken_down",
-            "removed": self._status[agent] == "removed",
+        return self._metrics_of([agent])[agent]
+
+    def _metrics_of(self, agents: list[str]) -> dict[str, dict[str, Any]]:
+        """Every agent's metrics from this copy's rows (team values read once)."""
+        team, k, row = self._arrays, self._copy, self._row
+        success = bool(team.success[k])
+        team_metrics = {
+            "success": success,
+            "boxes_delivered": int(team.box_delivered[k].sum()),
+            "box_progress": float(team.progress[k]),
         }
-        if self._success:
-            metrics["time_to_goal"] = float(self._success_time)
-        return metrics
+        collisions, stalled, status = team.collisions[k].tolist(), team.stalled[k].tolist(), team.status[k].tolist()
+        removed, broken = LEAVING["removed"], LEAVING["broken_down"]
+        out = {}
+        for agent in agents:
+            i, robot = row[agent], self.robots.get(agent)
+            metrics = {
+                **team_metrics,
+                "path_length": float(robot.odometer) if robot is not None else 0.0,
+                "collisions": collisions[i],
+                "stalled_steps": stalled[i],
+                "broken_down": status[i] == broken,
+                "removed": status[i] == removed,
+            }
+            if success:
+                metrics["time_to_goal"] = float(team.success_time[k])
+            out[agent] = metrics
+        return out
 
     def episode_success(self) -> bool:
         """Whether the episode reached its goal (``boxes_to_goal`` boxes at the goal wall)."""
-        return bool(self._success) if self.world is not None else False
+        return bool(self._arrays.success[self._copy]) if self.world is not None else False
 
     def is_delivered(self, name: str) -> bool:
         """Whether box ``name`` has touched the goal wall in this episode."""
-        return bool(self._delivered[self._box_slot(name)])
+        return bool(self._arrays.box_delivered[self._copy, self._box_slot(name)])
 
     # -- dynamic environment (paper 004, section 4.2) ---------------------------------------
     def add_robot(self, position: tuple[float, float] | None = None, heading: float | None = None) -> str:
@@ -333,7 +382,7 @@ class BoxPushing(TeamEnv):
         self._require_running("add_box")
         if not isinstance(heavy, (bool, np.bool_)):
             raise TypeError(f"add_box: heavy must be a bool, got {heavy!r}")
-        if self._n_boxes >= self.box_capacity:
+        if self._arrays.n_boxes[self._copy] >= self.box_capacity:
             raise ValueError(f"add_box: all {self.box_capacity} box slots are used; raise n_spare_boxes")
         x, y, theta = self._draw(self._box_spot, bool(heavy), position, angle)
         self._record("add_box", bool(heavy), position, angle)
@@ -351,7 +400,7 @@ class BoxPushing(TeamEnv):
         return [b.name for b in self.boxes if b is not None]
 
     def is_heavy(self, name: str) -> bool:
-        return bool(self._heavy[self._box_slot(name)])
+        return bool(self._arrays.box_heavy[self._copy, self._box_slot(name)])
 
     def _draw(self, spot, *args) -> tuple[float, float, float]:
         """``spot(*args)``; if it fails, the env's random stream is left as it was (the failed call is not logged)."""
@@ -363,8 +412,9 @@ class BoxPushing(TeamEnv):
             raise
 
     # -- events -----------------------------------------------------------------------------
-    def _apply_event(self, event: Event) -> None:
-        """A scheduled event; impossible ones (robot gone, table full) are skipped and counted."""
+    def _apply_event(self, index: int) -> None:
+        """Scheduled event ``index``; impossible ones (robot gone, table full) are skipped and flagged."""
+        event = self.events[index]
         try:
             if event.kind == "add_robot":
                 self._check_spare()
@@ -380,22 +430,22 @@ class BoxPushing(TeamEnv):
                 x, y, theta = self._box_spot(heavy, event.args[:2] or None, event.args[2] if len(event.args) > 2 else None)
                 self._place_box(heavy, x, y, theta)
         except (ValueError, KeyError):
-            self.skipped_events.append(event)
+            self._arrays.event_skipped[self._copy, index] = True
 
     def _place_robot(self, x: float, y: float, heading: float) -> str:
-        name = self.possible_agents[self._n_robots_used]
-        self._n_robots_used += 1
+        team, k = self._arrays, self._copy
+        name = self.possible_agents[team.robots_used[k]]
+        team.robots_used[k] += 1
         self.robots[name] = self.world.add(DiffDriveRobot(name, (x, y), heading, self.spec_robot))
         self.light.calibrate(self.robots[name], self.np_random)
-        self._rows = None
+        self.world.read_states()  # the state rows follow the robots on the table
         self._admit(name)
         return name
 
     def _remove_robot(self, agent: str) -> None:
         self.world.remove(agent)
-        self.executors[agent].cancel()
-        self._rows = None
-        self._leaving[agent] = "removed"
+        self._leave(agent, "removed")
+        self.world.read_states()
 
     def _break_down(self, agent: str) -> None:
         robot = self.robots[agent]
@@ -403,25 +453,33 @@ class BoxPushing(TeamEnv):
         # Motors off, wheels locked by the gearbox (a Khepera's is not back-drivable): the
         # robot resists pushing harder than any one robot can push.
         robot.brake(_BRAKE_FACTOR)
-        self.executors[agent].cancel()
-        self._leaving[agent] = "broken_down"
+        self._leave(agent, "broken_down")
+
+    def _leave(self, agent: str, why: str) -> None:
+        """``agent`` leaves at the end of this step (``why``: a key of :data:`LEAVING`); its program is abandoned."""
+        primitives = self._primitives
+        if primitives is not None:
+            primitives.cancel(agent)
+        self._arrays.leaving[self._copy, self._row[agent]] = LEAVING[why]
 
     def _place_box(self, heavy: bool, x: float, y: float, angle: float) -> str:
-        c = self.config
-        slot = self._n_boxes
-        self._n_boxes += 1
+        c, team, k = self.config, self._arrays, self._copy
+        slot = int(team.n_boxes[k])
+        team.n_boxes[k] += 1
         size, mass = (c.heavy_box_size, c.heavy_box_mass) if heavy else (c.light_box_size, c.light_box_mass)
         box = Box(f"box_{slot}", (size, size), (x, y), mass, c.box_friction, angle, c.table_friction, c.support_points)
         self.world.add(box)
         self.boxes[slot] = box
-        self._heavy[slot], self._half[slot] = heavy, size / 2
-        self._gap[slot] = float(self.goal.gaps(np.array([[x, y, angle]]), self._half[slot : slot + 1])[0])
-        self._delivered[slot] = self._gap[slot] <= c.goal_tolerance
+        team.box_present[k, slot], team.box_heavy[k, slot], team.box_half[k, slot] = True, heavy, size / 2
+        gap = float(self.goal.gaps(np.array([[x, y, angle]]), team.box_half[k, slot : slot + 1])[0])
+        team.box_gap[k, slot] = gap
+        team.box_delivered[k, slot] = gap <= c.goal_tolerance
         return box.name
 
     def _remove_box(self, slot: int) -> None:
         self.world.remove(self.boxes[slot].name)
         self.boxes[slot] = None
+        self._arrays.box_present[self._copy, slot] = False
 
     # -- checks and spots -------------------------------------------------------------------
     def _require_running(self, what: str) -> None:
@@ -429,7 +487,7 @@ class BoxPushing(TeamEnv):
             raise EpisodeOverError(f"{what}() needs a running episode; call reset() first")
 
     def _check_spare(self) -> None:
-        if self._n_robots_used >= len(self.possible_agents):
+        if self._arrays.robots_used[self._copy] >= len(self.possible_agents):
             raise ValueError(
                 f"add_robot: no spare robot left; all {len(self.possible_agents)} possible agents are used (n_spare_robots)"
             )
@@ -438,7 +496,7 @@ class BoxPushing(TeamEnv):
         self._require_running(what)
         if agent not in self.possible_agents:
             raise KeyError(f"{what}: unknown agent {agent!r}; possible agents are {self.possible_agents}")
-        if agent not in self.live_agents or agent in self._leaving:
+        if agent not in self.live_agents or self._arrays.leaving[self._copy, self._row[agent]]:
             raise ValueError(f"{what}: {agent!r} is not a live agent; live agents are {self.live_agents}")
 
     def _box_slot(self, name: str) -> int:
@@ -511,53 +569,55 @@ class BoxPushing(TeamEnv):
         return boxes, robots
 
     # -- per-step state ---------------------------------------------------------------------
-    def _robot_rows(self) -> dict[str, int]:
-        if self._rows is None or len(self._rows) != len(self.world.robots):
-            self.world.read_states()
-            self._rows = {r.name: i for i, r in enumerate(self.world.robots)}
-        return self._rows
-
     def _read_sensors(self, agents: list[str]) -> None:
         """Proximity, light and encoder readings of ``agents`` (one sensor suite); executors see them too."""
         if not agents:
             return
-        rows, states = self._robot_rows(), self.world.robot_states
-        robots = [self.robots[a] for a in agents]
+        world, robots_of, row = self.world, self.robots, self._row
+        rows, states = world.robot_rows, world.robot_states
+        robots = [robots_of[a] for a in agents]
         block = np.empty((len(agents), self.sensors.width), dtype=np.float32)
-        self.sensors.read_rows(self.world, robots, states[[rows[a] for a in agents]], self.np_random, block)
-        index = [self._index[a] for a in agents]
-        self._readings[index] = block
-        for agent, i, robot in zip(agents, index, robots):
+        poses = states[[rows[a] for a in agents]]
+        if self._noiseless:  # nothing drawn: sensor after sensor over every row (the same values)
+            for sensor, columns in self.sensors._parts:
+                sensor.read_rows(world, robots, poses, None, block[:, columns])
+        else:
+            self.sensors.read_rows(world, robots, poses, self.np_random, block)
+        index = [row[a] for a in agents]
+        team, k = self._arrays, self._copy
+        team.readings[k, index] = block
+        stalled, run = team.stalled[k], team.stall_run[k]
+        for i, robot in zip(index, robots):
             if robot.encoders.slip > _STALL_SLIP:
-                self._stalled[i] += 1
-                self._stall_run[i] += 1
+                stalled[i] += 1
+                run[i] += 1
             else:
-                self._stall_run[i] = 0
-            self.executors[agent].observe(self._prox[i], self._enc[i])
+                run[i] = 0
+        primitives = self._primitives
+        if primitives is not None:
+            s = self.sensors.slices
+            prox, enc = block[:, s["proximity"]], block[:, s["encoders"]]
+            for j, agent in enumerate(agents):
+                primitives.observe(agent, prox[j], enc[j])
 
     def _count_contacts(self) -> None:
-        self._collisions += self.world.contacts_per(self.possible_agents)
-
-    def _box_poses(self) -> tuple[np.ndarray, np.ndarray]:
-        slots = [k for k, b in enumerate(self.boxes) if b is not None]
-        poses = np.array([(*self.boxes[k].body.position, self.boxes[k].body.angle) for k in slots]).reshape(-1, 3)
-        return np.array(slots, dtype=int), poses
+        self._arrays.collisions[self._copy] += self.world.contacts_per(self.possible_agents)
 
     def _update_boxes(self) -> float:
-        """Refresh box gaps to the goal and deliveries; return this step's progress (m)."""
-        slots, poses = self._box_poses()
-        if len(slots) == 0:
-            return 0.0
-        gaps = self.goal.gaps(poses, self._half[slots])
-        progress = float(np.sum(self._gap[slots] - gaps))
-        self._gap[slots] = gaps
-        self._delivered[slots] |= gaps <= self.config.goal_tolerance
-        return progress
+        """Measure the boxes' gaps and deliveries anew (after moving boxes by hand); the gaps' decrease (m), not counted as progress."""
+        team, k = self._arrays, self._copy
+        team.update_boxes(slice(k, k + 1), self.goal, self._box_poses()[None], accumulate=False)
+        return float(team.step_progress[k])
 
-    def _goal_reached(self) -> bool:
-        present = [k for k, b in enumerate(self.boxes) if b is not None]
-        target = self.config.boxes_to_goal or len(present)
-        return bool(present) and int(self._delivered[present].sum()) >= target
+    def _box_poses(self) -> np.ndarray:
+        """``(B, 3)``: ``(x, y, angle)`` of every box slot (zeros for empty slots)."""
+        poses = np.zeros((self.box_capacity, 3))
+        for slot, box in enumerate(self.boxes):
+            if box is not None:
+                body = box.body
+                x, y = body.position
+                poses[slot] = (x, y, body.angle)
+        return poses
 
     # -- state and rendering ----------------------------------------------------------------
     def state(self) -> np.ndarray:
@@ -567,18 +627,19 @@ class BoxPushing(TeamEnv):
         robots = np.zeros((len(self.possible_agents), 5))
         for agent, robot in self.robots.items():
             if robot.space is not None:
-                robots[self._index[agent]] = (*robot.pose, 1.0, float(robot.enabled))
+                robots[self._row[agent]] = (*robot.pose, 1.0, float(robot.enabled))
         boxes = np.zeros((self.box_capacity, 6))
+        heavy, delivered = self._arrays.box_heavy[self._copy], self._arrays.box_delivered[self._copy]
         for k, box in enumerate(self.boxes):
             if box is not None:
-                boxes[k] = (*box.position, box.body.angle, float(self._heavy[k]), 1.0, float(self._delivered[k]))
+                boxes[k] = (*box.position, box.body.angle, float(heavy[k]), 1.0, float(delivered[k]))
         return np.concatenate([robots.ravel(), boxes.ravel()]).astype(np.float32)
 
     def _overlay(self) -> Overlay:
         overlay = Overlay()
         overlay.paths.append((list(self.goal.segment(self.config.table_width, self.config.table_height)), (40, 170, 40)))
         for k, box in enumerate(self.boxes):
-            if box is not None and self._heavy[k]:
+            if box is not None and self._arrays.box_heavy[self._copy, k]:
                 corners = [box.body.local_to_world(v) for v in box.local_vertices]
                 overlay.paths.append(([tuple(corners[0]), tuple(corners[2])], (90, 50, 20)))
                 overlay.paths.append(([tuple(corners[1]), tuple(corners[3])], (90, 50, 20)))
@@ -603,6 +664,36 @@ class BoxPushingV1(BoxPushing):
     metadata = {**BoxPushing.metadata, "name": "box_pushing_v1"}
     config_class = BoxPushingV1Config
     config: BoxPushingV1Config
+
+
+def _rows_of_attributes(env: BoxPushing, state: dict[str, Any]) -> dict[str, np.ndarray]:
+    """The episode rows of a snapshot that earlier releases wrote (the state in ``_*`` attributes); ``state`` loses them.
+
+    Their executors move to the action type, as this release keeps them.
+    """
+    old = {key: state.pop(key) for key in [*state] if key.startswith("_") and key not in env.__dict__}
+    old.update((key, state.pop(key)) for key in ("executors", "skipped_events") if key in state)
+    action_type = getattr(state.get("action_type"), "motion", state.get("action_type"))
+    if isinstance(action_type, PrimitiveAction):
+        action_type.params, action_type.executors = env.primitive_params, old["executors"]
+    rows = env._arrays.row(env._copy)
+    rows["readings"][:] = old["_readings"]
+    for name in ("collisions", "stalled", "stall_run"):
+        rows[name][:] = old[f"_{name}"]
+    for agent, status in old["_status"].items():
+        rows["status"][env._row[agent]] = LEAVING.get(status, 0)
+    for agent, why in old["_leaving"].items():
+        rows["leaving"][env._row[agent]] = LEAVING[why]
+    rows["box_present"][:] = [box is not None for box in state["boxes"]]
+    for name, key in (("box_heavy", "_heavy"), ("box_half", "_half"), ("box_gap", "_gap"), ("box_delivered", "_delivered")):
+        rows[name][:] = old[key]
+    rows["n_boxes"][...], rows["robots_used"][...] = old["_n_boxes"], old["_n_robots_used"]
+    rows["progress"][...], rows["step_progress"][...] = old["_progress"], old.get("_step_progress", 0.0)
+    rows["success"][...], rows["new_success"][...] = old["_success"], old.get("_newly_successful", False)
+    rows["success_time"][...], rows["next_event"][...] = old["_success_time"], old["_next_event"]
+    skipped = old.get("skipped_events", [])
+    rows["event_skipped"][:] = [any(event is s or event == s for s in skipped) for event in env.events]
+    return rows
 
 
 def _finite(value: Any, what: str) -> float:

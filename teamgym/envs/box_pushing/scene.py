@@ -29,13 +29,13 @@ class GoalWall:
         self.offset = (width if side == "east" else height) if self.sign > 0 else 0.0
 
     def gaps(self, poses: np.ndarray, half_sizes: np.ndarray) -> np.ndarray:
-        """Gap (m) between each square box ``(x, y, angle)`` of half side ``h`` and the goal wall."""
-        if len(poses) == 0:
-            return np.zeros(0)
-        c, s = np.cos(poses[:, 2]), np.sin(poses[:, 2])
+        """Gap (m) between each square box ``(x, y, angle)`` (the last axis of ``poses``) of half side ``h`` and the goal wall."""
+        if poses.size == 0:
+            return np.zeros(poses.shape[:-1])
+        c, s = np.cos(poses[..., 2]), np.sin(poses[..., 2])
         # Largest corner extent along the goal axis: h·(|cos| + |sin|) for a square.
         extent = half_sizes * (np.abs(c) + np.abs(s))
-        centre = poses[:, self.axis]
+        centre = poses[..., self.axis]
         return self.sign * (self.offset - centre) - extent
 
     def segment(self, width: float, height: float) -> tuple[tuple[float, float], tuple[float, float]]:

@@ -70,11 +70,7 @@ class NavigationPhases(CopyPhases):
         """Commands of the acting robots (the action type's vectorised ``commands`` when the batch has arrays), then delays."""
         copies = self.copies
         team, ks = self._rows(group)
-        commands = None if rows is None else copies[group[0]].action_type.commands(rows[2])
-        if commands is not None:
-            for k, i, (v, omega) in zip(rows[0].tolist(), rows[1].tolist(), commands.tolist()):
-                copies[k].robot_list[i].set_command(v, omega)
-        else:
+        if not self._act_rows(rows):
             self._act(group, actions)
         self._live = live = self._live_mask(group, ks)
         span = self._span(group, ks)
