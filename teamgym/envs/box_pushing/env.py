@@ -296,8 +296,12 @@ class BoxPushing(TeamEnv):
     def _observe(self, out: np.ndarray) -> None:
         if not self.live_agents:
             return
+        ks, busy = slice(self._copy, self._copy + 1), self._busy_rows()[None]
+        if len(self.live_agents) == len(self.possible_agents):  # everyone live: rows in order, straight into ``out``
+            self._arrays.observe(ks, self.layout, busy, self.stall_cap, out[None])
+            return
         every = np.empty((1, len(self.possible_agents), out.shape[1]), dtype=out.dtype)
-        self._arrays.observe(slice(self._copy, self._copy + 1), self.layout, self._busy_rows()[None], self.stall_cap, every)
+        self._arrays.observe(ks, self.layout, busy, self.stall_cap, every)
         out[:] = every[0, self._live_rows()]
 
     def _busy_rows(self) -> np.ndarray:
@@ -579,8 +583,9 @@ class BoxPushing(TeamEnv):
         block = np.empty((len(agents), self.sensors.width), dtype=np.float32)
         poses = states[[rows[a] for a in agents]]
         if self._noiseless:  # nothing drawn: sensor after sensor over every row (the same values)
-            for sensor, columns in self.sensors._parts:
-                sensor.read_rows(world, robots, poses, None, block[:, columns])
+            suite = self.sensors
+            for name, sensor in suite.sensors.items():
+                sensor.read_rows(world, robots, poses, None, block[:, suite.slices[name]])
         else:
             self.sensors.read_rows(world, robots, poses, self.np_random, block)
         index = [row[a] for a in agents]
@@ -687,10 +692,9 @@ def _rows_of_attributes(env: BoxPushing, state: dict[str, Any]) -> dict[str, np.
     rows["box_present"][:] = [box is not None for box in state["boxes"]]
     for name, key in (("box_heavy", "_heavy"), ("box_half", "_half"), ("box_gap", "_gap"), ("box_delivered", "_delivered")):
         rows[name][:] = old[key]
-    rows["n_boxes"][...], rows["robots_used"][...] = old["_n_boxes"], old["_n_robots_used"]
-    rows["progress"][...], rows["step_progress"][...] = old["_progress"], old.get("_step_progress", 0.0)
-    rows["success"][...], rows["new_success"][...] = old["_success"], old.get("_newly_successful", False)
-    rows["success_time"][...], rows["next_event"][...] = old["_success_time"], old["_next_event"]
+    rows.update(n_boxes=old["_n_boxes"], robots_used=old["_n_robots_used"], next_event=old["_next_event"])
+    rows.update(progress=old["_progress"], step_progress=old.get("_step_progress", 0.0), success_time=old["_success_time"])
+    rows.update(success=old["_success"], new_success=old.get("_newly_successful", False))
     skipped = old.get("skipped_events", [])
     rows["event_skipped"][:] = [any(event is s or event == s for s in skipped) for event in env.events]
     return rows

@@ -68,14 +68,17 @@ class BoxPushingPhases(CopyPhases):
         copies = self.copies
         team, ks = self._rows(group)
         span = [copies[k] for k in group]
-        poses = np.stack([env._box_poses() for env in span])
+        if len(span) == 1:  # a lone env: no stacking
+            poses, cycles = span[0]._box_poses()[None], span[0].cycles
+        else:
+            poses, cycles = np.stack([env._box_poses() for env in span]), np.array([env.cycles for env in span])
         for env in span:
             env._count_contacts()
         team.update_boxes(ks, span[0].goal, poses)
         if span[0].events:
             for env in span:
                 env._apply_events()
-        team.check_goals(ks, np.array([env.cycles for env in span]))
+        team.check_goals(ks, cycles)
         for env, reward in zip(span, team.rewards(ks).tolist()):
             env._reward_total[env._live_rows()] += reward
         for env in span:

@@ -129,8 +129,8 @@ class BoxPushingArrays:
         self.box_gap[ks] = np.where(present, gaps, gap)
         self.box_delivered[ks] |= present & (gaps <= self.config.goal_tolerance)
 
-    def check_goals(self, ks: slice | np.ndarray, cycles: np.ndarray) -> None:
-        """Success of copies whose ``boxes_to_goal`` boxes (0: every box on the table) have been delivered."""
+    def check_goals(self, ks: slice | np.ndarray, cycles: np.ndarray | int) -> None:
+        """Success of copies whose ``boxes_to_goal`` boxes (0: every box on the table) have been delivered (at ``cycles``)."""
         present = self.box_present[ks]
         on_table = present.sum(axis=1)
         target = self.config.boxes_to_goal or on_table
