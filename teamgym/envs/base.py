@@ -393,7 +393,8 @@ class TeamEnv(ParallelEnv):
         rows, trails = self.world.robot_rows if points else {}, self._trails
         for agent in self.live_agents:
             row = rows.get(agent)
-            trails[agent].append(tuple(points[row]) if row is not None else self.robots[agent].position)
+            point = tuple(points[row]) if row is not None else self.robots[agent].position
+            trails.setdefault(agent, []).append(point)  # a robot that joined a batch's copy (no trails) starts one
         self._record_object_trails()
 
     def _record_object_trails(self) -> None:
