@@ -18,7 +18,13 @@ import pytest
 import teamgym
 from teamgym.envs.box_pushing.state import LEAVING, BoxPushingArrays
 
-EVENTS = ((3, "add_robot"), (5, "break_down", "robot_1"), (6, "add_light_box"), (8, "remove_robot", "robot_0"), (9, "remove_robot", "robot_0"))
+EVENTS = (
+    (3, "add_robot"),
+    (5, "break_down", "robot_1"),
+    (6, "add_light_box"),
+    (8, "remove_robot", "robot_0"),
+    (9, "remove_robot", "robot_0"),  # skipped: robot_0 is gone
+)
 CONFIG = {"situation": "S2", "max_cycles": 40, "n_spare_robots": 1, "n_spare_boxes": 1, "events": EVENTS}
 
 #: What a BoxPushing env holds besides what ``TeamEnv`` sets: derived from the config once

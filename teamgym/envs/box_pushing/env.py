@@ -86,6 +86,7 @@ _STALL_SLIP = 0.9
 #: Consecutive stalled cycles at which the ``stall`` observation reads 1 (1 s at the default Δt).
 STALL_CAP = 10
 _BRAKE_FACTOR = 3.0
+_NO_POSE = (0.0, 0.0, 0.0)
 #: Where the light sensor saturates (light units, I₀ = 1 at 1 m): 2.5 times the brightest
 #: noise-free reading, 400 at the sensor's 5 cm minimum distance; reached only with the lamp
 #: beside the table and strong gains or noise (the default lamp gives at most about 80).
@@ -609,20 +610,15 @@ class BoxPushing(TeamEnv):
         self._arrays.collisions[self._copy] += self.world.contacts_per(self.possible_agents)
 
     def _update_boxes(self) -> float:
-        """Measure the boxes' gaps and deliveries anew (after moving boxes by hand); the gaps' decrease (m), not counted as progress."""
+        """Measure the boxes' gaps and deliveries anew (boxes moved by hand); returns the gaps' decrease (m), not counted."""
         team, k = self._arrays, self._copy
         team.update_boxes(slice(k, k + 1), self.goal, self._box_poses()[None], accumulate=False)
         return float(team.step_progress[k])
 
     def _box_poses(self) -> np.ndarray:
         """``(B, 3)``: ``(x, y, angle)`` of every box slot (zeros for empty slots)."""
-        poses = np.zeros((self.box_capacity, 3))
-        for slot, box in enumerate(self.boxes):
-            if box is not None:
-                body = box.body
-                x, y = body.position
-                poses[slot] = (x, y, body.angle)
-        return poses
+        poses = [(*box.body.position, box.body.angle) if box is not None else _NO_POSE for box in self.boxes]
+        return np.array(poses).reshape(-1, 3)
 
     # -- state and rendering ----------------------------------------------------------------
     def state(self) -> np.ndarray:

@@ -131,10 +131,14 @@ class BoxPushingArrays:
 
     def check_goals(self, ks: slice | np.ndarray, cycles: np.ndarray | int) -> None:
         """Success of copies whose ``boxes_to_goal`` boxes (0: every box on the table) have been delivered (at ``cycles``)."""
+        delivered = self.box_delivered[ks]
+        if not delivered.any():  # the usual case: nothing delivered, no success
+            self.new_success[ks] = False
+            return
         present = self.box_present[ks]
         on_table = present.sum(axis=1)
         target = self.config.boxes_to_goal or on_table
-        reached = (on_table > 0) & ((self.box_delivered[ks] & present).sum(axis=1) >= target)
+        reached = (on_table > 0) & ((delivered & present).sum(axis=1) >= target)
         new = reached & ~self.success[ks]
         self.new_success[ks] = new
         if new.any():
