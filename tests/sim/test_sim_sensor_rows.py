@@ -92,6 +92,23 @@ def test_light_rows_equal_reads_one_robot_after_the_other(crowd, lamp):
     assert np.all(noiseless[3] == 0) and noiseless[0].max() > 0  # r3 is behind the screen, r0 is not
 
 
+@pytest.mark.parametrize("saturation", [None, 30.0])
+def test_unshadowed_light_rows_in_one_pass_equal_reads_one_robot_after_the_other(crowd, saturation):
+    world, robots = crowd
+    light = LightSensor((0.1, 0.1), blockers=0, noise_std=0.05, relative_noise=0.1, gain_spread=0.2, saturation=saturation)
+    for robot in robots:
+        light.calibrate(robot, np.random.default_rng(len(robot.name)))
+    expected, rng_a = per_robot(light.read, world, robots, light.width, 4)
+    actual, rng_b = by_rows(light, world, robots, 4)
+    np.testing.assert_array_equal(actual, expected)
+    assert rng_a.random() == rng_b.random()
+    if saturation is not None:
+        assert actual.max() == saturation  # r0 sits near the lamp: its sensor saturates
+    noiseless = LightSensor((0.1, 0.1), blockers=0, saturation=saturation)
+    single = np.stack([noiseless.read(r, world.space, pose=tuple(p)) for r, p in zip(robots, poses_of(world).tolist())])
+    np.testing.assert_array_equal(by_rows(noiseless, world, robots, 0)[0], single)
+
+
 def test_light_follows_a_moving_lamp():
     world = World((2.0, 2.0))
     robot = world.add(DiffDriveRobot("r", (0.5, 1.0), 0.0))

@@ -68,6 +68,7 @@ from teamgym.envs.box_pushing.actions import PrimitiveAction
 from teamgym.envs.box_pushing.config import SITUATIONS, BoxPushingConfig, BoxPushingV1Config, Event
 from teamgym.envs.box_pushing.phases import BoxPushingPhases
 from teamgym.envs.box_pushing.scene import GoalWall, Placer
+from teamgym.envs.box_pushing.sensing import read_sensors
 from teamgym.envs.box_pushing.state import LEAVING, BoxPushingArrays
 from teamgym.envs.infos import InfoKey, metrics, unknown
 from teamgym.envs.spaces import Field, ObservationLayout
@@ -82,7 +83,6 @@ __all__ = ["SITUATIONS", "BoxPushing", "BoxPushingConfig", "BoxPushingV1", "BoxP
 
 _ROBOT_WALL_GAP = 0.005
 _ROBOT_CLEARANCE = 0.01
-_STALL_SLIP = 0.9
 #: Consecutive stalled cycles at which the ``stall`` observation reads 1 (1 s at the default Δt).
 STALL_CAP = 10
 _BRAKE_FACTOR = 3.0
@@ -270,12 +270,15 @@ class BoxPushing(TeamEnv):
 
     def _sense(self) -> None:
         """Sensors of the robots that go on, including robots added by events in this step."""
+        self._read_sensors(self._going_on())
+
+    def _going_on(self) -> list[str]:
+        """The robots that stay in the episode after this control step (none once the team succeeded)."""
         team, k = self._arrays, self._copy
         if team.success[k]:
-            return
+            return []
         leaving, row = team.leaving[k], self._row
-        going_on = [a for a in [*self.live_agents, *self._joining] if not leaving[row[a]]]
-        self._read_sensors(going_on)
+        return [a for a in [*self.live_agents, *self._joining] if not leaving[row[a]]]
 
     def _terminations(self) -> dict[str, bool]:
         """Every robot on success; removed and broken robots (their status is recorded)."""
@@ -576,35 +579,7 @@ class BoxPushing(TeamEnv):
     # -- per-step state ---------------------------------------------------------------------
     def _read_sensors(self, agents: list[str]) -> None:
         """Proximity, light and encoder readings of ``agents`` (one sensor suite); executors see them too."""
-        if not agents:
-            return
-        world, robots_of, row = self.world, self.robots, self._row
-        rows, states = world.robot_rows, world.robot_states
-        robots = [robots_of[a] for a in agents]
-        block = np.empty((len(agents), self.sensors.width), dtype=np.float32)
-        poses = states[[rows[a] for a in agents]]
-        if self._noiseless:  # nothing drawn: sensor after sensor over every row (the same values)
-            suite = self.sensors
-            for name, sensor in suite.sensors.items():
-                sensor.read_rows(world, robots, poses, None, block[:, suite.slices[name]])
-        else:
-            self.sensors.read_rows(world, robots, poses, self.np_random, block)
-        index = [row[a] for a in agents]
-        team, k = self._arrays, self._copy
-        team.readings[k, index] = block
-        stalled, run = team.stalled[k], team.stall_run[k]
-        for i, robot in zip(index, robots):
-            if robot.encoders.slip > _STALL_SLIP:
-                stalled[i] += 1
-                run[i] += 1
-            else:
-                run[i] = 0
-        primitives = self._primitives
-        if primitives is not None:
-            s = self.sensors.slices
-            prox, enc = block[:, s["proximity"]], block[:, s["encoders"]]
-            for j, agent in enumerate(agents):
-                primitives.observe(agent, prox[j], enc[j])
+        read_sensors([(self, agents)])
 
     def _count_contacts(self) -> None:
         self._arrays.collisions[self._copy] += self.world.contacts_per(self.possible_agents)

@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from teamgym.envs.box_pushing.sensing import read_sensors
 from teamgym.envs.box_pushing.state import BoxPushingArrays
 from teamgym.envs.step_loop import ActionRows, CopyPhases
 
@@ -81,8 +82,7 @@ class BoxPushingPhases(CopyPhases):
         team.check_goals(ks, cycles)
         for env, reward in zip(span, team.rewards(ks).tolist()):
             env._reward_total[env._live_rows()] += reward
-        for env in span:
-            env._sense()
+        read_sensors([(env, env._going_on()) for env in span])
 
     def observe(self, group: list[int], out: np.ndarray) -> None:
         """Every robot row of the copies ``group`` in one pass; rows of robots not live are zeroed."""
