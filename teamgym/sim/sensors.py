@@ -155,6 +155,18 @@ class NoisyRowSensor:
         ``free`` (optional, one flag per robot) marks robots the caller knows have nothing within
         the sensor's reach; their rows read :meth:`_free_reading` without a query (same values).
         """
+        self._read_values(world, robots, poses, out, free)
+        self._add_noise(rng, out, robots)
+
+    def read_drawn(self, world: World, robots: Sequence[DiffDriveRobot], poses: np.ndarray, z: np.ndarray | None, out) -> None:
+        """:meth:`read_rows` with the noise's standard normals given: ``z`` ``(k, noise_size)`` (``None``: no noise)."""
+        self._read_values(world, robots, poses, out, None)
+        self._apply_noise(z, out, robots)
+
+    def _read_values(
+        self, world: World, robots: Sequence[DiffDriveRobot], poses: np.ndarray, out: np.ndarray, free: Sequence[bool] | None
+    ) -> None:
+        """Noise-free readings (before gains) of ``robots`` into the rows of ``out``."""
         space = world.space
         rows = _check_rows(self, robots, poses, out)
         if free is None:
@@ -166,7 +178,6 @@ class NoisyRowSensor:
                     self._free_reading(row)
                 else:
                     self._read_one(robot, space, x, y, theta, row)
-        self._add_noise(rng, out, robots)
 
     def _free_reading(self, out: np.ndarray) -> None:
         """Noise-free reading of a robot with nothing within reach (subclasses that accept ``free`` define it)."""
@@ -177,10 +188,24 @@ class NoisyRowSensor:
         """Whether readings carry no noise and no gains (then they draw nothing from the random stream)."""
         return self.noise_std == 0 and self.relative_noise == 0 and not self._gains
 
+    @property
+    def noise_size(self) -> int:
+        """Standard normals drawn per robot: ``width`` per kind of noise that is on (relative, additive)."""
+        return self.width * ((self.relative_noise > 0) + (self.noise_std > 0))
+
     def _add_noise(self, rng: np.random.Generator | None, out: np.ndarray, robots: Sequence[DiffDriveRobot]) -> None:
         """Gains, relative and additive noise on the rows ``out`` of ``robots`` (see the class docstring)."""
-        relative = self.relative_noise > 0 and rng is not None
-        additive = self.noise_std > 0 and rng is not None
+        size = self.noise_size if rng is not None else 0
+        self._apply_noise(rng.standard_normal((len(out), size)) if size else None, out, robots)
+
+    def _apply_noise(self, z: np.ndarray | None, out: np.ndarray, robots: Sequence[DiffDriveRobot]) -> None:
+        """Gains, then the noise of the standard normals ``z`` ``(k, noise_size)``, on the rows ``out`` of ``robots``.
+
+        ``N(μ, σ²)`` is ``μ + σ z``, as numpy's ``normal`` draws it from the same stream, so a
+        robot's ``z`` drawn by itself or in one block with other robots' gives the same values.
+        """
+        relative = self.relative_noise > 0 and z is not None
+        additive = self.noise_std > 0 and z is not None
         if not (relative or additive or self._gains):
             return
         mask = self._noise_mask(out) if (relative or self._gains) else None
@@ -188,12 +213,12 @@ class NoisyRowSensor:
             gains = np.stack([self._gains.get(r.name, np.ones(self.width)) for r in robots])
             out[...] = np.where(mask, out * gains, out) if mask is not None else out * gains
         if relative and additive:
-            z = rng.standard_normal((len(out), 2, self.width))
-            factor, shift = 1.0 + self.relative_noise * z[:, 0], self.noise_std * z[:, 1]
+            pair = z.reshape(len(out), 2, self.width)
+            factor, shift = 1.0 + self.relative_noise * pair[:, 0], self.noise_std * pair[:, 1]
         elif relative:
-            factor, shift = 1.0 + rng.normal(0.0, self.relative_noise, size=out.shape), None
+            factor, shift = 1.0 + (0.0 + self.relative_noise * z), None
         else:
-            factor, shift = None, rng.normal(0.0, self.noise_std, size=out.shape) if additive else None
+            factor, shift = None, (0.0 + self.noise_std * z) if additive else None
         if factor is not None:
             out[...] = np.where(mask, out * factor, out) if mask is not None else out * factor
         if shift is not None:
@@ -336,21 +361,14 @@ class LightSensor(NoisyRowSensor):
     def _read_one(self, robot: DiffDriveRobot, space: pymunk.Space, x: float, y: float, theta: float, out: np.ndarray) -> None:
         self._shine(robot, space, self.lamp, x, y, theta, out)
 
-    def read_rows(
-        self,
-        world: World,
-        robots: Sequence[DiffDriveRobot],
-        poses: np.ndarray,
-        rng: np.random.Generator | None,
-        out: np.ndarray,
-        free: Sequence[bool] | None = None,
+    def _read_values(
+        self, world: World, robots: Sequence[DiffDriveRobot], poses: np.ndarray, out: np.ndarray, free: Sequence[bool] | None
     ) -> None:
-        """As :meth:`NoisyRowSensor.read_rows`; without shadows (``blockers`` 0) several rows in one numpy pass."""
+        """As :meth:`NoisyRowSensor._read_values`; without shadows (``blockers`` 0) several rows in one numpy pass."""
         if self.blockers or len(robots) < 2:
-            super().read_rows(world, robots, poses, rng, out, free)
+            super()._read_values(world, robots, poses, out, free)
             return
         self.shine_rows(_check_rows(self, robots, poses, out), out)
-        self._add_noise(rng, out, robots)
 
     def shine_rows(self, poses: Sequence[Sequence[float]], out: np.ndarray) -> None:
         """Noise-free intensities at ``poses`` ``(x, y, θ)`` (nothing shadows) into the rows of ``out``, as :meth:`_shine`."""
@@ -534,18 +552,28 @@ class WheelEncoders:
         rng: np.random.Generator | None,
         out: np.ndarray,
     ) -> None:
+        size = self.noise_size if rng is not None else 0
+        self.read_drawn(world, robots, poses, rng.standard_normal((len(robots), size)) if size else None, out)
+
+    @property
+    def noise_size(self) -> int:
+        """Standard normals drawn per robot: one per wheel when ``noise_std`` > 0."""
+        return 2 if self.noise_std > 0 else 0
+
+    def read_drawn(self, world: World, robots: Sequence[DiffDriveRobot], poses: np.ndarray, z: np.ndarray | None, out) -> None:
+        """:meth:`read_rows` with the noise's standard normals given: ``z`` ``(k, 2)`` (``None``: no noise)."""
         if out.shape != (len(robots), self.width):
             raise ValueError(f"WheelEncoders.read_rows: out must have shape {(len(robots), self.width)}, got {out.shape}")
         res = self.resolution
-        noisy = self.noise_std > 0 and rng is not None
-        for robot, row in zip(robots, out):
+        factors = (1.0 + self.noise_std * z).tolist() if z is not None and self.noise_std > 0 else None
+        for j, (robot, row) in enumerate(zip(robots, out)):
             e = robot.encoders
             left, right = e.actual_left, e.actual_right
             if res > 0:
                 left = (math.floor(e.total_left / res) - math.floor((e.total_left - left) / res)) * res
                 right = (math.floor(e.total_right / res) - math.floor((e.total_right - right) / res)) * res
-            if noisy:
-                a, b = rng.normal(1.0, self.noise_std, size=2).tolist()
+            if factors is not None:
+                a, b = factors[j]
                 left, right = left * a, right * b
             values = (e.commanded_left, e.commanded_right, left, right)
             top = self.saturation
@@ -583,7 +611,18 @@ class SensorSuite:
         out: np.ndarray,
     ) -> None:
         _check_rows(self, robots, poses, out)
+        parts = self._parts
+        if all(hasattr(sensor, "read_drawn") for sensor, _ in parts):
+            # Every robot's noise in one block, robot after robot and sensor after sensor: the
+            # stream the loop below would draw, so the readings are the same.
+            sizes = [sensor.noise_size if rng is not None else 0 for sensor, _ in parts]
+            z = rng.standard_normal((len(robots), sum(sizes))) if sum(sizes) else None
+            start = 0
+            for (sensor, columns), size in zip(parts, sizes):
+                sensor.read_drawn(world, robots, poses, z[:, start : start + size] if size else None, out[:, columns])
+                start += size
+            return
         for j, robot in enumerate(robots):
             one, pose, row = [robot], poses[j : j + 1], out[j : j + 1]
-            for sensor, columns in self._parts:
+            for sensor, columns in parts:
                 sensor.read_rows(world, one, pose, rng, row[:, columns])
