@@ -114,8 +114,18 @@ class NoisyRowSensor:
 
     def calibrate(self, robot: DiffDriveRobot, rng: np.random.Generator) -> None:
         """Draw ``robot``'s sensor gains (``width`` values from ``rng``; nothing is drawn if ``gain_spread`` is 0)."""
+        gains = self.draw_gains(rng)
+        if gains is not None:
+            self._gains[robot.name] = gains
+
+    def draw_gains(self, rng: np.random.Generator) -> np.ndarray | None:
+        """One robot's sensor gains ``exp(N(0, gain_spread²))`` (``None``, nothing drawn, if ``gain_spread`` is 0).
+
+        For a caller that keeps the gains itself and passes them to :meth:`read_drawn`.
+        """
         if self.gain_spread > 0:
-            self._gains[robot.name] = np.exp(rng.normal(0.0, self.gain_spread, size=self.width))
+            return np.exp(rng.normal(0.0, self.gain_spread, size=self.width))
+        return None
 
     def gains(self, robot: DiffDriveRobot) -> np.ndarray:
         """``robot``'s sensor gains (ones if it was never calibrated)."""
@@ -158,10 +168,22 @@ class NoisyRowSensor:
         self._read_values(world, robots, poses, out, free)
         self._add_noise(rng, out, robots)
 
-    def read_drawn(self, world: World, robots: Sequence[DiffDriveRobot], poses: np.ndarray, z: np.ndarray | None, out) -> None:
-        """:meth:`read_rows` with the noise's standard normals given: ``z`` ``(k, noise_size)`` (``None``: no noise)."""
+    def read_drawn(
+        self,
+        world: World,
+        robots: Sequence[DiffDriveRobot],
+        poses: np.ndarray,
+        z: np.ndarray | None,
+        out: np.ndarray,
+        gains: np.ndarray | None = None,
+    ) -> None:
+        """:meth:`read_rows` with the noise's standard normals given: ``z`` ``(k, noise_size)`` (``None``: no noise).
+
+        ``gains``: the robots' sensor gains ``(k, width)`` when the caller keeps them (``None``:
+        those of :meth:`calibrate`).
+        """
         self._read_values(world, robots, poses, out, None)
-        self._apply_noise(z, out, robots)
+        self._apply_noise(z, out, robots, gains)
 
     def _read_values(
         self, world: World, robots: Sequence[DiffDriveRobot], poses: np.ndarray, out: np.ndarray, free: Sequence[bool] | None
@@ -198,7 +220,9 @@ class NoisyRowSensor:
         size = self.noise_size if rng is not None else 0
         self._apply_noise(rng.standard_normal((len(out), size)) if size else None, out, robots)
 
-    def _apply_noise(self, z: np.ndarray | None, out: np.ndarray, robots: Sequence[DiffDriveRobot]) -> None:
+    def _apply_noise(
+        self, z: np.ndarray | None, out: np.ndarray, robots: Sequence[DiffDriveRobot], gains: np.ndarray | None = None
+    ) -> None:
         """Gains, then the noise of the standard normals ``z`` ``(k, noise_size)``, on the rows ``out`` of ``robots``.
 
         ``N(μ, σ²)`` is ``μ + σ z``, as numpy's ``normal`` draws it from the same stream, so a
@@ -206,11 +230,12 @@ class NoisyRowSensor:
         """
         relative = self.relative_noise > 0 and z is not None
         additive = self.noise_std > 0 and z is not None
-        if not (relative or additive or self._gains):
-            return
-        mask = self._noise_mask(out) if (relative or self._gains) else None
-        if self._gains:
+        if gains is None and self._gains:
             gains = np.stack([self._gains.get(r.name, np.ones(self.width)) for r in robots])
+        if not (relative or additive or gains is not None):
+            return
+        mask = self._noise_mask(out) if (relative or gains is not None) else None
+        if gains is not None:
             out[...] = np.where(mask, out * gains, out) if mask is not None else out * gains
         if relative and additive:
             pair = z.reshape(len(out), 2, self.width)
@@ -560,8 +585,16 @@ class WheelEncoders:
         """Standard normals drawn per robot: one per wheel when ``noise_std`` > 0."""
         return 2 if self.noise_std > 0 else 0
 
-    def read_drawn(self, world: World, robots: Sequence[DiffDriveRobot], poses: np.ndarray, z: np.ndarray | None, out) -> None:
-        """:meth:`read_rows` with the noise's standard normals given: ``z`` ``(k, 2)`` (``None``: no noise)."""
+    def read_drawn(
+        self,
+        world: World,
+        robots: Sequence[DiffDriveRobot],
+        poses: np.ndarray,
+        z: np.ndarray | None,
+        out: np.ndarray,
+        gains: np.ndarray | None = None,
+    ) -> None:
+        """:meth:`read_rows` with the noise's standard normals given: ``z`` ``(k, 2)`` (``None``: no noise; no gains)."""
         if out.shape != (len(robots), self.width):
             raise ValueError(f"WheelEncoders.read_rows: out must have shape {(len(robots), self.width)}, got {out.shape}")
         res = self.resolution
@@ -609,7 +642,9 @@ class SensorSuite:
         poses: np.ndarray,
         rng: np.random.Generator | None,
         out: np.ndarray,
+        gains: Mapping[str, np.ndarray] | None = None,
     ) -> None:
+        """The rows of every sensor; ``gains`` (optional): per sensor name, the robots' gains ``(k, width)``."""
         _check_rows(self, robots, poses, out)
         parts = self._parts
         if all(hasattr(sensor, "read_drawn") for sensor, _ in parts):
@@ -618,10 +653,13 @@ class SensorSuite:
             sizes = [sensor.noise_size if rng is not None else 0 for sensor, _ in parts]
             z = rng.standard_normal((len(robots), sum(sizes))) if sum(sizes) else None
             start = 0
-            for (sensor, columns), size in zip(parts, sizes):
-                sensor.read_drawn(world, robots, poses, z[:, start : start + size] if size else None, out[:, columns])
+            for (name, sensor), (_, columns), size in zip(self.sensors.items(), parts, sizes):
+                drawn = z[:, start : start + size] if size else None
+                sensor.read_drawn(world, robots, poses, drawn, out[:, columns], None if gains is None else gains.get(name))
                 start += size
             return
+        if gains:
+            raise ValueError("SensorSuite.read_rows: gains are passed only to sensors with read_drawn")
         for j, robot in enumerate(robots):
             one, pose, row = [robot], poses[j : j + 1], out[j : j + 1]
             for sensor, columns in parts:

@@ -93,7 +93,7 @@ def test_v1_light_does_not_reveal_the_lamp_distance():
     """Two robots at the same spot read intensities that differ by their sensors' gains (about 20 %)."""
     env = teamgym.make("BoxPushing-v1", n_robots=8, n_light_boxes=1)
     env.reset(seed=4)
-    front = [env.light.gains(env.robots[a])[2] for a in env.agents]
+    front = [env.light_gains(a)[2] for a in env.agents]
     assert 0.1 < np.std(np.log(front)) < 0.4
 
 

@@ -147,7 +147,7 @@ class BoxPushing(TeamEnv):
         n = len(self.possible_agents)
         self.state_space = spaces.Box(-np.inf, np.inf, shape=(5 * n + 6 * self.box_capacity,), dtype=np.float32)
         self._noiseless = self.ring.noiseless and self.light.noiseless and encoders.noise_std == 0 and self.light.gain_spread == 0
-        self._use_rows(BoxPushingArrays(c, n, self.box_capacity, self.sensors.width, len(self.events)), 0)
+        self._use_rows(BoxPushingArrays(c, n, self.box_capacity, self.sensors.width, len(self.events), self.light.width), 0)
 
     def _check_feasible(self) -> None:
         """Refuse at ``make()`` a config whose initial scene cannot be placed (tried on 32 seeds)."""
@@ -184,7 +184,6 @@ class BoxPushing(TeamEnv):
         primitives = self._primitives
         if primitives is not None:
             primitives.begin(self.possible_agents)
-        self.light.forget_calibrations()
         self.boxes: list[Box | None] = [None] * self.box_capacity
         self._arrays.start(self._copy, self.sensors.slices["proximity"])
         self._joining: list[str] = []
@@ -356,6 +355,10 @@ class BoxPushing(TeamEnv):
         """Whether the episode reached its goal (``boxes_to_goal`` boxes at the goal wall)."""
         return bool(self._arrays.success[self._copy]) if self.world is not None else False
 
+    def light_gains(self, agent: str) -> np.ndarray:
+        """``agent``'s light sensors' gains this episode (``light_gain_spread``; ones without), a copy."""
+        return self._arrays.light_gains[self._copy, self._row[agent]].copy()
+
     def is_delivered(self, name: str) -> bool:
         """Whether box ``name`` has touched the goal wall in this episode."""
         return bool(self._arrays.box_delivered[self._copy, self._box_slot(name)])
@@ -445,7 +448,9 @@ class BoxPushing(TeamEnv):
         name = self.possible_agents[team.robots_used[k]]
         team.robots_used[k] += 1
         self.robots[name] = self.world.add(DiffDriveRobot(name, (x, y), heading, self.spec_robot))
-        self.light.calibrate(self.robots[name], self.np_random)
+        gains = self.light.draw_gains(self.np_random)  # this robot's light sensors' sensitivities
+        if gains is not None:
+            team.light_gains[k, self._row[name]] = gains
         self.world.read_states()  # the state rows follow the robots on the table
         self._admit(name)
         return name
@@ -654,6 +659,11 @@ def _rows_of_attributes(env: BoxPushing, state: dict[str, Any]) -> dict[str, np.
         action_type.params, action_type.executors = env.primitive_params, old["executors"]
     rows = env._arrays.row(env._copy)
     rows["readings"][:] = old["_readings"]
+    light = state.get("light")
+    for agent, gains in (getattr(light, "_gains", None) or {}).items():
+        rows["light_gains"][env._row[agent]] = gains
+    if light is not None:
+        light.forget_calibrations()
     for name in ("collisions", "stalled", "stall_run"):
         rows[name][:] = old[f"_{name}"]
     for agent, status in old["_status"].items():

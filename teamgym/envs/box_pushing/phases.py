@@ -39,7 +39,9 @@ class BoxPushingPhases(CopyPhases):
         copies = self.copies
         if self._shared is None:
             own = copies[0]._arrays
-            self._shared = BoxPushingArrays(own.config, own.n_robots, own.box_capacity, own.width, own.n_events, 0)
+            self._shared = BoxPushingArrays(
+                own.config, own.n_robots, own.box_capacity, own.width, own.n_events, own.light_width, n_copies=0
+            )
         team = self._shared
         team.shrink(len(copies))
         team.grow(len(copies))

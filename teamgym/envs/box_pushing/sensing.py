@@ -45,7 +45,9 @@ def read_sensors(sensed: list[tuple[BoxPushing, list[str]]]) -> None:
             if env.light.blockers:
                 env.light.read_rows(world, mine, poses, None, block[:, slices["light"]])
         else:
-            env.sensors.read_rows(world, mine, poses, env.np_random, block)  # its own calibrations and noise
+            index = [row[a] for a in agents]
+            gains = {"light": team.light_gains[env._copy, index]} if env.light.gain_spread else None
+            env.sensors.read_rows(world, mine, poses, env.np_random, block, gains)  # its own noise
         copies += [env._copy] * len(agents)
         rows += [row[a] for a in agents]
         robots += mine

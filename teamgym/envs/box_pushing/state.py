@@ -38,10 +38,18 @@ class BoxPushingArrays:
     """Robot readings and counters, box slots and team clocks of ``n_copies`` BoxPushing copies."""
 
     def __init__(
-        self, config: BoxPushingConfig, n_robots: int, box_capacity: int, width: int, n_events: int, n_copies: int = 1
+        self,
+        config: BoxPushingConfig,
+        n_robots: int,
+        box_capacity: int,
+        width: int,
+        n_events: int,
+        light_width: int,
+        n_copies: int = 1,
     ) -> None:
         self.config = config
         self.n_robots, self.box_capacity, self.width, self.n_events = n_robots, box_capacity, width, n_events
+        self.light_width = light_width
         self.n_copies = 0
         self.grow(n_copies)
 
@@ -51,6 +59,7 @@ class BoxPushingArrays:
         return {
             # robots (k, N): sensor readings (the suite's columns), counters and why they left
             "readings": np.zeros((k, n, self.width), dtype=np.float32),
+            "light_gains": np.ones((k, n, self.light_width)),  # each light sensor's sensitivity (``gain_spread``)
             "collisions": np.zeros((k, n), dtype=int),
             "stalled": np.zeros((k, n), dtype=int),
             "stall_run": np.zeros((k, n), dtype=int),
