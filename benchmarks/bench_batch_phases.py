@@ -1,0 +1,101 @@
+"""Where a batch's step goes: time per copy-step of each phase of ``teamgym.make_batch(env_id, K)``.
+
+Wraps the batch's phases (:class:`teamgym.envs.step_loop.CopyPhases`: ``control``,
+``physics``, ``after_physics``, ``end``, ``observe``) with timers; what is left of
+``TeamBatch.step`` (action checks, masks, copying observations, auto-reset) is "batch".
+``--inner MODULE:NAME`` also times a function called inside a phase (shown indented, part of
+its phase), e.g. ``teamgym.envs.box_pushing.phases:read_sensors``. Actions as in
+``bench_batch_every_env.py`` (uniform in a Box, the first admissible discrete action).
+Process CPU time; best of ``--rounds``.
+
+    python benchmarks/bench_batch_phases.py --env BoxPushing-v0 --copies 64 [--steps 64] [--rounds 3] [--inner ...]
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import time
+
+import numpy as np
+from gymnasium import spaces
+
+import teamgym
+
+PHASES = ("control", "physics", "after_physics", "end", "observe")
+
+
+def _actions(batch, rng: np.random.Generator) -> np.ndarray:
+    shape = (batch.n_copies, batch.n_robots)
+    space = batch.action_space
+    if isinstance(space, spaces.Discrete):
+        masks = batch.action_masks()
+        return np.zeros(shape, dtype=np.int64) if masks is None else np.argmax(masks, axis=-1)
+    return rng.uniform(space.low, space.high, size=(*shape, *space.shape)).astype(space.dtype)
+
+
+def profile(env_id: str, copies: int, steps: int, inner: list[str]) -> tuple[float, dict[str, float]]:
+    """Seconds per copy-step in all and per phase (``inner`` functions too)."""
+    clock = time.process_time
+    spent: dict[str, float] = {}
+
+    def timed(name, function):
+        def run(*args, **kwargs):
+            start = clock()
+            try:
+                return function(*args, **kwargs)
+            finally:
+                spent[name] = spent.get(name, 0.0) + clock() - start
+
+        return run
+
+    restore = []
+    for target in inner:
+        module_name, name = target.split(":")
+        module = importlib.import_module(module_name)
+        restore.append((module, name, getattr(module, name)))
+        setattr(module, name, timed(f"  {name}", getattr(module, name)))
+    try:
+        batch = teamgym.make_batch(env_id, copies, auto_reset=True)
+        batch.reset(seed=0)
+        phases = batch._phases
+        for name in PHASES:
+            setattr(phases, name, timed(name, getattr(phases, name)))
+        rng = np.random.default_rng(0)
+        for _ in range(3):
+            batch.step(_actions(batch, rng))
+        spent.clear()
+        copy_steps, start = 0, clock()
+        for _ in range(steps):
+            copy_steps += int(batch.active.any(axis=1).sum())
+            batch.step(_actions(batch, rng))
+        total = clock() - start
+    finally:
+        for module, name, function in restore:
+            setattr(module, name, function)
+    per = {name: value / copy_steps for name, value in spent.items()}
+    per["batch"] = (total - sum(v for k, v in spent.items() if not k.startswith(" "))) / copy_steps
+    return total / copy_steps, per
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--env", default="BoxPushing-v0")
+    parser.add_argument("--copies", type=int, default=64)
+    parser.add_argument("--steps", type=int, default=64)
+    parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument("--inner", nargs="*", default=[], help="MODULE:NAME functions to time inside the phases")
+    args = parser.parse_args()
+    if args.env not in teamgym.envs() or min(args.copies, args.steps, args.rounds) < 1:
+        parser.error(f"unknown env id {args.env!r}" if args.env not in teamgym.envs() else "--copies, --steps, --rounds >= 1")
+    if any(target.count(":") != 1 for target in args.inner):
+        parser.error("--inner takes MODULE:NAME")
+    best = min((profile(args.env, args.copies, args.steps, args.inner) for _ in range(args.rounds)), key=lambda r: r[0])
+    total, per = best
+    print(f"{args.env} K={args.copies}: {1e6 * total:.1f} us per copy-step (best of {args.rounds} rounds)")
+    for name, value in per.items():
+        print(f"  {name:24s} {1e6 * value:7.1f} us  {100 * value / total:5.1f} %")
+
+
+if __name__ == "__main__":
+    main()
