@@ -186,7 +186,6 @@ class BoxPushing(TeamEnv):
             primitives.begin(self.possible_agents)
         self.boxes: list[Box | None] = [None] * self.box_capacity
         self._arrays.start(self._copy, self.sensors.slices["proximity"])
-        self._joining: list[str] = []
         boxes, robots = self._sample_initial(rng)
         for heavy, (x, y, angle) in boxes:
             self._place_box(heavy, x, y, angle)
