@@ -404,10 +404,9 @@ class LightSensor(NoisyRowSensor):
             gains.append(self.intensity / max(math.hypot(lx - x, ly - y), self.min_distance) ** 2)
         gain = np.array(gains)[:, None]
         np.maximum(np.cos(np.array(bearings)[:, None] - self.angles) * gain, 0.0, out=out, casting="unsafe")
-        if self.saturation is not None:
+        if self.saturation is not None and max(gains) > self.saturation:
             over = gain[:, 0] > self.saturation
-            if over.any():
-                out[over] = np.minimum(out[over], self.saturation)
+            out[over] = np.minimum(out[over], self.saturation)
 
     def _shine(
         self, robot: DiffDriveRobot, space: pymunk.Space, lamp: Point, x: float, y: float, theta: float, out: np.ndarray

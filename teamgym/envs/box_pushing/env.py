@@ -280,19 +280,18 @@ class BoxPushing(TeamEnv):
 
     def _terminations(self) -> dict[str, bool]:
         """Every robot on success; removed and broken robots (their status is recorded)."""
-        team, k, row = self._arrays, self._copy, self._row
-        leaving = team.leaving[k]
-        if bool(team.success[k]):
-            terminations = dict.fromkeys(self.live_agents, True)
-        else:
-            terminations = {a: bool(leaving[row[a]]) for a in self.live_agents}
-        if leaving.any():
-            primitives = self._primitives
+        team, k = self._arrays, self._copy
+        success, leaving = bool(team.success[k]), team.leaving[k]
+        if not leaving.any():
+            return dict.fromkeys(self.live_agents, success)
+        going = leaving.tolist()
+        terminations = {a: success or bool(going[self._row[a]]) for a in self.live_agents}
+        primitives = self._primitives
+        if primitives is not None:
             for i in np.flatnonzero(leaving).tolist():
-                if primitives is not None:
-                    primitives.cancel(self.possible_agents[i])
-            team.status[k] = np.where(leaving != 0, leaving, team.status[k])
-            leaving[:] = 0
+                primitives.cancel(self.possible_agents[i])
+        team.status[k] = np.where(leaving != 0, leaving, team.status[k])
+        leaving[:] = 0
         return terminations
 
     def _observe(self, out: np.ndarray) -> None:

@@ -58,10 +58,22 @@ def read_sensors(sensed: list[tuple[BoxPushing, list[str]]]) -> None:
         if not first.light.blockers:
             first.light.shine_rows(poses[:, :3].tolist(), block[:, slices["light"]])
         suite.sensors["encoders"].read_rows(None, robots, poses, None, block[:, slices["encoders"]])
-    team.readings[copies, rows] = block
-    stalled = np.array([robot.encoders.slip > STALL_SLIP for robot in robots])
-    team.stalled[copies, rows] += stalled
-    team.stall_run[copies, rows] = np.where(stalled, team.stall_run[copies, rows] + 1, 0)
+    stalled = [robot.encoders.slip > STALL_SLIP for robot in robots]
+    if len(sensed) == 1:  # one copy (a lone env): its rows, robot after robot
+        k = copies[0]
+        team.readings[k, rows] = block
+        counts, runs = team.stalled[k], team.stall_run[k]
+        for i, hit in zip(rows, stalled):
+            if hit:
+                counts[i] += 1
+                runs[i] += 1
+            else:
+                runs[i] = 0
+    else:
+        team.readings[copies, rows] = block
+        hits = np.array(stalled)
+        team.stalled[copies, rows] += hits
+        team.stall_run[copies, rows] = (team.stall_run[copies, rows] + 1) * hits
     primitives = first._primitives
     if primitives is not None:
         proximity, encoders = block[:, slices["proximity"]], block[:, slices["encoders"]]
