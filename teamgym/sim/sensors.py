@@ -165,7 +165,7 @@ class NoisyRowSensor:
         ``free`` (optional, one flag per robot) marks robots the caller knows have nothing within
         the sensor's reach; their rows read :meth:`_free_reading` without a query (same values).
         """
-        self._read_values(world, robots, poses, out, free)
+        self.read_values(world, robots, poses, out, free)
         self._add_noise(rng, out, robots)
 
     def read_drawn(
@@ -182,10 +182,10 @@ class NoisyRowSensor:
         ``gains``: the robots' sensor gains ``(k, width)`` when the caller keeps them (``None``:
         those of :meth:`calibrate`).
         """
-        self._read_values(world, robots, poses, out, None)
-        self._apply_noise(z, out, robots, gains)
+        self.read_values(world, robots, poses, out, None)
+        self.apply_noise(z, out, robots, gains)
 
-    def _read_values(
+    def read_values(
         self, world: World, robots: Sequence[DiffDriveRobot], poses: np.ndarray, out: np.ndarray, free: Sequence[bool] | None
     ) -> None:
         """Noise-free readings (before gains) of ``robots`` into the rows of ``out``."""
@@ -218,9 +218,9 @@ class NoisyRowSensor:
     def _add_noise(self, rng: np.random.Generator | None, out: np.ndarray, robots: Sequence[DiffDriveRobot]) -> None:
         """Gains, relative and additive noise on the rows ``out`` of ``robots`` (see the class docstring)."""
         size = self.noise_size if rng is not None else 0
-        self._apply_noise(rng.standard_normal((len(out), size)) if size else None, out, robots)
+        self.apply_noise(rng.standard_normal((len(out), size)) if size else None, out, robots)
 
-    def _apply_noise(
+    def apply_noise(
         self, z: np.ndarray | None, out: np.ndarray, robots: Sequence[DiffDriveRobot], gains: np.ndarray | None = None
     ) -> None:
         """Gains, then the noise of the standard normals ``z`` ``(k, noise_size)``, on the rows ``out`` of ``robots``.
@@ -386,12 +386,12 @@ class LightSensor(NoisyRowSensor):
     def _read_one(self, robot: DiffDriveRobot, space: pymunk.Space, x: float, y: float, theta: float, out: np.ndarray) -> None:
         self._shine(robot, space, self.lamp, x, y, theta, out)
 
-    def _read_values(
+    def read_values(
         self, world: World, robots: Sequence[DiffDriveRobot], poses: np.ndarray, out: np.ndarray, free: Sequence[bool] | None
     ) -> None:
-        """As :meth:`NoisyRowSensor._read_values`; without shadows (``blockers`` 0) several rows in one numpy pass."""
+        """As :meth:`NoisyRowSensor.read_values`; without shadows (``blockers`` 0) several rows in one numpy pass."""
         if self.blockers or len(robots) < 2:
-            super()._read_values(world, robots, poses, out, free)
+            super().read_values(world, robots, poses, out, free)
             return
         self.shine_rows(_check_rows(self, robots, poses, out), out)
 

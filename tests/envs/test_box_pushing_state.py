@@ -31,7 +31,7 @@ CONFIG = {"situation": "S2", "max_cycles": 40, "n_spare_robots": 1, "n_spare_box
 #: (``_setup``), the simulated objects of the episode (``boxes``), and its row of the arrays.
 ALLOWED = {
     "spec_robot", "ring", "light", "encoder_limit", "sensors", "goal", "object_threshold", "primitive_params",
-    "events", "box_capacity", "state_space", "_noiseless", "_arrays", "_copy", "boxes",
+    "events", "box_capacity", "state_space", "_arrays", "_copy", "boxes",
 }  # fmt: skip
 
 

@@ -146,7 +146,6 @@ class BoxPushing(TeamEnv):
         self.box_capacity = c.n_light_boxes + c.n_heavy_boxes + c.n_spare_boxes
         n = len(self.possible_agents)
         self.state_space = spaces.Box(-np.inf, np.inf, shape=(5 * n + 6 * self.box_capacity,), dtype=np.float32)
-        self._noiseless = self.ring.noiseless and self.light.noiseless and encoders.noise_std == 0 and self.light.gain_spread == 0
         self._use_rows(BoxPushingArrays(c, n, self.box_capacity, self.sensors.width, len(self.events), self.light.width), 0)
 
     def _check_feasible(self) -> None:

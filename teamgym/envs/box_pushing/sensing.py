@@ -2,13 +2,14 @@
 
 :func:`read_sensors` reads the robots that go on in each copy given (a lone env: its own;
 a batch: every copy of the step's group) and writes their rows of the copies'
-:class:`~teamgym.envs.box_pushing.state.BoxPushingArrays`. Noise-free sensors draw
-nothing, so they are read sensor after sensor over all rows at once: the proximity ring in
-each copy's space, the unshadowed light of every copy's robots in one numpy pass (the lamp is
-the config's, the same in every copy), the wheel encoders of all robots together. Noisy
-sensors are read robot after robot within each copy (:class:`~teamgym.sim.sensors.SensorSuite`),
-so each copy draws its noise exactly as a lone env does. Stall counters and the primitive
-executors (paper 004, section 3.1: "no-rotation" is read from the encoders) follow.
+:class:`~teamgym.envs.box_pushing.state.BoxPushingArrays`. Per copy it casts the proximity
+rays in the copy's own space and draws the copy's noise from its own stream, one block of
+standard normals for all its robots, robot after robot and sensor after sensor, as
+:class:`~teamgym.sim.sensors.SensorSuite` does (the stream a loop over the robots would draw).
+The rest is one numpy pass over the rows of every copy: the unshadowed light (the lamp is the
+config's, the same in every copy), the wheel encoders, the gains and noise of each sensor,
+the stall counters. The primitive executors then see each robot's readings (paper 004,
+section 3.1: "no-rotation" is read from the encoders).
 """
 
 from __future__ import annotations
@@ -32,34 +33,43 @@ def read_sensors(sensed: list[tuple[BoxPushing, list[str]]]) -> None:
     if not sensed:
         return
     first = sensed[0][0]
-    suite, team = first.sensors, first._arrays
-    slices = suite.slices
-    copies, rows, robots, blocks = [], [], [], []
+    team, ring, light = first._arrays, first.ring, first.light
+    encoders, slices = first.sensors.sensors["encoders"], first.sensors.slices
+    sizes = (ring.noise_size, light.noise_size, encoders.noise_size)
+    drawn = sum(sizes)
+    copies, rows, robots, blocks, poses, noise = [], [], [], [], [], []
     for env, agents in sensed:
         world, row = env.world, env._row
         mine = [env.robots[a] for a in agents]
-        poses = world.robot_states[[world.robot_rows[a] for a in agents]]
-        block = np.empty((len(agents), suite.width), dtype=np.float32)
-        if first._noiseless:
-            env.ring.read_rows(world, mine, poses, None, block[:, slices["proximity"]])
-            if env.light.blockers:
-                env.light.read_rows(world, mine, poses, None, block[:, slices["light"]])
-        else:
-            index = [row[a] for a in agents]
-            gains = {"light": team.light_gains[env._copy, index]} if env.light.gain_spread else None
-            env.sensors.read_rows(world, mine, poses, env.np_random, block, gains)  # its own noise
+        at = world.robot_states[[world.robot_rows[a] for a in agents]]
+        block = np.empty((len(agents), first.sensors.width), dtype=np.float32)
+        env.ring.read_values(world, mine, at, block[:, slices["proximity"]], None)
+        if light.blockers:  # shadows: line-of-sight queries in the copy's space
+            env.light.read_values(world, mine, at, block[:, slices["light"]], None)
+        if drawn:
+            noise.append(env.np_random.standard_normal((len(agents), drawn)))
         copies += [env._copy] * len(agents)
         rows += [row[a] for a in agents]
         robots += mine
-        blocks.append((block, poses))
-    block = blocks[0][0] if len(blocks) == 1 else np.concatenate([b for b, _ in blocks])
-    if first._noiseless:
-        poses = blocks[0][1] if len(blocks) == 1 else np.concatenate([p for _, p in blocks])
-        if not first.light.blockers:
-            first.light.shine_rows(poses[:, :3].tolist(), block[:, slices["light"]])
-        suite.sensors["encoders"].read_rows(None, robots, poses, None, block[:, slices["encoders"]])
+        blocks.append(block)
+        poses.append(at)
+    one = len(blocks) == 1
+    block, at = (blocks[0], poses[0]) if one else (np.concatenate(blocks), np.concatenate(poses))
+    z = (noise[0] if one else np.concatenate(noise)) if drawn else None
+    if not light.blockers:
+        light.shine_rows(at[:, :3].tolist(), block[:, slices["light"]])
+    gains = team.light_gains[copies, rows] if light.gain_spread else None
+    parts = (ring, light, encoders)
+    start = 0
+    for sensor, name, size in zip(parts, ("proximity", "light", "encoders"), sizes):
+        part = z[:, start : start + size] if size else None
+        if sensor is encoders:
+            encoders.read_drawn(None, robots, at, part, block[:, slices[name]])
+        else:
+            sensor.apply_noise(part, block[:, slices[name]], robots, gains if sensor is light else None)
+        start += size
     stalled = [robot.encoders.slip > STALL_SLIP for robot in robots]
-    if len(sensed) == 1:  # one copy (a lone env): its rows, robot after robot
+    if one:  # one copy (a lone env): its rows, robot after robot
         k = copies[0]
         team.readings[k, rows] = block
         counts, runs = team.stalled[k], team.stall_run[k]
@@ -76,10 +86,10 @@ def read_sensors(sensed: list[tuple[BoxPushing, list[str]]]) -> None:
         team.stall_run[copies, rows] = (team.stall_run[copies, rows] + 1) * hits
     primitives = first._primitives
     if primitives is not None:
-        proximity, encoders = block[:, slices["proximity"]], block[:, slices["encoders"]]
+        proximity, wheels = block[:, slices["proximity"]], block[:, slices["encoders"]]
         j = 0
         for env, agents in sensed:
             primitives = env._primitives
             for agent in agents:
-                primitives.observe(agent, proximity[j], encoders[j])
+                primitives.observe(agent, proximity[j], wheels[j])
                 j += 1
