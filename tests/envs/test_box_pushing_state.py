@@ -84,10 +84,11 @@ def test_the_env_keeps_no_episode_state_outside_its_arrays():
     assert set(env.executors) == set(env.possible_agents)  # the action type's, one per robot
 
 
-def test_batch_copies_with_events_step_as_lone_envs_and_share_one_arrays():
+@pytest.mark.parametrize("env_id", ["BoxPushing-v0", "BoxPushing-v1"])  # v1: noisy sensors and motors, light gains
+def test_batch_copies_with_events_step_as_lone_envs_and_share_one_arrays(env_id):
     K = 3
-    batch = teamgym.make_batch("BoxPushing-v0", K, **CONFIG)
-    lones = [teamgym.make("BoxPushing-v0", **CONFIG) for _ in range(K)]
+    batch = teamgym.make_batch(env_id, K, **CONFIG)
+    lones = [teamgym.make(env_id, **CONFIG) for _ in range(K)]
     batch.reset(seed=11)
     for k, env in enumerate(lones):
         env.reset(seed=11 + k)
@@ -100,6 +101,8 @@ def test_batch_copies_with_events_step_as_lone_envs_and_share_one_arrays():
                     env.remove_robot(agent)
         _step_both(batch, lones, _actions(batch, rng))
     assert not batch.active[1].any() and batch.active[[0, 2]].any()
+    if env_id == "BoxPushing-v1":
+        assert not np.all(batch.copies[0]._arrays.light_gains == 1.0)  # calibrated rows, not the default
 
 
 @pytest.mark.parametrize("how", ["pickle", "deepcopy"])
