@@ -122,3 +122,19 @@ def test_a_copy_of_a_batch_or_env_keeps_its_rows(how):
         if lone.agents:
             lone.step({agent: int(arrays[1, lone._row[agent]]) for agent in lone.agents})
         assert all(np.array_equal(v, lone._arrays.row(0)[n], equal_nan=True) for n, v in batch.copies[1]._arrays.row(1).items())
+
+
+def test_a_batch_whose_other_copies_ended_steps_its_last_copy_as_a_lone_env():
+    batch = teamgym.make_batch("BoxPushing-v0", 2, **CONFIG)
+    lones = [teamgym.make("BoxPushing-v0", **CONFIG) for _ in range(2)]
+    batch.reset(seed=21)
+    for k, env in enumerate(lones):
+        env.reset(seed=21 + k)
+    rng = np.random.default_rng(5)
+    for step in range(14):
+        if step == 10:  # after the events copy 0 ends: the group of the later steps is copy 1 alone
+            for env in (batch.copies[0], lones[0]):
+                for agent in list(env.agents):
+                    env.remove_robot(agent)
+        _step_both(batch, lones, _actions(batch, rng))
+    assert not batch.active[0].any() and batch.active[1].any()

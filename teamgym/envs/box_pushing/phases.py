@@ -88,6 +88,9 @@ class BoxPushingPhases(CopyPhases):
 
     def observe(self, group: list[int], out: np.ndarray) -> None:
         """Every robot row of the copies ``group`` in one pass; rows of robots not live are zeroed."""
+        if len(group) == 1:  # one copy: its own rows (the lone env's path) cost less than the pass
+            super().observe(group, out)
+            return
         copies = self.copies
         team, ks = self._rows(group)
         span = [copies[k] for k in group]
