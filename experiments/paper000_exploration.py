@@ -6,7 +6,8 @@
 Subcommands (each writes JSON and Markdown into ``--out``, figures into ``--out`` and, with
 ``--figures``, also there):
 
-* ``maps``: drawings of the reconstructed office (Fig. 10) and laboratory (Fig. 12) maps.
+* ``maps``: drawings of the reconstructed office (Fig. 10; also rebuilt for Table 1) and laboratory
+  (Fig. 12) maps.
 * ``p2p`` (section 5.2, Figs. 7-9): the behaviour-based controller drives one robot from
   S(50, 650) mm to T(600, 350) mm in room S6 of the lab office; trajectory, behaviour
   activations and controls over time.
@@ -105,6 +106,7 @@ def experiment_maps(out: Path, figures: Path | None, seeds: int, workers: int) -
     rows = []
     for name, title in (
         ("office12", "office12: paper 000, Fig. 10 (reconstructed)"),
+        ("office12-table1", "office12-table1: Fig. 10 rebuilt for Table 1"),
         ("lab7", "lab7: paper 000, Fig. 12 (reconstructed)"),
     ):
         office = load_map(name)
