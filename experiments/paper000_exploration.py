@@ -1,6 +1,6 @@
 """Reproduce the experiments of paper 000 (sections 5.2-5.4) and compare exploration planners.
 
-    python experiments/paper000_exploration.py all --out results/paper000 [--seeds 100] [--workers 2]
+    python experiments/paper000_exploration.py all --out results/paper000 [--seeds 100] [--workers 2] [--no-check]
         [--figures docs/figures]
 
 Subcommands (each writes JSON and Markdown into ``--out``, figures into ``--out`` and, with
