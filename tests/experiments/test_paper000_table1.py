@@ -78,8 +78,8 @@ def test_an_unnamed_door_elsewhere_opens_a_shorter_route(paper000, door, tmp_pat
     assert len(paper000.table1_differences(faithful_run(paper000, map=str(path))["short"])) > len(baseline)
 
 
-def test_cli_prints_table_1_beside_ours_and_exits_1_on_a_differing_cell(paper000, tmp_path, capsys):
-    assert paper000.main(["table1", "--out", str(tmp_path)]) == 1
+def test_cli_prints_table_1_beside_ours_and_with_check_exits_1_on_a_differing_cell(paper000, tmp_path, capsys):
+    assert paper000.main(["table1", "--out", str(tmp_path), "--check"]) == 1
     text = capsys.readouterr().out
     assert "| faithful | office12-table1 | return-trip | all | 7 | 7 | 20/21 |" in text
     assert "stage 5, robot 1: ours FD(D1,2_1), paper W()" in text
@@ -87,4 +87,4 @@ def test_cli_prints_table_1_beside_ours_and_exits_1_on_a_differing_cell(paper000
     saved = json.loads((tmp_path / "table1.json").read_text())
     assert saved["differences"] == [{"stage": 5, "robot": 1, "ours": "FD(D1,2_1)", "paper": "W()"}]
     assert {row["door_reading"]: row["paper stages"] for row in saved["beside"]} == {"return-trip": 11, "per-attempt": 11}
-    assert paper000.main(["table1", "--out", str(tmp_path), "--no-check"]) == 0
+    assert paper000.main(["table1", "--out", str(tmp_path)]) == 0
