@@ -225,14 +225,20 @@ POLICY_RULES: dict[str, Rule] = {
     "normalize_images": FLAG,
     "optimizer_class": subclass("torch.optim.Optimizer"),
     "optimizer_kwargs": optional(MAPPING),
+    # RecurrentPPO's MlpLstmPolicy (baselines.rl.recurrent)
+    "lstm_hidden_size": COUNT,
+    "n_lstm_layers": COUNT,
+    "shared_lstm": FLAG,
+    "enable_critic_lstm": FLAG,
+    "lstm_kwargs": optional(MAPPING),
 }
 _NET_ARCH: dict[str, Rule] = {
     "dqn": net_arch((), every=False),
     **{algo: net_arch(("pi", "qf"), every=True) for algo in ("sac", "td3", "ddpg")},
-    **{algo: net_arch(("pi", "vf"), every=False) for algo in ("ppo", "a2c", "maskable_ppo")},
+    **{algo: net_arch(("pi", "vf"), every=False) for algo in ("ppo", "a2c", "maskable_ppo", "recurrent_ppo")},
 }
 #: Algorithms that normalise advantages per mini-batch when ``normalize_advantage`` is true.
-_ON_POLICY = ("ppo", "a2c", "maskable_ppo")
+_ON_POLICY = ("ppo", "a2c", "maskable_ppo", "recurrent_ppo")
 
 
 def _shown(value: Any, width: int = 60) -> str:
@@ -254,10 +260,13 @@ def rules(algo: str) -> dict[str, Rule | None]:
 
 
 def policy_rules(algo: str) -> dict[str, Rule | None]:
-    """The ``policy_kwargs`` keys of ``algo``'s ``MlpPolicy``, each with its rule (``None``: unchecked)."""
-    from baselines.rl.sb3_policy import algorithm_class
+    """The ``policy_kwargs`` keys of the policy ``algo`` trains (``MlpPolicy``; RecurrentPPO's ``MlpLstmPolicy``).
 
-    policy = algorithm_class(algo).policy_aliases["MlpPolicy"]
+    Each with its rule (``None``: unchecked).
+    """
+    from baselines.rl.sb3_policy import algorithm_class, policy_name
+
+    policy = algorithm_class(algo).policy_aliases[policy_name(algo)]
     names = [n for n in _parameters(policy.__init__) if n not in _POLICY_RESERVED]
     return {name: _NET_ARCH[algo.lower()] if name == "net_arch" else POLICY_RULES.get(name) for name in names}
 
@@ -314,7 +323,7 @@ def _value(algo: str, params: Mapping[str, Any], key: str) -> Any:
 def _check_pairs(algo: str, params: Mapping[str, Any]) -> None:
     """Checks of keys that depend on each other (SB3's defaults fill in the keys not given)."""
     name = _class_name(algo)
-    if algo in ("ppo", "maskable_ppo") and _value(algo, params, "normalize_advantage") is True:
+    if algo in ("ppo", "maskable_ppo", "recurrent_ppo") and _value(algo, params, "normalize_advantage") is True:
         batch_size = _value(algo, params, "batch_size")
         if _is_int(batch_size) and batch_size < 2:
             raise ValueError(

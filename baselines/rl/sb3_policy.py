@@ -4,7 +4,12 @@ The model (trained with :class:`baselines.rl.sb3_env.TeamVecEnv`, or any model w
 spaces match one agent's) acts for every robot: the live agents' observations are
 stacked and passed to one ``model.predict`` call (deterministic unless
 ``deterministic=False``); a maskable model (sb3-contrib's ``MaskablePPO``) also gets the
-live agents' action masks, so it never picks a masked action. ``python -m baselines.train``
+live agents' action masks, so it never picks a masked action. A recurrent model (sb3-contrib's
+``RecurrentPPO``) carries each robot's LSTM state from step to step and starts every episode
+from a zero state (:class:`baselines.rl.recurrent.AgentMemory`, reset by :meth:`SB3Policy.reset`);
+a model trained on flattened motion ⊕ message actions (``comm_dim``, ``protocol_messages``) has
+its flat actions decoded into the env's ``Dict`` ones (:mod:`baselines.rl.message_actions`, the
+sidecar's ``message_actions``). ``python -m baselines.train``
 writes a sidecar ``<model>.json`` beside every model it saves (env id, config, algorithm,
 settings; the one sidecar format of :mod:`baselines.learned`, shared with RLlib checkpoints);
 :func:`read_sidecar` reads it. The policy name ``sb3:PATH`` builds an :class:`SB3Policy`.
@@ -48,9 +53,12 @@ ALGORITHMS: dict[str, str] = {
     "ddpg": "DDPG",
     "dqn": "DQN",
     "maskable_ppo": "MaskablePPO",
+    "recurrent_ppo": "RecurrentPPO",
 }
 #: algorithms that come from sb3-contrib rather than Stable-Baselines3
-CONTRIB_ALGORITHMS = frozenset({"maskable_ppo"})
+CONTRIB_ALGORITHMS = frozenset({"maskable_ppo", "recurrent_ppo"})
+#: the policy each algorithm trains (``MlpPolicy`` unless listed): RecurrentPPO's LSTM policy (:mod:`baselines.rl.recurrent`)
+POLICIES: dict[str, str] = {"recurrent_ppo": "MlpLstmPolicy"}
 #: action spaces each algorithm can learn (algorithms not listed take any)
 _ACTION_SPACES: dict[str, tuple[type[spaces.Space], ...]] = {
     "maskable_ppo": (spaces.Discrete, spaces.MultiDiscrete, spaces.MultiBinary),
@@ -77,12 +85,21 @@ def algorithm_name(name: str) -> str:
     return key
 
 
+def policy_name(algo: str) -> str:
+    """The SB3 policy alias ``algo`` trains: ``MlpLstmPolicy`` for ``recurrent_ppo``, else ``MlpPolicy``."""
+    return POLICIES.get(algorithm_name(algo), "MlpPolicy")
+
+
 def check_masks(algo: str, env: Any) -> None:
     """Raise ``ValueError`` if ``env``'s actions are masked and ``algo`` cannot respect masks, naming the one to use."""
+    from baselines.rl.recurrent import RECURRENT_ALGORITHMS, masks_refusal
+
     key = algorithm_name(algo)
     action_type = getattr(env, "action_type", None)
     if key in MASKABLE_ALGORITHMS or not getattr(action_type, "has_masks", False):
         return
+    if key in RECURRENT_ALGORITHMS:
+        raise ValueError(masks_refusal(key, type(env).__name__, action_type.name))
     raise ValueError(
         f"{key} cannot respect the action masks of {type(env).__name__} (action_type={action_type.name!r}): it would "
         "pick masked actions, which the env refuses; use --algo maskable-ppo (sb3-contrib's MaskablePPO), "
@@ -185,6 +202,8 @@ def detect_algorithm(path: str | Path) -> str | None:
     module = str(data.get("policy_class", {}).get("__module__", ""))
     if module == "sb3_contrib.common.maskable.policies":
         return "maskable_ppo"
+    if module == "sb3_contrib.common.recurrent.policies":
+        return "recurrent_ppo"
     for algo in ("sac", "td3", "dqn"):  # DDPG saves TD3 policies and loads (for prediction) as TD3
         if module == f"stable_baselines3.{algo}.policies":
             return algo
@@ -206,13 +225,20 @@ class SB3Policy(Policy):
     name = "sb3"
     native_actions = False  # the model acts in the space it was trained on
 
-    def __init__(self, env: TeamEnv, model: Any, deterministic: bool = True) -> None:
+    def __init__(self, env: TeamEnv, model: Any, deterministic: bool = True, codec: Any = None) -> None:
+        from baselines.rl.recurrent import AgentMemory, is_recurrent
+
         super().__init__(env)
         self.model = model
         self.deterministic = deterministic
         self.algo: str | None = None
         self.path: Path | None = None
         self.maskable = _is_maskable(model)
+        #: The :class:`~baselines.rl.message_actions.MessageCodec` of a model trained on flattened
+        #: motion ⊕ message actions (its sidecar's ``message_actions``), else ``None``.
+        self.codec = codec
+        #: Each robot's LSTM state through the episode (a recurrent model), else ``None``.
+        self.memory = AgentMemory(model) if is_recurrent(model) else None
         self._check_spaces()
 
     @classmethod
@@ -227,6 +253,7 @@ class SB3Policy(Policy):
         """
         path = resolve_model(path)
         algo = algo or detect_algorithm(path)
+        codec = _codec_of(path, env)
         candidates = [algo] if algo else list(ALGORITHMS)
         errors = []
         for name in candidates:
@@ -236,7 +263,7 @@ class SB3Policy(Policy):
                 errors.append(f"{name}: {error}")
                 continue
             try:
-                policy = cls(env, model, deterministic=deterministic)
+                policy = cls(env, model, deterministic=deterministic, codec=codec)
             except ValueError as error:
                 sidecar = path.with_suffix(".json")
                 hint = f"; the training settings are in {str(sidecar)!r}" if sidecar.is_file() else ""
@@ -249,6 +276,8 @@ class SB3Policy(Policy):
     def reset(self, seed: int | None = None) -> None:
         """Start an episode; a stochastic policy reseeds the generators SB3 samples from (see the class docstring)."""
         super().reset(seed)
+        if self.memory is not None:  # every robot's LSTM starts the episode from a zero state
+            self.memory.reset()
         if not self.deterministic and seed is not None:
             from stable_baselines3.common.utils import set_random_seed
 
@@ -261,6 +290,8 @@ class SB3Policy(Policy):
             return
         agent = env.possible_agents[0]
         env_obs, env_act = env.observation_space(agent), env.action_space(agent)
+        if self.codec is not None:
+            env_act = self.codec.space
         model_obs, model_act = self.model.observation_space, self.model.action_space
         if getattr(model_obs, "shape", None) != getattr(env_obs, "shape", None):
             raise ValueError(
@@ -278,14 +309,18 @@ class SB3Policy(Policy):
         if not agents:
             return {}
         batch = np.stack([np.asarray(observations[a], dtype=np.float32) for a in agents])
-        if self.maskable:
+        if self.memory is not None:
+            actions = self.memory.predict(agents, batch, deterministic=self.deterministic)
+        elif self.maskable:
             actions, _ = self.model.predict(batch, deterministic=self.deterministic, action_masks=self._masks(agents))
         else:
             actions, _ = self.model.predict(batch, deterministic=self.deterministic)
         space = self.env.action_space(agents[0])
         out: dict[str, Any] = {}
         for i, agent in enumerate(agents):
-            if isinstance(space, spaces.Discrete):
+            if self.codec is not None:
+                out[agent] = self.codec.decode(actions[i])
+            elif isinstance(space, spaces.Discrete):
                 out[agent] = int(np.asarray(actions[i]).reshape(()))
             elif isinstance(space, spaces.Box):
                 out[agent] = np.clip(np.asarray(actions[i], dtype=space.dtype).reshape(space.shape), space.low, space.high)
@@ -298,4 +333,26 @@ class SB3Policy(Policy):
         masks = self.env.action_masks() if hasattr(self.env, "action_masks") else {}
         if not all(a in masks for a in agents):
             return None
+        if self.codec is not None:
+            masks = {a: self.codec.mask(masks[a]) for a in agents}
         return np.stack([np.asarray(masks[a], dtype=bool).reshape(-1) for a in agents])
+
+
+def _codec_of(path: Path, env: TeamEnv) -> Any:
+    """The message codec a model's sidecar records (``message_actions``) for ``env``, else ``None``."""
+    from baselines.rl.message_actions import MessageCodec, MessageSettings
+
+    try:
+        record = (read_sidecar(path) or {}).get("message_actions")
+    except ValueError:  # a damaged sidecar: the model is loaded as without one
+        record = None
+    if record is None or not env.possible_agents:
+        return None
+    space = env.action_space(env.possible_agents[0])
+    try:
+        return MessageCodec(space, MessageSettings.from_record(record))
+    except ValueError as error:
+        raise ValueError(
+            f"the SB3 model {str(path)!r} acts with motion ⊕ message actions (its sidecar's message_actions), which do not fit "
+            f"the env's action space {space}: {error}"
+        ) from None
