@@ -8,6 +8,9 @@ Command line::
         [--tensorboard DIR] [--progress-bar] [--checkpoint-every N] [--resume PATH]
         [--eval-every N] [--eval-episodes 10] [--eval-seed 10000]
         [--seeds 0,1,2] [--jobs 1] [--bc-expert NAME] [--bc-steps 20000] [--bc-epochs 30]
+        [--bc-noise 0.5] [--bc-batch-size 64] [--bc-lr 1e-3] [--bc-std-fraction 0.2]
+        [--bc-label-smoothing 0.1] [--bc-no-value] [--bc-dagger-steps N] [--bc-dagger-epochs K]
+        [--message-levels 5] [--message-tokens 8] [--message-vocab 64]
 
 Timesteps count agent transitions (every robot's step is one SB3 step, see
 :class:`baselines.rl.sb3_env.TeamVecEnv`). The model is saved to ``--out`` and a sidecar
@@ -44,7 +47,17 @@ Research tooling (all off by default; see ``docs/training.md``):
   adds R rounds of DAgger (the clone drives, the expert labels, the clone is refitted on
   all data); a preset's ``bc.expert_kwargs`` are the expert's constructor arguments; the
   sidecar's ``bc`` records the settings and the expert's and the clone's success on the
-  collected episodes.
+  collected episodes. ``--bc-noise`` (DART noise of the executed expert actions, default 0.5;
+  0: the expert's own episodes), ``--bc-batch-size``, ``--bc-lr``, ``--bc-std-fraction``,
+  ``--bc-label-smoothing``, ``--bc-no-value``, ``--bc-dagger-steps`` and ``--bc-dagger-epochs``
+  set the rest of :func:`baselines.rl.imitation.pretrain`'s settings (a preset's ``bc`` otherwise).
+* ``--algo recurrent-ppo``: sb3-contrib's ``RecurrentPPO`` (LSTM); evaluation carries each
+  robot's hidden state through the episode (:mod:`baselines.rl.recurrent`); masked action types
+  are refused (sb3-contrib has no masked RecurrentPPO).
+* A motion ⊕ message action (``--set comm_dim=K``, Rendezvous' ``protocol_messages=True``) is
+  trained as one flat Box or MultiDiscrete action (:mod:`baselines.rl.message_actions`;
+  ``--message-levels``, ``--message-tokens``, ``--message-vocab``); the sidecar's
+  ``message_actions`` lets ``baselines.evaluate`` decode it.
 
 Bad arguments exit with code 2 and one ``error: ...`` line before training starts (``--hp``
 values and a preset's hyperparameters before any env is built: :mod:`baselines.rl.hyperparameters`;

@@ -162,3 +162,31 @@ def test_a_message_model_on_an_env_without_messages_is_refused(tmp_path):
                        "--out", str(out)]) == 0  # fmt: skip
     with pytest.raises(ValueError, match="motion ⊕ message actions"):
         SB3Policy.load(out, teamgym.make("Navigation-v0"))
+
+
+def test_maskable_ppo_with_messages_never_picks_a_masked_motion(tmp_path, monkeypatch):
+    from baselines.rl.train import train
+    from teamgym.envs.exploration import Exploration
+
+    counts = {"actions": 0, "masked": 0}
+    step = Exploration.step
+
+    def checking_step(self, actions):
+        masks = self.action_masks()
+        for agent, action in actions.items():
+            counts["actions"] += 1
+            counts["masked"] += int(not masks[agent][int(action["motion"])])
+        return step(self, actions)
+
+    monkeypatch.setattr(Exploration, "step", checking_step)
+    config = {"action_type": "operator", "n_robots": 2, "max_cycles": 60, "comm_dim": 2}
+    hp = {"n_steps": 32, "batch_size": 32, "n_epochs": 1}
+    out = train("Exploration-v0", "maskable_ppo", 128, out=tmp_path / "m.zip", config=config, n_envs=1, hyperparameters=hp)
+    assert counts["actions"] >= 128 and counts["masked"] == 0
+    env = teamgym.make("Exploration-v0", **config)
+    policy = SB3Policy.load(out, env, deterministic=False)
+    from baselines.episode import run_episode
+
+    before = counts["actions"]
+    run_episode(env, policy, seed=3)
+    assert counts["actions"] > before and counts["masked"] == 0  # evaluation keeps the masks too
