@@ -39,6 +39,7 @@ _POLICY_RESERVED = {
     "action_space": "the env's",
     "lr_schedule": "from learning_rate",
     "use_sde": "set use_sde as a hyperparameter of the algorithm",
+    "mask_width": "training sets it from the env's action space (maskable_recurrent_ppo)",
 }
 
 
@@ -235,10 +236,10 @@ POLICY_RULES: dict[str, Rule] = {
 _NET_ARCH: dict[str, Rule] = {
     "dqn": net_arch((), every=False),
     **{algo: net_arch(("pi", "qf"), every=True) for algo in ("sac", "td3", "ddpg")},
-    **{algo: net_arch(("pi", "vf"), every=False) for algo in ("ppo", "a2c", "maskable_ppo", "recurrent_ppo")},
+    **{algo: net_arch(("pi", "vf"), every=False) for algo in ("ppo", "a2c", "maskable_ppo", "recurrent_ppo", "maskable_recurrent_ppo")},
 }
 #: Algorithms that normalise advantages per mini-batch when ``normalize_advantage`` is true.
-_ON_POLICY = ("ppo", "a2c", "maskable_ppo", "recurrent_ppo")
+_ON_POLICY = ("ppo", "a2c", "maskable_ppo", "recurrent_ppo", "maskable_recurrent_ppo")
 
 
 def _shown(value: Any, width: int = 60) -> str:
@@ -248,6 +249,15 @@ def _shown(value: Any, width: int = 60) -> str:
 
 def _parameters(function: Callable[..., Any]) -> dict[str, inspect.Parameter]:
     return {name: p for name, p in inspect.signature(function).parameters.items() if name != "self"}
+
+
+def _init_keywords(cls: type) -> list[str]:
+    """The named parameters of ``cls.__init__``, and of its base's where it passes ``**kwargs`` on."""
+    parameters = _parameters(cls.__init__)
+    names = [n for n, p in parameters.items() if p.kind not in (p.VAR_POSITIONAL, p.VAR_KEYWORD)]
+    if any(p.kind is p.VAR_KEYWORD for p in parameters.values()) and len(cls.__mro__) > 1:
+        names += [n for n in _init_keywords(cls.__mro__[1]) if n not in names]
+    return names
 
 
 def rules(algo: str) -> dict[str, Rule | None]:
@@ -266,8 +276,9 @@ def policy_rules(algo: str) -> dict[str, Rule | None]:
     """
     from baselines.rl.sb3_policy import algorithm_class, policy_name
 
-    policy = algorithm_class(algo).policy_aliases[policy_name(algo)]
-    names = [n for n in _parameters(policy.__init__) if n not in _POLICY_RESERVED]
+    policy = policy_name(algo)
+    policy = algorithm_class(algo).policy_aliases[policy] if isinstance(policy, str) else policy
+    names = [n for n in _init_keywords(policy) if n not in _POLICY_RESERVED]
     return {name: _NET_ARCH[algo.lower()] if name == "net_arch" else POLICY_RULES.get(name) for name in names}
 
 
@@ -323,7 +334,7 @@ def _value(algo: str, params: Mapping[str, Any], key: str) -> Any:
 def _check_pairs(algo: str, params: Mapping[str, Any]) -> None:
     """Checks of keys that depend on each other (SB3's defaults fill in the keys not given)."""
     name = _class_name(algo)
-    if algo in ("ppo", "maskable_ppo", "recurrent_ppo") and _value(algo, params, "normalize_advantage") is True:
+    if algo in ("ppo", "maskable_ppo", "recurrent_ppo", "maskable_recurrent_ppo") and _value(algo, params, "normalize_advantage") is True:
         batch_size = _value(algo, params, "batch_size")
         if _is_int(batch_size) and batch_size < 2:
             raise ValueError(

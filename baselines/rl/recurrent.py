@@ -14,9 +14,21 @@ the state it returns, step after step; a robot's first step of an episode is an
 at every episode start) forgets every robot's state. Without it the LSTM would run from a
 zero state at every step, i.e. as a feed-forward net it was never trained as.
 
-Action masks: sb3-contrib has no masked ``RecurrentPPO``; masked action types (Exploration's
-``operator``, Rendezvous' ``next_place``, ...) are refused with one line
-(:func:`masks_refusal`) rather than trained into a policy that picks masked actions.
+Action masks: sb3-contrib has no masked ``RecurrentPPO``, so ``recurrent-ppo`` refuses masked
+action types (Exploration's ``operator``, Rendezvous' ``next_place``, ...) in one line
+(:func:`masks_refusal`) and ``--algo maskable-recurrent-ppo`` is the small masked variant here:
+
+* :class:`~baselines.rl.masked_recurrent.MasksInObservation` appends each slot's action mask (0/1, MaskablePPO's layout: the
+  concatenation of every discrete dimension's mask) to its observation, so the mask is stored
+  with the observation in RecurrentPPO's rollout buffer and reaches every mini-batch sequence
+  aligned with its step, with no change to the buffer;
+* :class:`~baselines.rl.masked_recurrent.MaskedLstmPolicy` (``MlpLstmPolicy`` plus ``mask_width``) reads that tail of the
+  observation and sets the logits of masked actions to −10⁸ before the distribution is used,
+  in the rollout (sampling), in the update (log-probabilities and entropy of the PPO loss) and
+  in ``predict``; a dimension whose mask is all zero (the zero padding of RecurrentPPO's
+  sequences, which the loss ignores) is left unmasked. The LSTM and the critic see the mask as
+  part of the observation;
+* :class:`AgentMemory` appends the env's masks to the observations in evaluation.
 """
 
 from __future__ import annotations
@@ -25,10 +37,13 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["RECURRENT_ALGORITHMS", "AgentMemory", "is_recurrent", "masks_refusal"]
+__all__ = ["MASKED_RECURRENT", "RECURRENT_ALGORITHMS", "AgentMemory", "is_recurrent", "masks_refusal"]
 
 #: Algorithms whose policy has a hidden state (``model.predict`` takes ``state`` and ``episode_start``).
-RECURRENT_ALGORITHMS = frozenset({"recurrent_ppo"})
+RECURRENT_ALGORITHMS = frozenset({"recurrent_ppo", "maskable_recurrent_ppo"})
+#: The masked variant: RecurrentPPO with :class:`~baselines.rl.masked_recurrent.MaskedLstmPolicy` on
+#: :class:`~baselines.rl.masked_recurrent.MasksInObservation`.
+MASKED_RECURRENT = "maskable_recurrent_ppo"
 #: The saved policy class's module of a ``RecurrentPPO`` model (how a zip without sidecar is recognised).
 RECURRENT_POLICY_MODULE = "sb3_contrib.common.recurrent.policies"
 
@@ -42,8 +57,8 @@ def masks_refusal(algo: str, env_name: str, action_type: str) -> str:
     """The one-line reason a recurrent ``algo`` cannot train on a masked action type, and what to use instead."""
     return (
         f"{algo} cannot respect the action masks of {env_name} (action_type={action_type!r}): sb3-contrib has no masked "
-        "RecurrentPPO, and unmasked it would pick actions the env refuses; use --algo maskable-ppo (masks, no memory) "
-        "or an action type without masks for recurrent-ppo"
+        "RecurrentPPO, and unmasked it would pick actions the env refuses; use --algo maskable-recurrent-ppo (this "
+        "package's masked variant), --algo maskable-ppo (masks, no memory) or an action type without masks"
     )
 
 
@@ -63,13 +78,24 @@ class AgentMemory:
         layers, _, hidden = model.policy.lstm_hidden_state_shape
         self._zero = np.zeros((layers, hidden), dtype=np.float32)
         self.states: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+        #: The mask length a :class:`~baselines.rl.masked_recurrent.MaskedLstmPolicy` reads at the end of
+        #: each observation (0: none).
+        self.mask_width = int(getattr(model.policy, "mask_width", 0))
 
     def reset(self) -> None:
         """Forget every robot's state: the next step of each is an episode start."""
         self.states.clear()
 
-    def predict(self, agents: list[str], observations: np.ndarray, deterministic: bool = True) -> np.ndarray:
-        """Actions of ``agents`` (rows of ``observations``), carrying each one's hidden state to its next call."""
+    def predict(
+        self, agents: list[str], observations: np.ndarray, deterministic: bool = True, masks: np.ndarray | None = None
+    ) -> np.ndarray:
+        """Actions of ``agents`` (rows of ``observations``), carrying each one's hidden state to its next call.
+
+        A masked model gets ``masks`` (one row per agent; ``None``: every action admissible) after the observations.
+        """
+        if self.mask_width:
+            rows = np.ones((len(agents), self.mask_width), np.float32) if masks is None else np.asarray(masks, np.float32)
+            observations = np.concatenate([np.asarray(observations, dtype=np.float32), rows], axis=1)
         starts = np.array([agent not in self.states for agent in agents], dtype=bool)
         h = np.stack([self.states.get(a, (self._zero, self._zero))[0] for a in agents], axis=1)
         c = np.stack([self.states.get(a, (self._zero, self._zero))[1] for a in agents], axis=1)

@@ -54,14 +54,20 @@ ALGORITHMS: dict[str, str] = {
     "dqn": "DQN",
     "maskable_ppo": "MaskablePPO",
     "recurrent_ppo": "RecurrentPPO",
+    "maskable_recurrent_ppo": "RecurrentPPO",  # with this package's masked LSTM policy (baselines.rl.masked_recurrent)
 }
 #: algorithms that come from sb3-contrib rather than Stable-Baselines3
-CONTRIB_ALGORITHMS = frozenset({"maskable_ppo", "recurrent_ppo"})
-#: the policy each algorithm trains (``MlpPolicy`` unless listed): RecurrentPPO's LSTM policy (:mod:`baselines.rl.recurrent`)
-POLICIES: dict[str, str] = {"recurrent_ppo": "MlpLstmPolicy"}
+CONTRIB_ALGORITHMS = frozenset({"maskable_ppo", "recurrent_ppo", "maskable_recurrent_ppo"})
+#: the policy each algorithm trains (``MlpPolicy`` unless listed): RecurrentPPO's LSTM policy (:mod:`baselines.rl.recurrent`),
+#: or a class (``module:Class``)
+POLICIES: dict[str, str] = {
+    "recurrent_ppo": "MlpLstmPolicy",
+    "maskable_recurrent_ppo": "baselines.rl.masked_recurrent:MaskedLstmPolicy",
+}
 #: action spaces each algorithm can learn (algorithms not listed take any)
 _ACTION_SPACES: dict[str, tuple[type[spaces.Space], ...]] = {
     "maskable_ppo": (spaces.Discrete, spaces.MultiDiscrete, spaces.MultiBinary),
+    "maskable_recurrent_ppo": (spaces.Discrete, spaces.MultiDiscrete),
     "dqn": (spaces.Discrete,),
     "sac": (spaces.Box,),
     "td3": (spaces.Box,),
@@ -70,7 +76,7 @@ _ACTION_SPACES: dict[str, tuple[type[spaces.Space], ...]] = {
 
 
 #: algorithms that take action masks (``MaskablePPO.learn`` reads ``env.action_masks()``)
-MASKABLE_ALGORITHMS = frozenset({"maskable_ppo"})
+MASKABLE_ALGORITHMS = frozenset({"maskable_ppo", "maskable_recurrent_ppo"})
 
 
 def algorithm_name(name: str) -> str:
@@ -78,16 +84,24 @@ def algorithm_name(name: str) -> str:
     if not isinstance(name, str) or not name.strip():
         raise ValueError(f"an SB3 algorithm name is needed, got {name!r}; choose one of {sorted(ALGORITHMS)}")
     key = name.strip().lower().replace("-", "_")
-    by_class = {cls.lower(): algo for algo, cls in ALGORITHMS.items()}
+    by_class: dict[str, str] = {}
+    for algo, cls in ALGORITHMS.items():  # a class name means its first algorithm (RecurrentPPO: recurrent_ppo)
+        by_class.setdefault(cls.lower(), algo)
     key = by_class.get(key, key)
     if key not in ALGORITHMS:
         raise ValueError(f"unknown SB3 algorithm {name!r}; choose one of {sorted(ALGORITHMS)} (hyphens work too: maskable-ppo)")
     return key
 
 
-def policy_name(algo: str) -> str:
-    """The SB3 policy alias ``algo`` trains: ``MlpLstmPolicy`` for ``recurrent_ppo``, else ``MlpPolicy``."""
-    return POLICIES.get(algorithm_name(algo), "MlpPolicy")
+def policy_name(algo: str) -> str | type:
+    """The SB3 policy ``algo`` trains: an alias (``MlpLstmPolicy`` for ``recurrent_ppo``, else ``MlpPolicy``) or a class."""
+    import importlib
+
+    name = POLICIES.get(algorithm_name(algo), "MlpPolicy")
+    if ":" not in name:
+        return name
+    module, _, attribute = name.partition(":")
+    return getattr(importlib.import_module(module), attribute)
 
 
 def check_masks(algo: str, env: Any) -> None:
@@ -204,6 +218,8 @@ def detect_algorithm(path: str | Path) -> str | None:
         return "maskable_ppo"
     if module == "sb3_contrib.common.recurrent.policies":
         return "recurrent_ppo"
+    if module == "baselines.rl.masked_recurrent":
+        return "maskable_recurrent_ppo"
     for algo in ("sac", "td3", "dqn"):  # DDPG saves TD3 policies and loads (for prediction) as TD3
         if module == f"stable_baselines3.{algo}.policies":
             return algo
@@ -293,6 +309,8 @@ class SB3Policy(Policy):
         if self.codec is not None:
             env_act = self.codec.space
         model_obs, model_act = self.model.observation_space, self.model.action_space
+        if self.memory is not None and self.memory.mask_width and getattr(env_obs, "shape", None) is not None:
+            env_obs = spaces.Box(-np.inf, np.inf, (env_obs.shape[0] + self.memory.mask_width,))  # the masks follow
         if getattr(model_obs, "shape", None) != getattr(env_obs, "shape", None):
             raise ValueError(
                 f"the SB3 model expects observations of shape {getattr(model_obs, 'shape', None)}, "
@@ -310,7 +328,8 @@ class SB3Policy(Policy):
             return {}
         batch = np.stack([np.asarray(observations[a], dtype=np.float32) for a in agents])
         if self.memory is not None:
-            actions = self.memory.predict(agents, batch, deterministic=self.deterministic)
+            masks = self._masks(agents) if self.memory.mask_width else None
+            actions = self.memory.predict(agents, batch, deterministic=self.deterministic, masks=masks)
         elif self.maskable:
             actions, _ = self.model.predict(batch, deterministic=self.deterministic, action_masks=self._masks(agents))
         else:

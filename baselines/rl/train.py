@@ -52,8 +52,9 @@ Research tooling (all off by default; see ``docs/training.md``):
   ``--bc-label-smoothing``, ``--bc-no-value``, ``--bc-dagger-steps`` and ``--bc-dagger-epochs``
   set the rest of :func:`baselines.rl.imitation.pretrain`'s settings (a preset's ``bc`` otherwise).
 * ``--algo recurrent-ppo``: sb3-contrib's ``RecurrentPPO`` (LSTM); evaluation carries each
-  robot's hidden state through the episode (:mod:`baselines.rl.recurrent`); masked action types
-  are refused (sb3-contrib has no masked RecurrentPPO).
+  robot's hidden state through the episode (:mod:`baselines.rl.recurrent`); on masked action types
+  it is refused (sb3-contrib has no masked RecurrentPPO) and ``--algo maskable-recurrent-ppo``
+  is the masked variant (:mod:`baselines.rl.masked_recurrent`).
 * A motion ⊕ message action (``--set comm_dim=K``, Rendezvous' ``protocol_messages=True``) is
   trained as one flat Box or MultiDiscrete action (:mod:`baselines.rl.message_actions`;
   ``--message-levels``, ``--message-tokens``, ``--message-vocab``); the sidecar's
@@ -80,6 +81,7 @@ from pathlib import Path
 from typing import Any
 
 from baselines.rl.imitation import DEFAULT_BC_EPOCHS, DEFAULT_BC_NOISE, DEFAULT_BC_STEPS
+from baselines.rl.recurrent import MASKED_RECURRENT
 
 __all__ = ["DEFAULT_EVAL_SEED", "Training", "build_parser", "default_hyperparameters", "main", "train", "train_seeds"]
 
@@ -93,7 +95,7 @@ def default_hyperparameters(algo: str, num_envs: int) -> dict[str, Any]:
     from baselines.rl.sb3_policy import algorithm_name
 
     algo = algorithm_name(algo)
-    if algo in ("ppo", "maskable_ppo", "recurrent_ppo"):
+    if algo in ("ppo", "maskable_ppo", "recurrent_ppo", "maskable_recurrent_ppo"):
         n_steps = max(8, math.ceil(2048 / num_envs / 8) * 8)
         return {"n_steps": n_steps, "batch_size": n_steps * num_envs // 8}
     if algo == "a2c":
@@ -321,6 +323,10 @@ class Training:
             from baselines.rl.subproc import SubprocTeamVecEnv
 
             self.venv = SubprocTeamVecEnv(make_copy, self.n_envs, n_workers=self.workers)
+        if self.algo == MASKED_RECURRENT:  # the masks ride in the observations (baselines.rl.masked_recurrent)
+            from baselines.rl.masked_recurrent import MasksInObservation
+
+            self.venv = MasksInObservation(self.venv)
         self.eval_env = None
         self.padding_log = PaddingShareLog()
         try:
@@ -343,6 +349,8 @@ class Training:
                 self.resumed_at, self.reset_seed = None, self.seed
                 params = default_hyperparameters(self.algo, self.venv.num_envs)
                 params.update(hyperparameters)
+                if self.algo == MASKED_RECURRENT:
+                    params["policy_kwargs"] = {**(params.get("policy_kwargs") or {}), "mask_width": self.venv.width}
                 self.model = cls(
                     policy_name(self.algo),
                     self.venv,

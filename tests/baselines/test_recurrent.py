@@ -142,3 +142,88 @@ def test_masked_action_types_are_refused_in_one_line(tmp_path, capsys):
     assert err.startswith("error: ") and len(err.strip().splitlines()) == 1, err
     assert "no masked RecurrentPPO" in err and "maskable-ppo" in err
     assert not list(tmp_path.iterdir())
+
+
+# -- the masked variant (--algo maskable-recurrent-ppo) ------------------------------------------------
+
+EXPLORATION = {"action_type": "operator", "n_robots": 2, "max_cycles": 60}
+
+
+def count_masked(monkeypatch: pytest.MonkeyPatch) -> dict[str, int]:
+    """Count the operators Exploration is given and those its masks forbid (one by one and as a batch)."""
+    from teamgym.envs.batch import TeamBatch
+    from teamgym.envs.exploration import Exploration
+
+    counts = {"actions": 0, "masked": 0}
+    step, batch_step = Exploration.step, TeamBatch.step
+
+    def checking_step(self, actions):
+        masks = self.action_masks()
+        for agent, action in actions.items():
+            counts["actions"] += 1
+            counts["masked"] += int(not masks[agent][int(action)])
+        return step(self, actions)
+
+    def checking_batch_step(self, actions):
+        masks, active = self.action_masks(), self.active
+        for k, i in zip(*np.nonzero(active)):
+            counts["actions"] += 1
+            counts["masked"] += int(not masks[k, i, int(actions[k, i])])
+        return batch_step(self, actions)
+
+    monkeypatch.setattr(Exploration, "step", checking_step)
+    monkeypatch.setattr(TeamBatch, "step", checking_batch_step)
+    return counts
+
+
+def test_masked_lstm_policy_samples_and_scores_only_admissible_actions():
+    import torch
+
+    from baselines.rl.masked_recurrent import MaskedLstmPolicy, MasksInObservation
+
+    venv = MasksInObservation(TeamVecEnv(lambda: teamgym.make("Exploration-v0", **EXPLORATION), n_envs=1))
+    width = venv.width
+    model = RecurrentPPO(
+        MaskedLstmPolicy, venv, n_steps=16, batch_size=16, device="cpu", seed=0, policy_kwargs={"mask_width": width}
+    )
+    obs = np.repeat(venv.reset()[:1], 64, axis=0)
+    only = 7
+    obs[:, -width:] = 0
+    obs[:, -width + only] = 1  # one admissible action
+    states = np.zeros((1, 64, model.policy.lstm_hidden_state_shape[2]), np.float32)
+    actions, _ = model.predict(obs, state=(states, states), episode_start=np.ones(64, bool), deterministic=False)
+    assert set(actions.tolist()) == {only}
+    free = obs.copy()
+    free[:, -width:] = 1
+    sampled, _ = model.predict(free, state=(states, states), episode_start=np.ones(64, bool), deterministic=False)
+    assert len(set(sampled.tolist())) > 1  # unmasked, the same policy spreads its actions
+    tensor = torch.as_tensor(obs)
+    lstm = (torch.zeros(1, 64, states.shape[2]), torch.zeros(1, 64, states.shape[2]))
+    from sb3_contrib.common.recurrent.type_aliases import RNNStates
+
+    _, log_prob, _ = model.policy.evaluate_actions(
+        tensor, torch.full((64,), only), RNNStates(lstm, lstm), torch.ones(64)
+    )  # fmt: skip
+    assert torch.allclose(log_prob, torch.zeros(64), atol=1e-5)  # the one admissible action has probability 1
+    _, masked_log_prob, _ = model.policy.evaluate_actions(tensor, torch.full((64,), 3), RNNStates(lstm, lstm), torch.ones(64))
+    assert (masked_log_prob < -1e6).all()
+    venv.close()
+
+
+def test_maskable_recurrent_trains_and_evaluates_without_a_masked_action(tmp_path, monkeypatch):
+    counts = count_masked(monkeypatch)
+    out = tmp_path / "mr.zip"
+    args = ["--env", "Exploration-v0", "--algo", "maskable-recurrent-ppo", "--n-envs", "2", *SMALL]
+    args += [f"--set={k}={v}" for k, v in EXPLORATION.items()]
+    evaluation = ["--eval-every", "1000", "--eval-episodes", "2", "--eval-seed", "800"]
+    assert train_main([*args, *evaluation, "--timesteps", "128", "--verbose", "0", "--out", str(out)]) == 0
+    assert counts["actions"] >= 128 and counts["masked"] == 0
+    with open(tmp_path / "mr_eval.csv") as handle:
+        last = list(csv.DictReader(handle))[-1]
+    where = tmp_path / "ev"
+    assert evaluate_main(["--policy", f"sb3:{out}", "--episodes", "2", "--seed", "800", "--out", str(where), "--quiet"]) == 0
+    summary = json.loads((where / "summary.json").read_text())
+    assert summary["mean_return"] == pytest.approx(float(last["mean_return"]), abs=1e-9)
+    assert counts["masked"] == 0
+    out.with_suffix(".json").unlink()
+    assert detect_algorithm(out) == "maskable_recurrent_ppo"
