@@ -233,13 +233,15 @@ POLICY_RULES: dict[str, Rule] = {
     "enable_critic_lstm": FLAG,
     "lstm_kwargs": optional(MAPPING),
 }
+#: RecurrentPPO and its masked variant (baselines.rl.recurrent).
+_RECURRENT = ("recurrent_ppo", "maskable_recurrent_ppo")
 _NET_ARCH: dict[str, Rule] = {
     "dqn": net_arch((), every=False),
     **{algo: net_arch(("pi", "qf"), every=True) for algo in ("sac", "td3", "ddpg")},
-    **{algo: net_arch(("pi", "vf"), every=False) for algo in ("ppo", "a2c", "maskable_ppo", "recurrent_ppo", "maskable_recurrent_ppo")},
+    **{algo: net_arch(("pi", "vf"), every=False) for algo in ("ppo", "a2c", "maskable_ppo", *_RECURRENT)},
 }
 #: Algorithms that normalise advantages per mini-batch when ``normalize_advantage`` is true.
-_ON_POLICY = ("ppo", "a2c", "maskable_ppo", "recurrent_ppo", "maskable_recurrent_ppo")
+_ON_POLICY = ("ppo", "a2c", "maskable_ppo", *_RECURRENT)
 
 
 def _shown(value: Any, width: int = 60) -> str:
@@ -334,7 +336,7 @@ def _value(algo: str, params: Mapping[str, Any], key: str) -> Any:
 def _check_pairs(algo: str, params: Mapping[str, Any]) -> None:
     """Checks of keys that depend on each other (SB3's defaults fill in the keys not given)."""
     name = _class_name(algo)
-    if algo in ("ppo", "maskable_ppo", "recurrent_ppo", "maskable_recurrent_ppo") and _value(algo, params, "normalize_advantage") is True:
+    if algo in ("ppo", "maskable_ppo", *_RECURRENT) and _value(algo, params, "normalize_advantage") is True:
         batch_size = _value(algo, params, "batch_size")
         if _is_int(batch_size) and batch_size < 2:
             raise ValueError(
