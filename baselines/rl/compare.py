@@ -45,7 +45,7 @@ import numpy as np
 from baselines.episode import EpisodeResult
 from baselines.stats import mean_ci, wilson
 
-__all__ = ["SCRIPTED", "agent_policy", "compare", "main", "row_of"]
+__all__ = ["SCRIPTED", "agent_policy", "compare", "episode_values", "main", "row_of"]
 
 #: Per env: the paper's baseline first, then the simple ones and random (label, policy name).
 SCRIPTED: dict[str, list[tuple[str, str]]] = {
@@ -128,6 +128,22 @@ def row_of(
     }
 
 
+def episode_values(results: Sequence[EpisodeResult], dt: float | None, own: Sequence[str] = ()) -> dict[str, list[float]]:
+    """Per column of :func:`row_of`, its per-episode values (what the row's rates and means are taken over).
+
+    ``success`` and ``clean_success`` as 0/1 (``clean_success`` only for envs that count collisions),
+    ``time_to_success`` of successful episodes only, and per episode the mean over its robots of
+    ``path_length``, ``collisions`` and each of ``own`` that any robot reports (episodes without it left out).
+    """
+    values: dict[str, list[float]] = {"success": [float(r.success) for r in results]}
+    if any(_metric(r, "collisions") for r in results):
+        values["clean_success"] = [float(r.success and sum(_metric(r, "collisions")) == 0) for r in results]
+    values["time_to_success"] = [t for t in (_time_to_success(r, dt) for r in results) if t is not None]
+    for name in ("path_length", "collisions", *own):
+        values[name] = [float(np.mean(_metric(r, name))) for r in results if _metric(r, name)]
+    return values
+
+
 def _rate(value: float | None, ci: Sequence[float] | None) -> str:
     if value is None or ci is None:
         return "–"
@@ -168,8 +184,12 @@ def compare(
     workers: int = 1,
     task: Mapping[str, Any] | None = None,
     policies: Sequence[tuple[str, str]] | None = None,
+    results: dict[str, list[EpisodeResult]] | None = None,
 ) -> list[dict[str, Any]]:
-    """Rows for the scripted policies of ``env_id`` (or ``policies``) and the agent (:func:`agent_policy`), seeds ``seed ..``."""
+    """Rows for the scripted policies of ``env_id`` (or ``policies``) and the agent (:func:`agent_policy`), seeds ``seed ..``.
+
+    ``results``, if given, receives each row's episode results under its label.
+    """
     import teamgym
     from baselines.evaluate import evaluate
     from baselines.learned import is_learned, policy_sidecar
@@ -195,8 +215,10 @@ def compare(
     rows = []
     for label, policy in entries:
         config = {**agent_config, **task} if is_learned(policy) else {**required_config(policy), **task}
-        results = evaluate(env_id, policy, episodes=episodes, seed=seed, config=config, workers=workers)
-        rows.append(row_of(label, policy, results, dt, OWN_METRICS.get(env_id, ())))
+        played = evaluate(env_id, policy, episodes=episodes, seed=seed, config=config, workers=workers)
+        rows.append(row_of(label, policy, played, dt, OWN_METRICS.get(env_id, ())))
+        if results is not None:
+            results[label] = played
     return rows
 
 
