@@ -4,7 +4,7 @@ Command line::
 
     python -m baselines.rl.seeds DIR [--episodes 100] [--seed 31000] [--workers 1] [--set key=value ...]
         [--model final|best] [--metric success] [--resamples 2000] [--bootstrap-seed 0]
-        [--ship NAME [--agents-dir DIR] [--force]]
+        [--curve [--curve-metric success_rate]] [--ship NAME [--agents-dir DIR] [--force]]
 
 ``DIR`` is the output directory of ``python -m baselines.train --seeds 0,1,2 --out DIR``
 (:func:`baselines.rl.train.train_seeds`: ``DIR/runs.json`` and one model per seed in
@@ -28,6 +28,10 @@ Written to ``DIR/seeds.json`` and ``DIR/seeds.md`` (and printed):
   ``path_length`` or ``collisions``): the seeds ordered from worst to best (ties broken by the time
   to success, then by success, then the lower seed first), the one at position ``(n-1)//2``; for an
   even count the worse of the middle two.
+
+``--curve`` draws the learning curve across seeds to ``DIR/curve.png``: the IQM over the seeds'
+``_eval.csv`` (``--curve-metric``, a column of theirs) with its 95 % bootstrap band over seeds and the
+seeds as faint lines (:mod:`baselines.rl.plot_curves` with ``--center iqm --ci bootstrap``).
 
 ``--ship NAME`` then copies the median seed's model, sidecar and ``_eval.csv`` to
 ``baselines/rl/agents/NAME.zip``, ``NAME.json`` and ``NAME_eval.csv`` (``--agents-dir`` elsewhere),
@@ -338,6 +342,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--resamples", type=at_least(1), default=2000, help="bootstrap resamples (default: 2000)")
     parser.add_argument("--bootstrap-seed", type=at_least(0), default=0, help="bootstrap generator seed (default: 0)")
+    parser.add_argument("--curve", action="store_true", help="draw the learning curve across seeds to DIR/curve.png")
+    parser.add_argument("--curve-metric", default="success_rate", help="with --curve: eval CSV column (default: success_rate)")
     parser.add_argument(
         "--ship",
         type=nonblank("an agent name"),
@@ -364,6 +370,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         if (args.agents_dir is not None or args.force) and args.ship is None:
             raise ValueError("--agents-dir and --force apply to --ship only")
+        if args.curve_metric != "success_rate" and not args.curve:
+            raise ValueError("--curve-metric applies to --curve only")
         run_dir = Path(args.run_dir)
         paths = read_runs(run_dir, args.model)
         check_out(run_dir, "DIR")
@@ -381,6 +389,10 @@ def main(argv: Sequence[str] | None = None) -> int:
                 raise FileNotFoundError(
                     f"--ship needs every seed's learning curve; no {missing[0]!r} (train with --eval-every N)"
                 )
+        if args.curve:
+            from baselines.rl.plot_curves import load_curves
+
+            curves = load_curves({run_dir.name or str(run_dir): [_curve_of(p) for p in paths.values()]}, args.curve_metric)
     except (ValueError, KeyError, FileNotFoundError) as error:
         print(f"error: {message(error)}", file=sys.stderr)
         return 2
@@ -397,6 +409,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         (run_dir / "seeds.md").write_text(table + "\n")
         print(table)
         print(f"wrote {run_dir / 'seeds.json'} and {run_dir / 'seeds.md'}")
+        if args.curve:
+            from baselines.rl.plot_curves import plot_curves
+
+            title = f"{record['env']}, {len(paths)} seeds: IQM of {args.curve_metric} on held-out seeds while training"
+            drawn = plot_curves(curves, run_dir / "curve.png", args.curve_metric, ci="bootstrap", title=title, center="iqm")
+            print(f"wrote {drawn}")
         if args.ship is not None:
             print(f"shipped seed {record['median_seed']} as {ship(record, args.ship, args.agents_dir, args.force)}")
         return 0
