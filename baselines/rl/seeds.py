@@ -87,7 +87,9 @@ def read_runs(run_dir: str | Path, model: str = "final") -> dict[int, Path]:
         manifest = json.loads(manifest_path.read_text())
         seeds = [int(s) for s in manifest["seeds"]]
         names = {int(s): Path(str(p)).name for s, p in manifest["models"].items()}
-    except (OSError, ValueError, KeyError, TypeError, AttributeError) as error:
+    except KeyError as error:
+        raise ValueError(f"cannot read {str(manifest_path)!r}: it has no field {error}") from None
+    except (OSError, ValueError, TypeError, AttributeError) as error:
         raise ValueError(f"cannot read {str(manifest_path)!r}: {' '.join(str(error).split())}") from None
     if not seeds or set(seeds) - set(names):
         raise ValueError(f"{str(manifest_path)!r} lists seeds {seeds} but models for {sorted(names)}")

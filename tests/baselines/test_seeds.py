@@ -145,7 +145,7 @@ def test_best_models_and_a_moved_run_directory(fresh_run, tmp_path):
         (["{run}", "--model", "latest"], "--model"),
         (["{run}", "--episodes", "0"], "--episodes"),
         (["{nocurve}", "--ship", "x", "--agents-dir", "{tmp}"], "--ship needs every seed's learning curve"),
-        (["{badmanifest}"], "cannot read"),
+        (["{badmanifest}"], "runs.json': it has no field 'models'"),
     ],
 )
 def test_bad_input_is_one_line_before_any_episode(args, needle, fresh_run, tmp_path, capsys):
@@ -193,3 +193,27 @@ def test_learning_curve_across_seeds_iqm_and_min_max(run_dir, tmp_path, capsys):
     assert "min-max" in capsys.readouterr().out and out.is_file()
     assert plot_curves.main([str(run_dir), "--center", "iqm", "--ci", "t", "--out", str(tmp_path / "d.png")]) == 2
     one_line_error(capsys.readouterr().err, "--ci t is an interval of the mean")
+
+
+def test_compare_with_a_run_directory_shows_the_median_seed_and_the_figures_across_seeds(run_dir, tmp_path, capsys):
+    from baselines.rl.compare import main as compare_main
+
+    task = {"n_robots": "2", "max_cycles": "10"}
+    rows = compare("Navigation-v0", str(run_dir), 3, 31000, task=task, policies=[("random", "random")])
+    record = evaluate_seeds(run_dir, 3, 31000, task=task)
+    median = record["median_seed"]
+    assert [r["label"] for r in rows] == [f"trained: {run_dir} (seed {median}, the median of 3)", "random"]
+    learned = rows[0]
+    assert learned["across_seeds"] == record["across_seeds"]
+    assert learned["policy"] == f"sb3:{run_dir / f'seed{median}' / 'Navigation-v0_ppo.zip'}"
+    assert {k: v for k, v in learned.items() if k not in ("label", "policy", "across_seeds")} == {
+        k: v for k, v in record["per_seed"][str(median)].items() if k not in ("label", "policy")
+    }
+    out = tmp_path / "cmp"
+    args = ["--agent", str(run_dir), "--episodes", "2", "--seed", "31000", "--set", "n_robots=2", "--set", "max_cycles=10"]
+    assert compare_main([*args, "--out", str(out), "--curve"]) == 0
+    assert "across 3 seeds (IQM [95 % bootstrap CI]): success 0 %" in capsys.readouterr().out
+    saved = json.loads((out / "comparison.json").read_text())["rows"]
+    assert [r.get("across_seeds") is not None for r in saved].count(True) == 1 and (out / "curve.png").is_file()
+    assert compare_main(["--agent", str(tmp_path), "--episodes", "2"]) == 2  # neither a model nor a run directory
+    one_line_error(capsys.readouterr().err, "no saved SB3 model")
