@@ -88,16 +88,16 @@ def test_run_scores_and_aggregates():
 def test_bootstrap_is_seeded_and_contains_the_estimate():
     rng = np.random.default_rng(1)
     runs = [rng.random(40) < p for p in (0.6, 0.7, 0.9)]
-    first = stratified_bootstrap_ci(runs, seed=3)
-    assert first == stratified_bootstrap_ci(runs, seed=3)  # reproducible
+    first = stratified_bootstrap_ci(runs, seed=3, resamples=1000)
+    assert first == stratified_bootstrap_ci(runs, seed=3, resamples=1000)  # reproducible
     times = [rng.normal(20 + k, 3, size=30) for k in range(3)]
-    assert stratified_bootstrap_ci(times, seed=3) == stratified_bootstrap_ci(times, seed=3)
-    assert stratified_bootstrap_ci(times, seed=3) != stratified_bootstrap_ci(times, seed=4)  # the seed is used
+    assert stratified_bootstrap_ci(times, seed=3, resamples=300) == stratified_bootstrap_ci(times, seed=3, resamples=300)
+    assert stratified_bootstrap_ci(times, seed=3, resamples=300) != stratified_bootstrap_ci(times, seed=4, resamples=300)
     estimate, low, high = first
     assert estimate == pytest.approx(AGGREGATES["iqm"](runs))
     assert 0 <= low <= estimate <= high <= 1
     for resample in ("runs", "episodes"):
-        _, low2, high2 = stratified_bootstrap_ci(runs, resample=resample, seed=3)
+        _, low2, high2 = stratified_bootstrap_ci(runs, resample=resample, seed=3, resamples=1000)
         assert low2 <= estimate <= high2
         assert high2 - low2 < high - low  # resampling one level only varies less than both
 
