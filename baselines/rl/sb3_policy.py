@@ -193,6 +193,16 @@ def detect_algorithm(path: str | Path) -> str | None:
     return None
 
 
+def _policy_class(cls: type, path: Path) -> Any:
+    """``cls``, or a :class:`~baselines.rl.agent_features.FeatureSB3Policy` maker when the sidecar records ``obs_features``."""
+    from baselines.rl.agent_features import FeatureSB3Policy, ObservationFeatures
+
+    features = ObservationFeatures.from_sidecar(read_sidecar(path))
+    if not features.active or not issubclass(cls, SB3Policy) or issubclass(cls, FeatureSB3Policy):
+        return cls
+    return lambda env, model, deterministic: FeatureSB3Policy(env, model, deterministic, features=features)
+
+
 class SB3Policy(Policy):
     """Actions of one Stable-Baselines3 model shared by every robot.
 
@@ -236,7 +246,7 @@ class SB3Policy(Policy):
                 errors.append(f"{name}: {error}")
                 continue
             try:
-                policy = cls(env, model, deterministic=deterministic)
+                policy = _policy_class(cls, path)(env, model, deterministic=deterministic)
             except ValueError as error:
                 sidecar = path.with_suffix(".json")
                 hint = f"; the training settings are in {str(sidecar)!r}" if sidecar.is_file() else ""
@@ -255,12 +265,16 @@ class SB3Policy(Policy):
             set_random_seed(int(seed))
             self.model.action_space.seed(int(seed))
 
+    def _input_space(self, agent: str) -> spaces.Space:
+        """The observation space the model must take: the env's (a subclass may widen it)."""
+        return self.env.observation_space(agent)
+
     def _check_spaces(self) -> None:
         env = self.env
         if not env.possible_agents:
             return
         agent = env.possible_agents[0]
-        env_obs, env_act = env.observation_space(agent), env.action_space(agent)
+        env_obs, env_act = self._input_space(agent), env.action_space(agent)
         model_obs, model_act = self.model.observation_space, self.model.action_space
         if getattr(model_obs, "shape", None) != getattr(env_obs, "shape", None):
             raise ValueError(
