@@ -63,7 +63,10 @@ class ObservationFeatures:
     def _base_space(env: TeamEnv) -> spaces.Box:
         space = env.observation_space(env.possible_agents[0])
         if not isinstance(space, spaces.Box) or len(space.shape) != 1:
-            raise ValueError(f"--agent-id and --critic central need flat Box observations, got {space} (use obs_format='flat')")
+            raise ValueError(
+                "--agent-id, --critic central and --independent need flat Box observations, "
+                f"got {type(space).__name__} observations (use obs_format='flat')"
+            )
         return space
 
     def dims(self, env: TeamEnv) -> tuple[int, int, int]:

@@ -228,8 +228,9 @@ NAV = ["--timesteps", "64", "--set", "n_robots=2", "--max-cycles", "5", "--verbo
         (["--agent-id", "--bc-expert", "nash"], "--bc-expert"),
         (["--critic", "central", "--workers", "2", "--n-envs", "2"], "--workers"),
         (["--critic", "cental"], "invalid choice"),
+        (["--agent-id", "--set", "obs_format=dict"], "flat Box observations"),
     ],
-    ids=["dqn-central", "sac-independent", "spare-robots", "bc", "workers", "typo"],
+    ids=["dqn-central", "sac-independent", "spare-robots", "bc", "workers", "typo", "dict-obs"],
 )
 def test_bad_combinations_are_one_line_errors_before_any_work(args, needle, tmp_path, capsys):
     out = tmp_path / "m.zip"
