@@ -197,7 +197,10 @@ def _policy_class(cls: type, path: Path) -> Any:
     """``cls``, or a :class:`~baselines.rl.agent_features.FeatureSB3Policy` maker when the sidecar records ``obs_features``."""
     from baselines.rl.agent_features import FeatureSB3Policy, ObservationFeatures
 
-    features = ObservationFeatures.from_sidecar(read_sidecar(path))
+    try:
+        features = ObservationFeatures.from_sidecar(read_sidecar(path))
+    except ValueError as error:
+        raise ValueError(f"the model's sidecar {str(path.with_suffix('.json'))!r}: {error}") from None
     if not features.active or not issubclass(cls, SB3Policy) or issubclass(cls, FeatureSB3Policy):
         return cls
     return lambda env, model, deterministic: FeatureSB3Policy(env, model, deterministic, features=features)

@@ -75,7 +75,8 @@ class TeamMethods:
             return
         if bc:
             raise ValueError(
-                "--bc-expert clones into a plain policy; it cannot be combined with --critic central, --agent-id or --independent"
+                "behaviour cloning (--bc-expert, or a preset's bc) fits a plain policy; it cannot be combined with "
+                "--critic central, --agent-id or --independent"
             )
         if workers > 1:
             raise ValueError(
