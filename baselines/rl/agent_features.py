@@ -133,13 +133,21 @@ class FeatureTeamVecEnv(TeamVecEnv):
         return self.features.widen(observation, row, self.agents_per_env, state)
 
     def _widened(self, observations: np.ndarray) -> np.ndarray:
-        """Every slot's observation widened (a slot waiting for a robot: zeros)."""
+        """Every slot's observation widened, as :meth:`ObservationFeatures.widen` would (a waiting slot: zeros)."""
         out = np.zeros((self.num_envs, self._width), dtype=np.float32)
-        states: dict[int, np.ndarray] = {}
-        for k in range(self.num_envs):
-            row = int(self._slot_row[k])
-            if row >= 0 and self._agent_of[k] is not None:
-                out[k] = self._widen_slot(observations[k], row, self._copy_of[k], states)
+        live = np.flatnonzero((self._slot_row >= 0) & np.array([a is not None for a in self._agent_of]))
+        if len(live) == 0:
+            return out
+        own = observations.shape[1]
+        out[live, :own] = observations[live]
+        start = own
+        if self.features.agent_id:
+            out[live, start + self._slot_row[live]] = 1.0
+            start += self.agents_per_env
+        if self.features.team_state:
+            copies = self._slot_copy[live]
+            states = {int(e): np.asarray(self.envs[int(e)].state(), dtype=np.float32).reshape(-1) for e in np.unique(copies)}
+            out[live, start:] = np.stack([states[int(e)] for e in copies])
         return out
 
     def _finish_slot(

@@ -257,3 +257,40 @@ def test_plain_runs_record_the_default_methods(tmp_path):
     sidecar = json.loads(Path(out.with_suffix(".json")).read_text())
     assert sidecar["critic"] == "local" and sidecar["obs_features"] is None
     assert type(SB3Policy.load(out, teamgym.make("Navigation-v0", n_robots=2))) is SB3Policy
+
+
+def random_actions(venv, rng):
+    if getattr(venv.envs[0].action_type, "has_masks", False):
+        return np.array([rng.choice(np.flatnonzero(row)) for row in venv.action_masks()])
+    return np.stack([venv.action_space.sample() for _ in range(venv.num_envs)])
+
+
+@pytest.mark.parametrize("env_id", teamgym.envs())
+def test_batched_and_one_by_one_copies_give_the_same_widened_observations(env_id):
+    """Both stepping paths, terminal observations included, and each slot as ``ObservationFeatures.widen`` builds it."""
+    features = ObservationFeatures(agent_id=True, team_state=True)
+    runs = []
+    for batched in (True, False):
+        venv = FeatureTeamVecEnv(lambda: teamgym.make(env_id, max_cycles=10), n_envs=2, batched=batched, features=features)
+        assert venv.batched is batched
+        venv.seed(3)
+        venv.action_space.seed(0)
+        rng = np.random.default_rng(0)
+        observations, terminals = [venv.reset()], []
+        for _ in range(25):
+            expected = np.zeros_like(observations[-1])
+            for k in range(venv.num_envs):
+                row, e = int(venv._slot_row[k]), venv._copy_of[k]
+                if row >= 0:
+                    expected[k] = features.widen(venv._obs[k], row, venv.agents_per_env, venv.envs[e].state)
+            assert np.array_equal(observations[-1], expected)
+            venv.step_async(random_actions(venv, rng))
+            obs, _, _, infos = venv.step_wait()
+            observations.append(obs)
+            terminals += [(k, info["terminal_observation"]) for k, info in enumerate(infos) if "terminal_observation" in info]
+        runs.append((np.array(observations), terminals))
+        venv.close()
+    (first, first_terminals), (second, second_terminals) = runs
+    assert np.array_equal(first, second)
+    assert len(first_terminals) == len(second_terminals) > 0
+    assert all(a == c and np.array_equal(b, d) for (a, b), (c, d) in zip(first_terminals, second_terminals))
