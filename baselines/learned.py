@@ -25,8 +25,11 @@ Wilson interval and the figures across seeds (IQM and mean with bootstrap interv
 without it read as before.
 
 Each engine adds its own training record beside them (SB3: ``timesteps``, ``hyperparameters``,
-``bc``, ``eval``, ``best_eval``, ...; RLlib: ``module_id``, ``iterations``, ``training``,
-``model``, ``history``, ``eval``, ...). Files written before format 1 still load
+``bc``, ``eval``, ``best_eval``, ``critic``, ``agent_id``, ``independent``, and ``obs_features``
+(``{"agent_id": bool, "team_state": bool}`` or ``null``: the parts appended to each robot's
+observation, which ``sb3:PATH`` evaluation rebuilds, :mod:`baselines.rl.agent_features`), ...;
+RLlib: ``module_id``, ``iterations``, ``training``, ``model``, ``history``, ``eval``, ...).
+Files written before format 1 still load
 (:func:`read_sidecar`): they have no ``format`` or ``engine`` (taken from where the file is), and
 an RLlib ``teamgym.json`` then held the given settings in ``config`` (read as ``overrides``;
 its resolved config is unknown). A field of the wrong type is a ``ValueError`` of one line

@@ -228,6 +228,23 @@ def detect_algorithm(path: str | Path) -> str | None:
     return None
 
 
+def _policy_class(cls: type, path: Path) -> Any:
+    """``cls``, or a :class:`~baselines.rl.agent_features.FeatureSB3Policy` maker when the sidecar records ``obs_features``."""
+    from baselines.rl.agent_features import FeatureSB3Policy, ObservationFeatures
+
+    try:
+        features = ObservationFeatures.from_sidecar(read_sidecar(path))
+    except ValueError as error:
+        raise ValueError(f"the model's sidecar {str(path.with_suffix('.json'))!r}: {error}") from None
+    if not features.active or not issubclass(cls, SB3Policy) or issubclass(cls, FeatureSB3Policy):
+        return cls
+
+    def make(env: Any, model: Any, deterministic: bool, codec: Any = None) -> FeatureSB3Policy:
+        return FeatureSB3Policy(env, model, deterministic, codec=codec, features=features)
+
+    return make
+
+
 class SB3Policy(Policy):
     """Actions of one Stable-Baselines3 model shared by every robot.
 
@@ -279,7 +296,7 @@ class SB3Policy(Policy):
                 errors.append(f"{name}: {error}")
                 continue
             try:
-                policy = cls(env, model, deterministic=deterministic, codec=codec)
+                policy = _policy_class(cls, path)(env, model, deterministic=deterministic, codec=codec)
             except ValueError as error:
                 sidecar = path.with_suffix(".json")
                 hint = f"; the training settings are in {str(sidecar)!r}" if sidecar.is_file() else ""
@@ -300,12 +317,16 @@ class SB3Policy(Policy):
             set_random_seed(int(seed))
             self.model.action_space.seed(int(seed))
 
+    def _input_space(self, agent: str) -> spaces.Space:
+        """The observation space the model must take: the env's (a subclass may widen it)."""
+        return self.env.observation_space(agent)
+
     def _check_spaces(self) -> None:
         env = self.env
         if not env.possible_agents:
             return
         agent = env.possible_agents[0]
-        env_obs, env_act = env.observation_space(agent), env.action_space(agent)
+        env_obs, env_act = self._input_space(agent), env.action_space(agent)
         if self.codec is not None:
             env_act = self.codec.space
         model_obs, model_act = self.model.observation_space, self.model.action_space

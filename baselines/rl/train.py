@@ -11,6 +11,7 @@ Command line::
         [--bc-noise 0.5] [--bc-batch-size 64] [--bc-lr 1e-3] [--bc-std-fraction 0.2]
         [--bc-label-smoothing 0.1] [--bc-no-value] [--bc-dagger-steps N] [--bc-dagger-epochs K]
         [--message-levels 5] [--message-tokens 8] [--message-vocab 64]
+        [--critic local|central] [--agent-id] [--independent]
 
 Timesteps count agent transitions (every robot's step is one SB3 step, see
 :class:`baselines.rl.sb3_env.TeamVecEnv`). The model is saved to ``--out`` and a sidecar
@@ -59,6 +60,12 @@ Research tooling (all off by default; see ``docs/training.md``):
   trained as one flat Box or MultiDiscrete action (:mod:`baselines.rl.message_actions`;
   ``--message-levels``, ``--message-tokens``, ``--message-vocab``); the sidecar's
   ``message_actions`` lets ``baselines.evaluate`` decode it.
+* ``--critic central``: a centralised critic (MAPPO-style): each robot's observation carries the
+  team ``state()``, which only the critic reads (:mod:`baselines.rl.central_critic`);
+  ``--agent-id``: a one-hot of the robot's index in its observation; ``--independent``: one
+  policy per robot, no shared parameters, stored in one zip (:mod:`baselines.rl.independent`).
+  The sidecar records them (``obs_features``) and ``sb3:PATH`` evaluation widens the
+  observations the same way (:mod:`baselines.rl.agent_features`, :mod:`baselines.rl.team_methods`).
 
 Bad arguments exit with code 2 and one ``error: ...`` line before training starts (``--hp``
 values and a preset's hyperparameters before any env is built: :mod:`baselines.rl.hyperparameters`;
@@ -152,6 +159,20 @@ def _write_json(path: Path, data: Mapping[str, Any]) -> Path:
     return write_json(path, data, default=repr)
 
 
+def _team_methods(critic: str | None, agent_id: bool | None, independent: bool | None, saved: Mapping[str, Any] | None) -> Any:
+    """The run's :class:`~baselines.rl.team_methods.TeamMethods`: as given, or a resumed model's (other choices refused)."""
+    from baselines.rl.team_methods import TeamMethods
+
+    given = TeamMethods(critic or "local", bool(agent_id), bool(independent))
+    if saved is None:
+        return given
+    before = TeamMethods.from_sidecar(saved)
+    for name, value in (("critic", critic), ("agent_id", agent_id), ("independent", independent)):
+        if value is not None and value != getattr(before, name):
+            raise ValueError(f"the resumed model was trained with {name}={getattr(before, name)!r}, not {value!r}")
+    return before
+
+
 class Training:
     """One training run, built and checked in the constructor, run by :meth:`learn`.
 
@@ -202,19 +223,20 @@ class Training:
         message_levels: int | None = None,
         message_tokens: int | None = None,
         message_vocab: int | None = None,
+        critic: str | None = None,
+        agent_id: bool | None = None,
+        independent: bool | None = None,
     ) -> None:
         import teamgym
         from baselines.rl.callbacks import EvalLog, PaddingShareLog
         from baselines.rl.hyperparameters import check_hyperparameters, check_rollout
         from baselines.rl.message_actions import FlatMessageActions, MessageCodec, MessageSettings, is_message_space
-        from baselines.rl.sb3_env import TeamVecEnv
         from baselines.rl.sb3_policy import (
             algorithm_class,
             algorithm_name,
             check_action_space,
             check_masks,
             detect_algorithm,
-            policy_name,
             read_sidecar,
             resolve_model,
         )
@@ -246,6 +268,8 @@ class Training:
         resumed_hp = _saved_hyperparameters(previous) if self.resume else {}
         check_hyperparameters(self.algo, hyperparameters or {}, resumed_hp)  # before any env: keys, types and ranges
         hyperparameters = dict(hyperparameters or {})
+        self.methods = _team_methods(critic, agent_id, independent, previous if self.resume else None)
+        self.methods.check(self.algo, bc=bc_expert is not None, workers=workers)
         if progress_bar:
             _require("tqdm", "the progress bar")
             _require("rich", "the progress bar")
@@ -300,6 +324,8 @@ class Training:
                 )
             check_action_space(self.algo, action_space)
             check_masks(self.algo, probe)
+            self.methods.check_env(probe)
+            self.policy_spec = self.methods.policy(self.algo, probe)
             slots = self.n_envs * len(probe.possible_agents)  # TeamVecEnv's num_envs
             base = resumed_hp if self.resume else default_hyperparameters(self.algo, slots)
             check_rollout(self.algo, {**base, **hyperparameters}, action_space, slots)
@@ -318,7 +344,7 @@ class Training:
             return FlatMessageActions(env, settings) if self.codec is not None else env
 
         if self.workers == 1:
-            self.venv = TeamVecEnv(make_copy, n_envs=self.n_envs)
+            self.venv = self.methods.make_venv(make_copy, self.n_envs)
         else:
             from baselines.rl.subproc import SubprocTeamVecEnv
 
@@ -351,14 +377,19 @@ class Training:
                 params.update(hyperparameters)
                 if self.algo == MASKED_RECURRENT:
                     params["policy_kwargs"] = {**(params.get("policy_kwargs") or {}), "mask_width": self.venv.width}
+                policy, policy_kwargs = self.policy_spec
+                if policy_kwargs:  # the methods' (baselines.rl.team_methods) beside the user's
+                    params_in = {**params, "policy_kwargs": {**params.get("policy_kwargs", {}), **policy_kwargs}}
+                else:
+                    params_in = params
                 self.model = cls(
-                    policy_name(self.algo),
+                    policy,
                     self.venv,
                     seed=self.seed,
                     verbose=verbose,
                     device="cpu",
                     tensorboard_log=self.tensorboard_log,
-                    **params,
+                    **params_in,
                 )
                 self.params = {k: repr(v) for k, v in params.items()}
             if self.eval_every:
@@ -425,6 +456,7 @@ class Training:
         }
         if self.codec is not None:
             meta["message_actions"] = self.codec.record()
+        meta.update(self.methods.sidecar())
         if kind == "interrupted":
             meta["interrupted"] = True
         return meta
@@ -445,7 +477,7 @@ class Training:
         from baselines.rl.callbacks import evaluate_model, is_better
 
         assert self.eval_env is not None
-        summary = evaluate_model(self.model, self.eval_env, self.eval_episodes, self.eval_seed)
+        summary = evaluate_model(self.model, self.eval_env, self.eval_episodes, self.eval_seed, features=self.methods.features)
         row = self.eval_log.append(timesteps, summary)
         logger = self.model.logger
         for key, value in row.items():
@@ -816,6 +848,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="then R rounds of DAgger: the clone drives, the expert labels, the clone is refitted on all data (default: 0)",
     )
     _add_knobs(parser)
+    _add_method_arguments(parser)
     return parser
 
 
@@ -903,6 +936,28 @@ def _add_knobs(parser: argparse.ArgumentParser) -> None:
         default=None,
         metavar="V",
         help=f"protocol_messages: values per token, -1 .. V-2 (default: {DEFAULT_VOCAB})",
+    )
+
+
+def _add_method_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--critic``, ``--agent-id``, ``--independent`` (:mod:`baselines.rl.team_methods`)."""
+    from baselines.rl.team_methods import CRITICS
+
+    parser.add_argument(
+        "--critic",
+        choices=CRITICS,
+        default=None,
+        help="local: the critic reads the robot's observation (default); central: also the team state() (MAPPO-style; "
+        "ppo, a2c, maskable_ppo)",
+    )
+    parser.add_argument(
+        "--agent-id", action="store_true", default=None, help="append a one-hot of the robot's index to its observation"
+    )
+    parser.add_argument(
+        "--independent",
+        action="store_true",
+        default=None,
+        help="one policy per robot, no shared parameters (fixed teams; ppo, a2c, maskable_ppo; one zip holds them all)",
     )
 
 
@@ -1005,6 +1060,9 @@ def _plan(args: argparse.Namespace) -> tuple[dict[str, Any], list[int] | None]:
         kwargs["preset"] = args.preset
     if args.workers is not None:
         kwargs["workers"] = args.workers
+    for name in ("critic", "agent_id", "independent"):
+        if getattr(args, name, None) is not None:
+            kwargs[name] = getattr(args, name)
     bc = saved.get("bc") if args.preset and isinstance(saved.get("bc"), dict) else {}
     expert = args.bc_expert if args.bc_expert is not None else bc.get("expert")
     if expert is not None:  # a --bc-expert other than the preset's keeps the preset's amounts unless given
