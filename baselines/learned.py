@@ -18,9 +18,18 @@ The sidecar (format 1) is one JSON object. The fields every reader relies on:
 * ``algo``: the algorithm (``"ppo"``, ``"maskable_ppo"``, ...);
 * ``seed``: the training seed.
 
+Optional, for an agent shipped as the median of several training seeds (``python -m
+baselines.rl.seeds DIR --ship NAME``): ``seeds``, an object with the training seeds (``seeds``),
+the one shipped (``median_seed``), the held-out seeds evaluated, each seed's success with its
+Wilson interval and the figures across seeds (IQM and mean with bootstrap intervals); files
+without it read as before.
+
 Each engine adds its own training record beside them (SB3: ``timesteps``, ``hyperparameters``,
-``bc``, ``eval``, ``best_eval``, ...; RLlib: ``module_id``, ``iterations``, ``training``,
-``model``, ``history``, ``eval``, ...). Files written before format 1 still load
+``bc``, ``eval``, ``best_eval``, ``critic``, ``agent_id``, ``independent``, and ``obs_features``
+(``{"agent_id": bool, "team_state": bool}`` or ``null``: the parts appended to each robot's
+observation, which ``sb3:PATH`` evaluation rebuilds, :mod:`baselines.rl.agent_features`), ...;
+RLlib: ``module_id``, ``iterations``, ``training``, ``model``, ``history``, ``eval``, ...).
+Files written before format 1 still load
 (:func:`read_sidecar`): they have no ``format`` or ``engine`` (taken from where the file is), and
 an RLlib ``teamgym.json`` then held the given settings in ``config`` (read as ``overrides``;
 its resolved config is unknown). A field of the wrong type is a ``ValueError`` of one line
@@ -84,6 +93,22 @@ def _field_error(path: Path, field: str, expected: str, value: Any) -> ValueErro
     return ValueError(f"the model's sidecar {str(path)!r}: field {field!r} must be {expected}, got {value!r}")
 
 
+def _is_int(value: Any) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def _check_seeds_field(record: Any, path: Path) -> None:
+    """The optional ``seeds`` field: an object with a non-empty ``seeds`` list and a ``median_seed`` among them."""
+    if not isinstance(record, dict):
+        raise _field_error(path, "seeds", "an object (the record across training seeds)", record)
+    seeds = record.get("seeds")
+    if not (isinstance(seeds, list) and seeds and all(_is_int(s) for s in seeds)):
+        raise _field_error(path, "seeds.seeds", "a non-empty list of integers", seeds)
+    median = record.get("median_seed")
+    if not (_is_int(median) and median in seeds):
+        raise _field_error(path, "seeds.median_seed", "one of seeds.seeds", median)
+
+
 def check_sidecar(data: Any, engine: str, path: str | Path) -> dict[str, Any]:
     """``data`` (a parsed sidecar of ``engine`` at ``path``) in format 1, or ``ValueError`` naming the file and field.
 
@@ -110,6 +135,8 @@ def check_sidecar(data: Any, engine: str, path: str | Path) -> dict[str, Any]:
         value = data.get(field)
         if value is not None and not (isinstance(value, dict) and all(isinstance(k, str) for k in value)):
             raise _field_error(path, field, "an object with string keys", value)
+    if data.get("seeds") is not None:
+        _check_seeds_field(data["seeds"], path)
     overrides = data.get("overrides")
     if overrides is not None:
         bad = {k: v for k, v in overrides.items() if not isinstance(v, (str, int, float, bool))}

@@ -26,6 +26,7 @@ _POLICIES: dict[str, tuple[str, dict[str, Any]]] = {
     "bidir-astar": ("baselines.rendezvous.protocol:RendezvousProtocol", {"planner": "bidir-astar"}),
     "bidir-astar-opt": ("baselines.rendezvous.protocol:RendezvousProtocol", {"planner": "bidir-astar-opt"}),
     "astar-protocol": ("baselines.rendezvous.protocol:RendezvousProtocol", {"planner": "astar"}),
+    "bidir-astar-eager": ("baselines.rendezvous.protocol:RendezvousProtocol", {"planner": "bidir-astar", "execution": "eager"}),
     "centralized": ("baselines.rendezvous.centralized:CentralizedRendezvous", {}),
     "dmaps": ("baselines.foraging.dmaps:DMAPS", {}),
     "dmaps-nocomm": ("baselines.foraging.dmaps:DMAPS", {"communication": False}),

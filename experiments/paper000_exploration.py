@@ -1,20 +1,26 @@
 """Reproduce the experiments of paper 000 (sections 5.2-5.4) and compare exploration planners.
 
-    python experiments/paper000_exploration.py all --out results/paper000 [--seeds 100] [--workers 2]
+    python experiments/paper000_exploration.py all --out results/paper000 [--seeds 100] [--workers 2] [--check]
         [--figures docs/figures]
 
 Subcommands (each writes JSON and Markdown into ``--out``, figures into ``--out`` and, with
 ``--figures``, also there):
 
-* ``maps``: drawings of the reconstructed office (Fig. 10) and laboratory (Fig. 12) maps.
+* ``maps``: drawings of the reconstructed office (Fig. 10; also rebuilt for Table 1) and laboratory
+  (Fig. 12) maps.
 * ``p2p`` (section 5.2, Figs. 7-9): the behaviour-based controller drives one robot from
   S(50, 650) mm to T(600, 350) mm in room S6 of the lab office; trajectory, behaviour
   activations and controls over time.
 * ``table1`` (section 5.3, Table 1): three robots from sectors 4, 9, 2 of the 12-sector
   office, door D3,6 closed (open with probability 0.2 in the model); ``nash-explore``'s
-  operator sequence per planning stage, with synchronous stages (``stage_end="all"``: the
-  paper's table has one operator per robot per stage) and with the asynchronous stages of
-  Fig. 5 (``"any"``); stage counts against the paper's 7.
+  operator sequence per planning stage with synchronous stages (``stage_end="all"``: the
+  paper's table has one operator per robot per stage), compared with Table 1 cell by cell
+  (operator and door per robot per stage). The faithful setting is the rebuilt office
+  ``office12-table1`` (no door of S9-S11 onto the corridor) with eq. (3)'s ``"return-trip"``
+  door reading; beside it the same map with the default ``"per-attempt"`` reading and the
+  default map ``office12`` with both stage semantics (``"any"``: the asynchronous stages of
+  Fig. 5), and Table 2's lab7 run with both readings. With ``--check`` it exits with status 1 if a
+  cell of the faithful run differs from Table 1 (by default it reports the differing cells).
 * ``table2`` (section 5.4, Table 2): two robots from sectors 5 and 6 of the lab office;
   stage count against the paper's 11.
 * ``compare``: ``--seeds`` episodes with random start sectors and door samplings (seed i for
@@ -30,6 +36,7 @@ import argparse
 import json
 import math
 import shutil
+import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -69,7 +76,13 @@ PAPER_TABLE2 = [
     ("FindDoor(D2)", "Wait()"),
     ("TraverseDoor(D2,S3)", "Wait()"),
 ]
+#: Table 1's stage 6 for robot 2 reads TD(D10,11,S12): D10,11 joins S10 and S11 and cannot lead
+#: into S12, and the robot found D11,12 in stage 5, so the comparison reads it as TD(D11,12,S12).
+PAPER_TABLE1_ERRATA = {(6, 2): "TD(D11,12,S12)"}
 TABLE1_SETTING = {"start_sectors": ("S4", "S9", "S2"), "start_positions": "centre", "closed_doors": ("D3,6",)}
+#: The faithful Table 1 setting: the rebuilt office and eq. (3)'s return-trip door reading.
+TABLE1_MAP = "office12-table1"
+TABLE1_POLICY = {"door_reading": "return-trip"}
 TABLE2_SETTING = {"map": "lab7", "n_robots": 2, "start_sectors": ("S5", "S6"), "start_positions": "centre"}
 POLICIES = ("nash-explore", "greedy", "random-admissible")
 
@@ -93,6 +106,7 @@ def experiment_maps(out: Path, figures: Path | None, seeds: int, workers: int) -
     rows = []
     for name, title in (
         ("office12", "office12: paper 000, Fig. 10 (reconstructed)"),
+        ("office12-table1", "office12-table1: Fig. 10 rebuilt for Table 1"),
         ("lab7", "lab7: paper 000, Fig. 12 (reconstructed)"),
     ):
         office = load_map(name)
@@ -234,31 +248,76 @@ def _plot_episode(path: Path, map_name: str, result: dict, title: str, figures: 
     _save(fig, path.name, out, figures)
 
 
+def table1_differences(rows: list[list[str]]) -> list[dict[str, Any]]:
+    """Every cell (stage n, robot i) where ``rows`` differs from Table 1 (after :data:`PAPER_TABLE1_ERRATA`).
+
+    A stage missing on either side counts as differing cells (an empty string stands for it).
+    """
+    n_robots = len(PAPER_TABLE1[0])
+    cells = []
+    for k in range(max(len(rows), len(PAPER_TABLE1))):
+        for i in range(n_robots):
+            ours = rows[k][i] if k < len(rows) else ""
+            printed = PAPER_TABLE1[k][i] if k < len(PAPER_TABLE1) else ""
+            paper = PAPER_TABLE1_ERRATA.get((k + 1, i + 1), printed)
+            if ours != paper:
+                cells.append({"stage": k + 1, "robot": i + 1, "ours": ours, "paper": paper})
+    return cells
+
+
+TABLE1_VARIANTS = (
+    ("faithful", TABLE1_MAP, TABLE1_POLICY, "all"),
+    ("rebuilt map, per-attempt", TABLE1_MAP, {"door_reading": "per-attempt"}, "all"),
+    ("office12 (default)", "office12", {}, "all"),
+    ("office12 (default), Fig. 5 stages", "office12", {}, "any"),
+)
+
+
 def experiment_table1(out: Path, figures: Path | None, seeds: int, workers: int) -> dict:
-    result: dict[str, Any] = {"rows": [], "tables": {}}
-    for stage_end in ("all", "any"):
-        run = operator_sequence({**TABLE1_SETTING, "stage_end": stage_end})
-        result["tables"][stage_end] = _sequence_table(run["short"], PAPER_TABLE1, run["explored"])
+    result: dict[str, Any] = {"rows": [], "tables": {}, "beside": []}
+    cells = len(PAPER_TABLE1) * len(PAPER_TABLE1[0])
+    for label, map_name, policy_kwargs, stage_end in TABLE1_VARIANTS:
+        run = operator_sequence({**TABLE1_SETTING, "map": map_name, "stage_end": stage_end}, **policy_kwargs)
+        differences = table1_differences(run["short"])
+        unequal = sum(d["stage"] <= len(PAPER_TABLE1) for d in differences)
+        result["tables"][label] = _sequence_table(run["short"], PAPER_TABLE1, run["explored"])
         result["rows"].append(
             {
+                "setting": label,
+                "map": map_name,
+                "door_reading": policy_kwargs.get("door_reading", "per-attempt"),
                 "stage_end": stage_end,
                 "stages": run["stages"],
                 "paper stages": len(PAPER_TABLE1),
+                "cells equal": f"{cells - unequal}/{cells}" if stage_end == "all" else "–",
                 "success": run["success"],
                 "explore_time_s": run["explore_time_s"],
                 "team_path_length_m": run["team_path_length_m"],
                 "tasks_failed": sum(run["tasks_failed"]),
             }
         )
-        if stage_end == "all":
+        if label == "faithful":
+            result["differences"] = differences
             _plot_episode(
                 out / "table1_trajectories.png",
-                "office12",
+                map_name,
                 run,
-                "Section 5.3: nash-explore from S4, S9, S2 (D3,6 closed)",
+                "Section 5.3: nash-explore from S4, S9, S2 (D3,6 closed), office12-table1, return-trip",
                 figures,
                 out,
             )
+    for reading in ("return-trip", "per-attempt"):  # Table 2 beside it: lab7's doors are all open (o = 1)
+        run = operator_sequence({**TABLE2_SETTING, "stage_end": "any"}, door_reading=reading)
+        result["beside"].append(
+            {
+                "Table 2 (lab7)": "stage_end=any",
+                "door_reading": reading,
+                "stages": run["stages"],
+                "paper stages": len(PAPER_TABLE2),
+                "success": run["success"],
+                "explore_time_s": run["explore_time_s"],
+            }
+        )
     return result
 
 
@@ -353,28 +412,53 @@ EXPERIMENTS = {
 }
 
 
-def main(argv: list[str] | None = None) -> None:
+def _differences_text(differences: list[dict[str, Any]]) -> str:
+    errata = "; ".join(
+        f"stage {n}, robot {i}: {PAPER_TABLE1[n - 1][i - 1]} read as {v}" for (n, i), v in PAPER_TABLE1_ERRATA.items()
+    )
+    if not differences:
+        return f"\nEvery cell of Table 1 is reproduced in the faithful setting (erratum: {errata}).\n"
+    cells = "; ".join(
+        f"stage {d['stage']}, robot {d['robot']}: ours {d['ours'] or '–'}, paper {d['paper'] or '–'}" for d in differences
+    )
+    return f"\nFaithful setting: {len(differences)} cell(s) differ from Table 1: {cells} (erratum: {errata}).\n"
+
+
+def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description="Reproduce paper 000's experiments (sections 5.2-5.4) and compare planners.")
     parser.add_argument("experiment", choices=[*EXPERIMENTS, "all"])
     parser.add_argument("--out", type=Path, default=Path("results/paper000"))
     parser.add_argument("--seeds", type=int, default=100, help="episodes (seeds 0..N-1) for compare and ablation")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--figures", type=Path, default=None, help="also copy the figures here (e.g. docs/figures)")
+    parser.add_argument(
+        "--check",
+        action=argparse.BooleanOptionalAction,
+        default=False,
+        help="exit with status 1 if table1's faithful run differs from Table 1 in any cell (default: report only)",
+    )
     args = parser.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     names = list(EXPERIMENTS) if args.experiment == "all" else [args.experiment]
+    status = 0
     for name in names:
         result = EXPERIMENTS[name](args.out, args.figures, args.seeds, args.workers)
         serialisable = {k: v for k, v in result.items() if k != "trajectories"}
         (args.out / f"{name}.json").write_text(json.dumps(serialisable, indent=2, default=str))
         text = f"## {name}\n\n{markdown_table(result['rows'])}\n"
         for key, table in result.get("tables", {}).items():
-            text += f"\nstage_end={key}:\n\n{table}\n"
+            text += f"\n{key if name == 'table1' else f'stage_end={key}'}:\n\n{table}\n"
+        if "differences" in result:
+            text += _differences_text(result["differences"])
+            status = 1 if args.check and result["differences"] else status
+        if result.get("beside"):
+            text += f"\nBeside it, Table 2 on lab7:\n\n{markdown_table(result['beside'])}\n"
         if "winner_share" in result:
             text += "\nShare of control steps won by each behaviour: " + json.dumps(result["winner_share"]) + "\n"
         (args.out / f"{name}.md").write_text(text)
         print(text, flush=True)
+    return status
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

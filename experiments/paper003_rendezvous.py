@@ -29,8 +29,9 @@ check that failed):
   ways of at least ``MIN_BLOCKED_WAY`` m), random start places, and four settings: blockings
   ``start`` or ``start+rate`` (plus random blockings at 0.2 % of the ways per second: the
   env's ``block_rate``, or the same process as timed ``blockings`` on maps with shorter ways)
-  × channel throughput 1.0 or 0.5. Policies ``bidir-astar``, ``bidir-astar-opt`` and
-  ``centralized`` play the same map and seed: success, meeting time (also over
+  × channel throughput 1.0 or 0.5. Policies ``bidir-astar``, ``bidir-astar-opt`` (the
+  protocol's Phase 3 timing ``execution="paper"``), ``bidir-astar-eager`` (the former timing,
+  ``execution="eager"``) and ``centralized`` play the same map and seed: success, meeting time (also over
   ``centralized``'s on the same episode), worst plan optimality per episode, plans and
   re-plans, channel messages and bytes (team), expansions. Corridor walls only up to
   ``WALLS_MAX_PLACES`` places (speed); ``message_len`` fits two whole paths.
@@ -73,7 +74,7 @@ BLOCKED_SHARE = (0.0, 0.2)
 """Share of the ways blocked in a planner-sweep map (uniform in this range)."""
 REPLAN_EXTRA_SHARE = (0.0, 0.02)
 """Share of the open ways blocked besides the way on the path before a re-planning query."""
-EPISODE_POLICIES = ("bidir-astar", "bidir-astar-opt", "centralized")
+EPISODE_POLICIES = ("bidir-astar", "bidir-astar-opt", "bidir-astar-eager", "centralized")
 EPISODE_BLOCKED_SHARE = (0.0, 0.15)
 BLOCK_RATE_PER_WAY = 0.002
 """Rate of random blockings (1/s) of the ``start+rate`` setting per way of the map: the env's

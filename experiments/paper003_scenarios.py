@@ -7,6 +7,8 @@ become blocked when a robot first reaches the place where the paper detects them
 (``arrival_blockings``).
 For every policy the run prints each whole path announced (robot_0's place first), the
 re-plans and where the robots met, next to the paper's plans, and draws one panel per plan.
+``bidir-astar`` and ``bidir-astar-opt`` use the protocol's Phase 3 timing ``execution="paper"``
+(:mod:`baselines.rendezvous.protocol`), ``bidir-astar-eager`` the former ``execution="eager"``.
 
     python experiments/paper003_scenarios.py [--out results/paper003] [--figures docs/figures/paper003]
 """
@@ -115,7 +117,7 @@ def draw_scenario(run: dict, path: Path) -> Path:
     return path
 
 
-POLICIES = ("bidir-astar", "bidir-astar-opt", "centralized")
+POLICIES = ("bidir-astar", "bidir-astar-opt", "bidir-astar-eager", "centralized")
 SCENARIOS = ("paper003_fig5", "paper003_fig8")
 
 

@@ -35,6 +35,12 @@ Choices where the paper is silent (docs/exploration.md; tests/baselines/test_nas
 * **Continuing a task.** For the operator a robot is still executing, w(x_i^n, x_i^{n+1}) is
   the cheapest path cost when the two are no longer adjacent (e.g. a GoTo passing a door
   circle).
+* **Eq. (3) is lost.** ``door_reading`` picks the reading of the door costs
+  (:mod:`teamgym.maps.topology`): ``"per-attempt"`` (default), w = L / ((1 − c) o), or
+  ``"return-trip"``, w = L (2 − o) / ((1 − c) o), where each failed attempt also costs the way
+  back. Section 5.3 explains robot 1's short part in Table 1 by D3,6 being "modeled as the one
+  that is almost for sure closed" (o = 0.2): with the first reading robot 1 still tries D3,6
+  on the rebuilt office ``office12-table1``, with the second it does not, as in Table 1.
 * **R** is not given. With M_U taken after the action, entering a sector removes it from
   the robots' searches, so I_D can grow by up to N times the map's cost diameter; with R
   smaller than that the team can prefer waiting forever (we saw it with R = 1 and R = 5 on
@@ -57,7 +63,7 @@ import numpy as np
 from baselines.exploration.planning import TEAM_VIEW_FIELDS, TeamView, check_operator_env, team_view
 from baselines.game import arbitrate
 from baselines.policy import Policy
-from teamgym.maps.topology import TopologicalModel
+from teamgym.maps.topology import TopologicalModel, check_door_reading
 
 #: Largest joint-action set the planner enumerates (product of the admissible-set sizes).
 MAX_JOINT_ACTIONS = 200_000
@@ -80,6 +86,9 @@ class NashExplore(Policy):
         ``"arbiter"`` (eqs. 30–31 of the shared solver: the global minimum) or ``"first"``
         (the lexicographically first pure equilibrium, which may be only person-by-person
         optimal).
+    door_reading:
+        ``"per-attempt"`` or ``"return-trip"``: the reading of eq. (3)'s door costs
+        (:data:`teamgym.maps.topology.DOOR_READINGS`, module docstring).
     """
 
     name = "nash-explore"
@@ -94,16 +103,18 @@ class NashExplore(Policy):
         wait_cost: float = 0.01,
         unexplored: str = "assigned",
         selection: str = "arbiter",
+        door_reading: str = "per-attempt",
     ) -> None:
         super().__init__(env)
         check_operator_env(env, "nash-explore")
+        check_door_reading(door_reading)
         if unexplored not in ("assigned", "after", "before"):
             raise ValueError(f"unexplored must be 'assigned', 'after' or 'before', got {unexplored!r}")
         if selection not in ("arbiter", "first"):
             raise ValueError(f"selection must be 'arbiter' or 'first', got {selection!r}")
         if not ((reward is None or reward > 0) and wait_cost >= 0):
             raise ValueError(f"need reward > 0 and wait_cost >= 0, got {reward!r}, {wait_cost!r}")
-        self.model = TopologicalModel(env.map)
+        self.model = TopologicalModel(env.map, door_reading)
         self.reward = self.default_reward(self.model, env.config.n_robots) if reward is None else float(reward)
         self.wait_cost = float(wait_cost)
         self.unexplored = unexplored

@@ -18,6 +18,25 @@ sent through the env's channel. Each env step an agent that stands at a place:
    the partner is coming to its place. NEXT is ``(P_{i+1}, path checksum, P_i)``: the next and
    present positions of section 5 plus the plan it follows.
 
+Timing of Phase 3 (``execution``). The paper's messages are instantaneous next to the robots'
+motion: both agents come back to Phase 3 together once Agent 1 sends the whole path
+(section 5), and a re-planning request ends the partner's execution "when the corresponding
+robot reaches the next position" (section 5, *Re_Planning*; Step 3: "stop the controlled robot
+at the end of the current way", Step 7 at a place). Here a message takes one env step, so:
+
+* ``"paper"`` (default): Agent 1 launches a new plan one step after sending its PATH, when
+  Agent 2 receives it, so the robots set off together and neither runs on while the PATH
+  travels. In lockstep (``stage_end="all"``, every robot moves one way per step) an agent also
+  stands one step at each place it reaches before going on (Step 5: it "waits for the robot's
+  answer" to the check): a REPLAN the partner sent on reaching its own place meanwhile stops it
+  at this place (Step 7), and one that arrives while it is on a way stops it at the next place
+  (Step 3); the new plan starts there. With ``stage_end="any"`` a standing step lasts until the
+  partner's next arrival, so that wait is not made (a request reaching a robot on a way still
+  stops it at the next place). On Figs. 5–7 the fourth plan starts at place 7 as in the paper.
+* ``"eager"`` (the behaviour before 2026-12-02; policy ``bidir-astar-eager``): Agent 1 moves in the step it sends a
+  PATH and an agent moves on in the step it reaches a place, so on Figs. 5–7 the red robot
+  runs two places on (to 18) while the PATH and then the REPLAN travel.
+
 The planner (``planner``): ``bidir-astar`` is the paper's distributed bidirectional A*
 (section 4, not always optimal), ``bidir-astar-opt`` its optimal variant, ``astar`` one-sided
 A*, ``centralized`` networkx's shortest path. Agent 1 runs the search for both agents; the
@@ -47,6 +66,9 @@ from baselines.policy import Policy
 from baselines.rendezvous.search import PLANNERS
 from teamgym.envs.base import TeamEnv
 from teamgym.envs.rendezvous.messages import Kind, Record, decode, encode
+
+EXECUTIONS = ("paper", "eager")
+"""Timings of Phase 3 (``RendezvousProtocol(execution=...)``); see the module docstring."""
 
 
 def check_message_len(env: TeamEnv) -> None:
@@ -83,6 +105,8 @@ class AgentBeliefs:
     replanning: bool = True  # Phase 1 at the start
     acknowledged: int = -1  # Agent 1: the checksum of the last path Agent 2 confirmed
     awaiting_present: bool = False  # Agent 1 asked for a re-plan: plan only from the partner's PRESENT
+    launching: bool = False  # Agent 1 sent a new PATH this step: its Phase 3 starts next step, with Agent 2's
+    checked: int = -1  # the place the robot has stood at since an earlier decision (Step 5 answered), -1 after a move
 
 
 class RendezvousProtocol(Policy):
@@ -93,14 +117,21 @@ class RendezvousProtocol(Policy):
     observation_fields: ClassVar[tuple[str, ...]] = ("place", "target", "neighbours", "blocked", "messages", "message_mask")
     required_config: ClassVar[dict[str, Any]] = {"action_type": "next_place", "protocol_messages": True}
 
-    def __init__(self, env: TeamEnv, planner: str = "bidir-astar") -> None:
+    def __init__(self, env: TeamEnv, planner: str = "bidir-astar", execution: str = "paper") -> None:
         super().__init__(env)
         if planner not in PLANNERS:
             raise ValueError(f"unknown planner {planner!r}; choose one of {sorted(PLANNERS)}")
+        if execution not in EXECUTIONS:
+            raise ValueError(f"unknown execution {execution!r}; choose one of {list(EXECUTIONS)}")
         if env.config.n_robots != 2 or env.config.action_type != "next_place" or not env.config.protocol_messages:
             raise ValueError("the protocol of paper 003 needs n_robots=2, action_type='next_place' and protocol_messages=True")
         check_message_len(env)
         self.planner = PLANNERS[planner]
+        self.execution = execution
+        #: Agent 1 starts a new plan when Agent 2 receives it (``"paper"``), not while the PATH travels.
+        self.launch_together = execution == "paper"
+        #: In lockstep (``stage_end="all"``) a robot stands one step at each place it reaches (Step 5's check).
+        self.check_step = execution == "paper" and env.config.stage_end == "all"
         self.graph = env.graph
         self.wait = env.max_degree
         self.length = env.config.message_len
@@ -130,9 +161,11 @@ class RendezvousProtocol(Policy):
         records += self._detect(me, fields)
         if me.replanning:
             records += self._replan(me, first)
-        if me.replanning:
+        if me.replanning or me.launching:  # Phases 1-2, or Agent 1's PATH still on its way to Agent 2
+            me.launching, me.checked = False, me.place
             return self.wait, records
         move, more = self._execute(me, fields)
+        me.checked = me.place if move == self.wait else -1
         if first and not me.replanning and me.acknowledged != checksum(me.path):
             more.append((Kind.PATH, (0, *me.path)))  # repeated until Agent 2 confirms it (the env counts it once)
         return move, records + more
@@ -184,6 +217,7 @@ class RendezvousProtocol(Policy):
         if not result.found:
             return [(Kind.PRESENT, (me.place,))]  # wait for news (a way may reopen only in another episode)
         me.path, me.plan, me.replanning = list(result.path), me.plan + 1, False
+        me.launching = self.launch_together
         return [(Kind.PATH, (int(result.expansions or 0), *me.path))]
 
     def _execute(self, me: AgentBeliefs, fields: dict[str, np.ndarray]) -> tuple[int, list[Record]]:
@@ -205,5 +239,7 @@ class RendezvousProtocol(Policy):
             me.replanning = True
             me.awaiting_present = me is self.beliefs[self.env.possible_agents[0]]  # Step 3: the partner stops first
             return self.wait, [(Kind.REPLAN, (me.place, me.place, nxt))]
+        if self.check_step and me.checked != me.place:
+            return self.wait, here  # Step 5: the check's answer; a partner's REPLAN sent meanwhile stops it here
         neighbours = fields["neighbours"].astype(int).tolist()
         return neighbours.index(nxt), [(Kind.NEXT, (nxt, checksum(me.path), me.place))]

@@ -91,7 +91,9 @@ class EveryTimesteps(BaseCallback):
             self._call()
 
 
-def evaluate_model(model: Any, env: Any, episodes: int, seed: int, deterministic: bool = True) -> dict[str, Any]:
+def evaluate_model(
+    model: Any, env: Any, episodes: int, seed: int, deterministic: bool = True, features: Any = None
+) -> dict[str, Any]:
     """:func:`baselines.summary.summarise` of ``episodes`` episodes (seeds ``seed, seed+1, ...``) of ``model`` on ``env``.
 
     The model acts for every robot through an :class:`SB3Policy`, episode by episode with
@@ -101,7 +103,12 @@ def evaluate_model(model: Any, env: Any, episodes: int, seed: int, deterministic
     from baselines.rl.sb3_policy import SB3Policy
     from baselines.summary import summarise
 
-    policy = SB3Policy(env, model, deterministic=deterministic)
+    if features is not None and features.active:  # widened observations (baselines.rl.agent_features)
+        from baselines.rl.agent_features import FeatureSB3Policy
+
+        policy: SB3Policy = FeatureSB3Policy(env, model, deterministic, features=features)
+    else:
+        policy = SB3Policy(env, model, deterministic=deterministic)
     results = [run_episode(env, policy, seed + i, record_trajectories=False) for i in range(episodes)]
     return summarise(results)
 

@@ -25,6 +25,12 @@ optimality and bytes sent; ...), per episode the mean over its robots of the val
 learning curve (its ``<agent>_eval.csv``; ``--curve-metric``: success rate, collisions or path length) is
 drawn with the scripted rows' values as lines.
 
+``--agent DIR`` may name the output directory of ``baselines.train --seeds`` (its ``runs.json``):
+every seed's model then plays the held-out seeds (:func:`baselines.rl.seeds.evaluate_seeds`), the
+agent's row is the median seed's, and the row's ``across_seeds`` (printed under the table) holds
+each metric's IQM and mean across the seeds with 95 % stratified-bootstrap intervals; ``--curve``
+draws the seeds' learning curves as one, their mean with its band.
+
 A bad command line (``--episodes`` above ``baselines.evaluate.MAX_EPISODES``, an empty ``--env``,
 ``--agent`` or ``--out``), env id, task config, agent, ``--out`` that cannot be written or missing
 learning curve exits 2 with one ``error: ...`` line before any policy plays.
@@ -45,7 +51,7 @@ import numpy as np
 from baselines.episode import EpisodeResult
 from baselines.stats import mean_ci, wilson
 
-__all__ = ["SCRIPTED", "agent_policy", "compare", "main", "row_of"]
+__all__ = ["SCRIPTED", "agent_policy", "compare", "episode_values", "main", "row_of"]
 
 #: Per env: the paper's baseline first, then the simple ones and random (label, policy name).
 SCRIPTED: dict[str, list[tuple[str, str]]] = {
@@ -128,6 +134,22 @@ def row_of(
     }
 
 
+def episode_values(results: Sequence[EpisodeResult], dt: float | None, own: Sequence[str] = ()) -> dict[str, list[float]]:
+    """Per column of :func:`row_of`, its per-episode values (what the row's rates and means are taken over).
+
+    ``success`` and ``clean_success`` as 0/1 (``clean_success`` only for envs that count collisions),
+    ``time_to_success`` of successful episodes only, and per episode the mean over its robots of
+    ``path_length``, ``collisions`` and each of ``own`` that any robot reports (episodes without it left out).
+    """
+    values: dict[str, list[float]] = {"success": [float(r.success) for r in results]}
+    if any(_metric(r, "collisions") for r in results):
+        values["clean_success"] = [float(r.success and sum(_metric(r, "collisions")) == 0) for r in results]
+    values["time_to_success"] = [t for t in (_time_to_success(r, dt) for r in results) if t is not None]
+    for name in ("path_length", "collisions", *own):
+        values[name] = [float(np.mean(_metric(r, name))) for r in results if _metric(r, name)]
+    return values
+
+
 def _rate(value: float | None, ci: Sequence[float] | None) -> str:
     if value is None or ci is None:
         return "–"
@@ -168,8 +190,14 @@ def compare(
     workers: int = 1,
     task: Mapping[str, Any] | None = None,
     policies: Sequence[tuple[str, str]] | None = None,
+    results: dict[str, list[EpisodeResult]] | None = None,
 ) -> list[dict[str, Any]]:
-    """Rows for the scripted policies of ``env_id`` (or ``policies``) and the agent (:func:`agent_policy`), seeds ``seed ..``."""
+    """Rows for the scripted policies of ``env_id`` (or ``policies``) and the agent (:func:`agent_policy`), seeds ``seed ..``.
+
+    ``results``, if given, receives each row's episode results under its label. An ``agent`` that is a
+    ``--seeds`` run directory gives the median seed's row with ``across_seeds`` (see the module docstring;
+    its episodes are not put in ``results``).
+    """
     import teamgym
     from baselines.evaluate import evaluate
     from baselines.learned import is_learned, policy_sidecar
@@ -180,6 +208,14 @@ def compare(
         print(f"note: no scripted baselines are listed for {env_id}; comparing with random only", file=sys.stderr)
     entries = list(policies if policies is not None else SCRIPTED.get(env_id, [("random", "random")]))
     agent_config: dict[str, Any] = {}
+    seeds_record, label_of_agent = None, f"trained: {agent}"
+    if agent is not None and run_directory(agent) is not None:
+        from baselines.rl.seeds import evaluate_seeds
+
+        seeds_record = evaluate_seeds(agent, episodes, seed, workers, task)
+        median = seeds_record["median_seed"]
+        label_of_agent = f"trained: {agent} (seed {median}, the median of {len(seeds_record['seeds'])})"
+        agent = seeds_record["median_model"]
     if agent is not None:
         policy = agent_policy(agent)
         found = policy_sidecar(policy)
@@ -190,13 +226,19 @@ def compare(
         # resolved ``config`` would also pin keys a task option derives (BoxPushing's situation
         # sets the robot and box counts) and contradict a ``--set situation=...``.
         agent_config = dict(sidecar["overrides"] if "overrides" in sidecar else sidecar.get("config") or {})
-        entries.insert(-1 if entries and entries[-1][0] == "random" else len(entries), (f"trained: {agent}", policy))
+        entries.insert(-1 if entries and entries[-1][0] == "random" else len(entries), (label_of_agent, policy))
     dt = float(teamgym.make(env_id, **task).config.dt)
     rows = []
     for label, policy in entries:
+        if seeds_record is not None and label == label_of_agent:
+            row = seeds_record["per_seed"][str(seeds_record["median_seed"])]
+            rows.append({**row, "label": label, "policy": policy, "across_seeds": seeds_record["across_seeds"]})
+            continue
         config = {**agent_config, **task} if is_learned(policy) else {**required_config(policy), **task}
-        results = evaluate(env_id, policy, episodes=episodes, seed=seed, config=config, workers=workers)
-        rows.append(row_of(label, policy, results, dt, OWN_METRICS.get(env_id, ())))
+        played = evaluate(env_id, policy, episodes=episodes, seed=seed, config=config, workers=workers)
+        rows.append(row_of(label, policy, played, dt, OWN_METRICS.get(env_id, ())))
+        if results is not None:
+            results[label] = played
     return rows
 
 
@@ -260,6 +302,36 @@ def agent_policy(agent: str) -> str:
     return f"sb3:{resolve_model(split[1] if split else agent)}"
 
 
+def run_directory(agent: str) -> Path | None:
+    """``agent`` as a ``baselines.train --seeds`` output directory (one holding ``runs.json``), else ``None``."""
+    path = Path(agent)
+    return path if (path / "runs.json").is_file() else None
+
+
+def across_seeds_text(row: Mapping[str, Any]) -> str:
+    """Under the table: the row's IQM of each metric across seeds with its 95 % bootstrap interval ('' without)."""
+    across = row.get("across_seeds")
+    if not across:
+        return ""
+    parts = []
+    for name, stats in across.items():
+        scale, unit, digits = (100, " %", 0) if name in ("success", "clean_success") else (1, "", 2)
+        low, high = (math.nan if v is None else v for v in stats["iqm_ci"])
+        interval = f" [{scale * low:.{digits}f}, {scale * high:.{digits}f}]" if math.isfinite(low) and math.isfinite(high) else ""
+        parts.append(f"{name} {scale * stats['iqm']:.{digits}f}{unit}{interval}")
+    return f"{row['label']}, across {stats['runs']} seeds (IQM [95 % bootstrap CI]): " + "; ".join(parts)
+
+
+def _curve_csvs(agent: str) -> list[Path]:
+    """The learning curves of a run directory's seeds (every one needed), else :func:`_curve_csv` of the agent."""
+    run_dir = run_directory(agent)
+    if run_dir is None:
+        return [_curve_csv(agent)]
+    from baselines.rl.seeds import read_runs
+
+    return [_curve_csv(str(path)) for path in read_runs(run_dir).values()]
+
+
 def _curve_csv(agent: str) -> Path:
     """The agent's learning curve (``<model-stem>_eval.csv``); ``FileNotFoundError`` if there is none."""
     policy = agent_policy(agent)
@@ -276,7 +348,7 @@ def _curve(agent: str, rows: Sequence[Mapping[str, Any]], out: Path, metric: str
     from baselines.learned import is_learned
     from baselines.rl.plot_curves import load_curves, plot_curves
 
-    curves = load_curves({f"trained: {agent}": [_curve_csv(agent)]}, metric)
+    curves = load_curves({f"trained: {agent}": _curve_csvs(agent)}, metric)
     value = CURVE_METRICS[metric]
     lines = [(row["label"], value(row), "") for row in rows if not is_learned(row["policy"])]
     return plot_curves(curves, out / "curve.png", metric, lines, title=f"{agent}: {metric} on held-out seeds while training")
@@ -298,10 +370,14 @@ def main(argv: Sequence[str] | None = None) -> int:
             check_out(Path(args.out))
         task = parse_pairs(args.set, "--set")
         teamgym.make(args.env, **task).close()  # a bad env id or task config fails here, before any episode
-        if args.agent is not None:
+        if args.agent is not None and run_directory(args.agent) is not None:
+            from baselines.rl.seeds import read_runs
+
+            read_runs(args.agent)  # every seed's model must be there
+        elif args.agent is not None:
             agent_policy(args.agent)
         if args.curve:
-            _curve_csv(args.agent)
+            _curve_csvs(args.agent)
     except (ValueError, KeyError, FileNotFoundError) as error:
         print(f"error: {message(error)}", file=sys.stderr)
         return 2
@@ -310,6 +386,8 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 def _report(args: argparse.Namespace, rows: Sequence[Mapping[str, Any]]) -> int:
     table = markdown(rows)
+    notes = [text for text in map(across_seeds_text, rows) if text]
+    table = "\n\n".join([table, *notes])
     print(f"{args.env}, {args.episodes} held-out seeds from {args.seed}" + (f", task {args.set}" if args.set else ""))
     print(table)
     if args.out is not None:

@@ -39,6 +39,7 @@ _POLICY_RESERVED = {
     "action_space": "the env's",
     "lr_schedule": "from learning_rate",
     "use_sde": "set use_sde as a hyperparameter of the algorithm",
+    "mask_width": "training sets it from the env's action space (maskable_recurrent_ppo)",
 }
 
 
@@ -225,14 +226,22 @@ POLICY_RULES: dict[str, Rule] = {
     "normalize_images": FLAG,
     "optimizer_class": subclass("torch.optim.Optimizer"),
     "optimizer_kwargs": optional(MAPPING),
+    # RecurrentPPO's MlpLstmPolicy (baselines.rl.recurrent)
+    "lstm_hidden_size": COUNT,
+    "n_lstm_layers": COUNT,
+    "shared_lstm": FLAG,
+    "enable_critic_lstm": FLAG,
+    "lstm_kwargs": optional(MAPPING),
 }
+#: RecurrentPPO and its masked variant (baselines.rl.recurrent).
+_RECURRENT = ("recurrent_ppo", "maskable_recurrent_ppo")
 _NET_ARCH: dict[str, Rule] = {
     "dqn": net_arch((), every=False),
     **{algo: net_arch(("pi", "qf"), every=True) for algo in ("sac", "td3", "ddpg")},
-    **{algo: net_arch(("pi", "vf"), every=False) for algo in ("ppo", "a2c", "maskable_ppo")},
+    **{algo: net_arch(("pi", "vf"), every=False) for algo in ("ppo", "a2c", "maskable_ppo", *_RECURRENT)},
 }
 #: Algorithms that normalise advantages per mini-batch when ``normalize_advantage`` is true.
-_ON_POLICY = ("ppo", "a2c", "maskable_ppo")
+_ON_POLICY = ("ppo", "a2c", "maskable_ppo", *_RECURRENT)
 
 
 def _shown(value: Any, width: int = 60) -> str:
@@ -242,6 +251,15 @@ def _shown(value: Any, width: int = 60) -> str:
 
 def _parameters(function: Callable[..., Any]) -> dict[str, inspect.Parameter]:
     return {name: p for name, p in inspect.signature(function).parameters.items() if name != "self"}
+
+
+def _init_keywords(cls: type) -> list[str]:
+    """The named parameters of ``cls.__init__``, and of its base's where it passes ``**kwargs`` on."""
+    parameters = _parameters(cls.__init__)
+    names = [n for n, p in parameters.items() if p.kind not in (p.VAR_POSITIONAL, p.VAR_KEYWORD)]
+    if any(p.kind is p.VAR_KEYWORD for p in parameters.values()) and len(cls.__mro__) > 1:
+        names += [n for n in _init_keywords(cls.__mro__[1]) if n not in names]
+    return names
 
 
 def rules(algo: str) -> dict[str, Rule | None]:
@@ -254,11 +272,15 @@ def rules(algo: str) -> dict[str, Rule | None]:
 
 
 def policy_rules(algo: str) -> dict[str, Rule | None]:
-    """The ``policy_kwargs`` keys of ``algo``'s ``MlpPolicy``, each with its rule (``None``: unchecked)."""
-    from baselines.rl.sb3_policy import algorithm_class
+    """The ``policy_kwargs`` keys of the policy ``algo`` trains (``MlpPolicy``; RecurrentPPO's ``MlpLstmPolicy``).
 
-    policy = algorithm_class(algo).policy_aliases["MlpPolicy"]
-    names = [n for n in _parameters(policy.__init__) if n not in _POLICY_RESERVED]
+    Each with its rule (``None``: unchecked).
+    """
+    from baselines.rl.sb3_policy import algorithm_class, policy_name
+
+    policy = policy_name(algo)
+    policy = algorithm_class(algo).policy_aliases[policy] if isinstance(policy, str) else policy
+    names = [n for n in _init_keywords(policy) if n not in _POLICY_RESERVED]
     return {name: _NET_ARCH[algo.lower()] if name == "net_arch" else POLICY_RULES.get(name) for name in names}
 
 
@@ -314,7 +336,7 @@ def _value(algo: str, params: Mapping[str, Any], key: str) -> Any:
 def _check_pairs(algo: str, params: Mapping[str, Any]) -> None:
     """Checks of keys that depend on each other (SB3's defaults fill in the keys not given)."""
     name = _class_name(algo)
-    if algo in ("ppo", "maskable_ppo") and _value(algo, params, "normalize_advantage") is True:
+    if algo in ("ppo", "maskable_ppo", *_RECURRENT) and _value(algo, params, "normalize_advantage") is True:
         batch_size = _value(algo, params, "batch_size")
         if _is_int(batch_size) and batch_size < 2:
             raise ValueError(

@@ -55,6 +55,7 @@ __all__ = [
     "ExpertActions",
     "ExpertData",
     "behaviour_clone",
+    "clone_defaults",
     "collect_expert_data",
     "collect_learner_data",
     "learner_action",
@@ -391,6 +392,14 @@ def behaviour_clone(
     return stats
 
 
+def clone_defaults() -> dict[str, Any]:
+    """:func:`behaviour_clone`'s settings and their defaults (``batch_size``, ``learning_rate``, ``fit_value``, ...)."""
+    import inspect
+
+    parameters = inspect.signature(behaviour_clone).parameters.values()
+    return {p.name: p.default for p in parameters if p.kind is p.KEYWORD_ONLY and p.name != "seed"}
+
+
 def pretrain(
     model: Any,
     make_env: Callable[[], ParallelEnv],
@@ -441,7 +450,8 @@ def pretrain(
             stats = behaviour_clone(model, data, dagger_epochs or epochs, seed=seed + 1 + k, **options)
     finally:
         env.close()
-    record = {**expert_record, "noise": noise, **stats, "wall_time_s": round(time.time() - started, 3)}
+    clone = {**clone_defaults(), **options}  # every cloning setting as used, so the sidecar tells them all
+    record = {**expert_record, "noise": noise, **clone, **stats, "wall_time_s": round(time.time() - started, 3)}
     if teacher:
         record["expert_kwargs"] = teacher
     if dagger_rounds:

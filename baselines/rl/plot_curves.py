@@ -3,18 +3,20 @@
 Command line::
 
     python -m baselines.rl.plot_curves RUN_DIR [RUN_DIR ...] [--metric success_rate]
-        [--baseline goto] [--baseline random=path/summary.json] [--ci t|bootstrap]
-        [--out curve.png] [--title TEXT] [--workers W]
+        [--baseline goto] [--baseline random=path/summary.json] [--ci t|bootstrap|minmax]
+        [--center mean|iqm] [--out curve.png] [--title TEXT] [--workers W]
 
 Each ``RUN_DIR`` (or ``*_eval.csv`` file) is one curve; every ``*_eval.csv`` beneath it is
 one seed. A ``RUN_DIR`` named ``seed<k>`` joins its siblings: ``plot_curves runs/ppo/seed*``
 draws one curve, like ``plot_curves runs/ppo``. Seeds evaluated at the same timesteps are
 compared there; otherwise each seed is interpolated linearly onto the timesteps they all cover.
 
-The curve is the mean over seeds with a 95 % confidence band across seeds: ``--ci t``
-(default) is the normal approximation with Student's t quantile, mean ± t(0.975, n-1)·s/√n,
-which is honest for the few seeds RL runs have; ``--ci bootstrap`` is the percentile
-bootstrap of the mean over seeds (2000 resamples, fixed generator seed). One seed draws no band.
+The curve is the mean over seeds (``--center mean``, default) or their interquartile mean
+(``--center iqm``: :func:`baselines.seed_stats.iqm`), with a band across seeds: ``--ci t``
+(default; the mean only) is the 95 % normal approximation with Student's t quantile,
+mean ± t(0.975, n-1)·s/√n, which is honest for the few seeds RL runs have; ``--ci bootstrap``
+is the 95 % percentile bootstrap of the centre line over seeds (2000 resamples, fixed generator
+seed); ``--ci minmax`` spans the lowest to the highest seed. One seed draws no band.
 
 ``--baseline NAME`` draws NAME's value of the metric as a horizontal line, computed with
 :func:`baselines.evaluate.evaluate` on the runs' held-out seeds, episodes, env and config
@@ -24,9 +26,9 @@ bootstrap of the mean over seeds (2000 resamples, fixed generator seed). One see
 
 The printed table gives, per curve, the final value of every seed (its last evaluation),
 their mean with the 95 % interval above, and the interquartile mean across seeds as in
-rliable (Agarwal et al., 2021): the mean of the middle 50 %
-(``scipy.stats.trim_mean(values, 0.25)``; with fewer than 4 seeds nothing is trimmed and it
-equals the mean) with a 95 % percentile-bootstrap interval over seeds (2000 resamples).
+rliable (Agarwal et al., 2021): the mean of the middle 50 % (:func:`baselines.seed_stats.iqm`,
+the slice [0.25, 0.75] of the seeds' empirical distribution: for 3 sorted seeds ``a, b, c``
+``(a + 4b + c)/6``) with a 95 % percentile-bootstrap interval over seeds (2000 resamples).
 """
 
 from __future__ import annotations
@@ -48,6 +50,7 @@ __all__ = [
     "Curve",
     "aggregate",
     "baseline_value",
+    "centre_line",
     "bootstrap_interval",
     "build_parser",
     "confidence_band",
@@ -141,31 +144,50 @@ def bootstrap_interval(
     return float(np.quantile(stats, alpha)), float(np.quantile(stats, 1 - alpha))
 
 
-def confidence_band(values: np.ndarray, method: str = "t", level: float = 0.95) -> tuple[np.ndarray, np.ndarray]:
-    """Per-column interval of the mean of a (seeds × timesteps) array: ``"t"`` or ``"bootstrap"`` (see the module docstring)."""
+#: The centre lines of a curve across seeds (``--center``).
+CENTERS: dict[str, Callable[[np.ndarray], float]] = {"mean": np.mean, "iqm": lambda v: interquartile_mean(v)}
+#: The bands across seeds (``--ci``) and the centres each may go with.
+BANDS: dict[str, tuple[str, ...]] = {"t": ("mean",), "bootstrap": ("mean", "iqm"), "minmax": ("mean", "iqm")}
+
+
+def centre_line(values: np.ndarray, center: str = "mean") -> np.ndarray:
+    """Per column of a (seeds × timesteps) array, its ``center`` over seeds (``"mean"`` or ``"iqm"``)."""
+    if center not in CENTERS:
+        raise ValueError(f"unknown centre {center!r}; choose one of {', '.join(CENTERS)}")
+    values = np.asarray(values, dtype=float)
+    return np.array([CENTERS[center](values[:, j]) for j in range(values.shape[1])])
+
+
+def confidence_band(
+    values: np.ndarray, method: str = "t", level: float = 0.95, center: str = "mean"
+) -> tuple[np.ndarray, np.ndarray]:
+    """Per-column band of a (seeds × timesteps) array: ``"t"``, ``"bootstrap"`` (of ``center``) or ``"minmax"``."""
+    if method not in BANDS:
+        raise ValueError(f"unknown interval method {method!r}; choose {', '.join(BANDS)}")
+    if center not in BANDS[method]:
+        raise ValueError(f"--ci {method} is an interval of the mean; use --ci bootstrap or minmax with --center {center}")
     values = np.asarray(values, dtype=float)
     n = values.shape[0]
     if n < 2:
         nan = np.full(values.shape[1], math.nan)
         return nan, nan.copy()
+    if method == "minmax":
+        return values.min(axis=0), values.max(axis=0)
     if method == "t":
         from scipy.stats import t as student
 
         mean = values.mean(axis=0)
         half = student.ppf(0.5 + level / 2, n - 1) * values.std(axis=0, ddof=1) / math.sqrt(n)
         return mean - half, mean + half
-    if method == "bootstrap":
-        bounds = [bootstrap_interval(values[:, j], np.mean, level) for j in range(values.shape[1])]
-        return np.array([b[0] for b in bounds]), np.array([b[1] for b in bounds])
-    raise ValueError(f"unknown interval method {method!r}; choose t or bootstrap")
+    bounds = [bootstrap_interval(values[:, j], CENTERS[center], level) for j in range(values.shape[1])]
+    return np.array([b[0] for b in bounds]), np.array([b[1] for b in bounds])
 
 
 def interquartile_mean(values: Sequence[float]) -> float:
-    """The mean of the middle 50 % of ``values`` (rliable's IQM: ``scipy.stats.trim_mean(values, 0.25)``)."""
-    from scipy.stats import trim_mean
+    """The mean of the middle 50 % of ``values`` (:func:`baselines.seed_stats.iqm`); ``nan`` for none."""
+    from baselines.seed_stats import iqm
 
-    array = np.asarray(values, dtype=float)
-    return float(trim_mean(array, 0.25)) if array.size else math.nan
+    return iqm(values) if len(values) else math.nan
 
 
 def run_settings(csv_path: str | Path) -> dict[str, Any] | None:
@@ -284,7 +306,8 @@ def format_table(rows: Sequence[Mapping[str, Any]], metric: str, ci: str) -> str
     def interval(bounds: tuple[float, float] | None) -> str:
         return "-" if bounds is None or not all(math.isfinite(b) for b in bounds) else f"[{num(bounds[0])}, {num(bounds[1])}]"
 
-    header = ("run", "seeds", "timesteps", f"final {metric}", f"95% CI ({ci})", "IQM", "IQM 95% CI", "per seed / source")
+    band = "min-max" if ci == "minmax" else f"95% CI ({ci})"
+    header = ("run", "seeds", "timesteps", f"final {metric}", band, "IQM", "IQM 95% CI", "per seed / source")
     table = [header]
     for row in rows:
         detail = " ".join(num(v) for v in row["finals"]) if "finals" in row else row.get("source", "")
@@ -316,8 +339,9 @@ def plot_curves(
     baselines: Sequence[tuple[str, float, str]] = (),
     ci: str = "t",
     title: str | None = None,
+    center: str = "mean",
 ) -> Path:
-    """Draw each curve's mean over seeds with its 95 % band (and faint per-seed lines), baselines as horizontal lines."""
+    """Draw each curve's ``center`` over seeds with its band ``ci`` (and faint per-seed lines), baselines as horizontal lines."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -331,9 +355,9 @@ def plot_curves(
         colour = colours[i % len(colours)]
         for seed_values in curve.values:
             axes.plot(curve.timesteps, seed_values, color=colour, alpha=0.2, linewidth=0.8)
-        mean = curve.values.mean(axis=0)
-        axes.plot(curve.timesteps, mean, color=colour, linewidth=2, label=f"{curve.label} ({len(curve.csvs)} seeds)")
-        low, high = confidence_band(curve.values, ci)
+        line = centre_line(curve.values, center)
+        axes.plot(curve.timesteps, line, color=colour, linewidth=2, label=f"{curve.label} ({len(curve.csvs)} seeds)")
+        low, high = confidence_band(curve.values, ci, center=center)
         if np.isfinite(low).any():
             axes.fill_between(curve.timesteps, low, high, color=colour, alpha=0.2, linewidth=0)
     for j, (name, value, _) in enumerate(baselines):
@@ -344,7 +368,8 @@ def plot_curves(
     axes.set_ylabel(metric)
     if metric == "success_rate":
         axes.set_ylim(-0.02, 1.02)
-    axes.set_title(title or f"{metric}: mean over seeds, 95% CI ({ci})")
+    band = "min-max" if ci == "minmax" else f"95% CI ({ci})"
+    axes.set_title(title or f"{metric}: {'IQM' if center == 'iqm' else 'mean'} over seeds, {band}")
     axes.grid(alpha=0.3)
     axes.legend(fontsize=8, loc="best")
     figure.tight_layout()
@@ -366,7 +391,10 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="NAME[=SUMMARY.json]",
         help="scripted policy drawn as a horizontal line (repeatable)",
     )
-    parser.add_argument("--ci", choices=("t", "bootstrap"), default="t", help="95%% interval across seeds (default: t)")
+    parser.add_argument(
+        "--ci", choices=tuple(BANDS), default="t", help="band across seeds: 95%% t or bootstrap interval, or min-max (default: t)"
+    )
+    parser.add_argument("--center", choices=tuple(CENTERS), default="mean", help="centre line over seeds (default: mean)")
     parser.add_argument("--out", default="curve.png", help="PNG file to write (default: curve.png)")
     parser.add_argument("--title", default=None, help="plot title")
     parser.add_argument("--workers", type=at_least(1), default=1, help="processes for baseline evaluations (default: 1)")
@@ -381,6 +409,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if isinstance(args, int):  # --help, or a usage error already reported in one line
         return args
     try:
+        confidence_band(np.zeros((1, 1)), args.ci, center=args.center)  # --ci t with --center iqm fails here
         out = Path(args.out)
         if out.is_dir():
             raise ValueError(f"--out {str(out)!r} is a directory; name a .png file")
@@ -401,7 +430,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             raise
         print(f"error: {type(error).__name__}: {message(error)} (TEAMGYM_TRACEBACK=1 shows where)", file=sys.stderr)
         return 1
-    path = plot_curves(curves, out, args.metric, baselines, args.ci, args.title)
+    path = plot_curves(curves, out, args.metric, baselines, args.ci, args.title, args.center)
     print(format_table(summary_rows(curves, baselines, args.ci), args.metric, args.ci))
     print(f"wrote {path}")
     return 0

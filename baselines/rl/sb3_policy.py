@@ -4,7 +4,12 @@ The model (trained with :class:`baselines.rl.sb3_env.TeamVecEnv`, or any model w
 spaces match one agent's) acts for every robot: the live agents' observations are
 stacked and passed to one ``model.predict`` call (deterministic unless
 ``deterministic=False``); a maskable model (sb3-contrib's ``MaskablePPO``) also gets the
-live agents' action masks, so it never picks a masked action. ``python -m baselines.train``
+live agents' action masks, so it never picks a masked action. A recurrent model (sb3-contrib's
+``RecurrentPPO``) carries each robot's LSTM state from step to step and starts every episode
+from a zero state (:class:`baselines.rl.recurrent.AgentMemory`, reset by :meth:`SB3Policy.reset`);
+a model trained on flattened motion ⊕ message actions (``comm_dim``, ``protocol_messages``) has
+its flat actions decoded into the env's ``Dict`` ones (:mod:`baselines.rl.message_actions`, the
+sidecar's ``message_actions``). ``python -m baselines.train``
 writes a sidecar ``<model>.json`` beside every model it saves (env id, config, algorithm,
 settings; the one sidecar format of :mod:`baselines.learned`, shared with RLlib checkpoints);
 :func:`read_sidecar` reads it. The policy name ``sb3:PATH`` builds an :class:`SB3Policy`.
@@ -48,12 +53,21 @@ ALGORITHMS: dict[str, str] = {
     "ddpg": "DDPG",
     "dqn": "DQN",
     "maskable_ppo": "MaskablePPO",
+    "recurrent_ppo": "RecurrentPPO",
+    "maskable_recurrent_ppo": "RecurrentPPO",  # with this package's masked LSTM policy (baselines.rl.masked_recurrent)
 }
 #: algorithms that come from sb3-contrib rather than Stable-Baselines3
-CONTRIB_ALGORITHMS = frozenset({"maskable_ppo"})
+CONTRIB_ALGORITHMS = frozenset({"maskable_ppo", "recurrent_ppo", "maskable_recurrent_ppo"})
+#: the policy each algorithm trains (``MlpPolicy`` unless listed): RecurrentPPO's LSTM policy (:mod:`baselines.rl.recurrent`),
+#: or a class (``module:Class``)
+POLICIES: dict[str, str] = {
+    "recurrent_ppo": "MlpLstmPolicy",
+    "maskable_recurrent_ppo": "baselines.rl.masked_recurrent:MaskedLstmPolicy",
+}
 #: action spaces each algorithm can learn (algorithms not listed take any)
 _ACTION_SPACES: dict[str, tuple[type[spaces.Space], ...]] = {
     "maskable_ppo": (spaces.Discrete, spaces.MultiDiscrete, spaces.MultiBinary),
+    "maskable_recurrent_ppo": (spaces.Discrete, spaces.MultiDiscrete),
     "dqn": (spaces.Discrete,),
     "sac": (spaces.Box,),
     "td3": (spaces.Box,),
@@ -62,7 +76,7 @@ _ACTION_SPACES: dict[str, tuple[type[spaces.Space], ...]] = {
 
 
 #: algorithms that take action masks (``MaskablePPO.learn`` reads ``env.action_masks()``)
-MASKABLE_ALGORITHMS = frozenset({"maskable_ppo"})
+MASKABLE_ALGORITHMS = frozenset({"maskable_ppo", "maskable_recurrent_ppo"})
 
 
 def algorithm_name(name: str) -> str:
@@ -70,19 +84,36 @@ def algorithm_name(name: str) -> str:
     if not isinstance(name, str) or not name.strip():
         raise ValueError(f"an SB3 algorithm name is needed, got {name!r}; choose one of {sorted(ALGORITHMS)}")
     key = name.strip().lower().replace("-", "_")
-    by_class = {cls.lower(): algo for algo, cls in ALGORITHMS.items()}
+    by_class: dict[str, str] = {}
+    for algo, cls in ALGORITHMS.items():  # a class name means its first algorithm (RecurrentPPO: recurrent_ppo)
+        by_class.setdefault(cls.lower(), algo)
     key = by_class.get(key, key)
     if key not in ALGORITHMS:
         raise ValueError(f"unknown SB3 algorithm {name!r}; choose one of {sorted(ALGORITHMS)} (hyphens work too: maskable-ppo)")
     return key
 
 
+def policy_name(algo: str) -> str | type:
+    """The SB3 policy ``algo`` trains: an alias (``MlpLstmPolicy`` for ``recurrent_ppo``, else ``MlpPolicy``) or a class."""
+    import importlib
+
+    name = POLICIES.get(algorithm_name(algo), "MlpPolicy")
+    if ":" not in name:
+        return name
+    module, _, attribute = name.partition(":")
+    return getattr(importlib.import_module(module), attribute)
+
+
 def check_masks(algo: str, env: Any) -> None:
     """Raise ``ValueError`` if ``env``'s actions are masked and ``algo`` cannot respect masks, naming the one to use."""
+    from baselines.rl.recurrent import RECURRENT_ALGORITHMS, masks_refusal
+
     key = algorithm_name(algo)
     action_type = getattr(env, "action_type", None)
     if key in MASKABLE_ALGORITHMS or not getattr(action_type, "has_masks", False):
         return
+    if key in RECURRENT_ALGORITHMS:
+        raise ValueError(masks_refusal(key, type(env).__name__, action_type.name))
     raise ValueError(
         f"{key} cannot respect the action masks of {type(env).__name__} (action_type={action_type.name!r}): it would "
         "pick masked actions, which the env refuses; use --algo maskable-ppo (sb3-contrib's MaskablePPO), "
@@ -185,12 +216,33 @@ def detect_algorithm(path: str | Path) -> str | None:
     module = str(data.get("policy_class", {}).get("__module__", ""))
     if module == "sb3_contrib.common.maskable.policies":
         return "maskable_ppo"
+    if module == "sb3_contrib.common.recurrent.policies":
+        return "recurrent_ppo"
+    if module == "baselines.rl.masked_recurrent":
+        return "maskable_recurrent_ppo"
     for algo in ("sac", "td3", "dqn"):  # DDPG saves TD3 policies and loads (for prediction) as TD3
         if module == f"stable_baselines3.{algo}.policies":
             return algo
     if module == "stable_baselines3.common.policies":
         return "ppo" if "clip_range" in data else "a2c"
     return None
+
+
+def _policy_class(cls: type, path: Path) -> Any:
+    """``cls``, or a :class:`~baselines.rl.agent_features.FeatureSB3Policy` maker when the sidecar records ``obs_features``."""
+    from baselines.rl.agent_features import FeatureSB3Policy, ObservationFeatures
+
+    try:
+        features = ObservationFeatures.from_sidecar(read_sidecar(path))
+    except ValueError as error:
+        raise ValueError(f"the model's sidecar {str(path.with_suffix('.json'))!r}: {error}") from None
+    if not features.active or not issubclass(cls, SB3Policy) or issubclass(cls, FeatureSB3Policy):
+        return cls
+
+    def make(env: Any, model: Any, deterministic: bool, codec: Any = None) -> FeatureSB3Policy:
+        return FeatureSB3Policy(env, model, deterministic, codec=codec, features=features)
+
+    return make
 
 
 class SB3Policy(Policy):
@@ -206,13 +258,20 @@ class SB3Policy(Policy):
     name = "sb3"
     native_actions = False  # the model acts in the space it was trained on
 
-    def __init__(self, env: TeamEnv, model: Any, deterministic: bool = True) -> None:
+    def __init__(self, env: TeamEnv, model: Any, deterministic: bool = True, codec: Any = None) -> None:
+        from baselines.rl.recurrent import AgentMemory, is_recurrent
+
         super().__init__(env)
         self.model = model
         self.deterministic = deterministic
         self.algo: str | None = None
         self.path: Path | None = None
         self.maskable = _is_maskable(model)
+        #: The :class:`~baselines.rl.message_actions.MessageCodec` of a model trained on flattened
+        #: motion ⊕ message actions (its sidecar's ``message_actions``), else ``None``.
+        self.codec = codec
+        #: Each robot's LSTM state through the episode (a recurrent model), else ``None``.
+        self.memory = AgentMemory(model) if is_recurrent(model) else None
         self._check_spaces()
 
     @classmethod
@@ -227,6 +286,7 @@ class SB3Policy(Policy):
         """
         path = resolve_model(path)
         algo = algo or detect_algorithm(path)
+        codec = _codec_of(path, env)
         candidates = [algo] if algo else list(ALGORITHMS)
         errors = []
         for name in candidates:
@@ -236,7 +296,7 @@ class SB3Policy(Policy):
                 errors.append(f"{name}: {error}")
                 continue
             try:
-                policy = cls(env, model, deterministic=deterministic)
+                policy = _policy_class(cls, path)(env, model, deterministic=deterministic, codec=codec)
             except ValueError as error:
                 sidecar = path.with_suffix(".json")
                 hint = f"; the training settings are in {str(sidecar)!r}" if sidecar.is_file() else ""
@@ -249,19 +309,29 @@ class SB3Policy(Policy):
     def reset(self, seed: int | None = None) -> None:
         """Start an episode; a stochastic policy reseeds the generators SB3 samples from (see the class docstring)."""
         super().reset(seed)
+        if self.memory is not None:  # every robot's LSTM starts the episode from a zero state
+            self.memory.reset()
         if not self.deterministic and seed is not None:
             from stable_baselines3.common.utils import set_random_seed
 
             set_random_seed(int(seed))
             self.model.action_space.seed(int(seed))
 
+    def _input_space(self, agent: str) -> spaces.Space:
+        """The observation space the model must take: the env's (a subclass may widen it)."""
+        return self.env.observation_space(agent)
+
     def _check_spaces(self) -> None:
         env = self.env
         if not env.possible_agents:
             return
         agent = env.possible_agents[0]
-        env_obs, env_act = env.observation_space(agent), env.action_space(agent)
+        env_obs, env_act = self._input_space(agent), env.action_space(agent)
+        if self.codec is not None:
+            env_act = self.codec.space
         model_obs, model_act = self.model.observation_space, self.model.action_space
+        if self.memory is not None and self.memory.mask_width and getattr(env_obs, "shape", None) is not None:
+            env_obs = spaces.Box(-np.inf, np.inf, (env_obs.shape[0] + self.memory.mask_width,))  # the masks follow
         if getattr(model_obs, "shape", None) != getattr(env_obs, "shape", None):
             raise ValueError(
                 f"the SB3 model expects observations of shape {getattr(model_obs, 'shape', None)}, "
@@ -278,14 +348,19 @@ class SB3Policy(Policy):
         if not agents:
             return {}
         batch = np.stack([np.asarray(observations[a], dtype=np.float32) for a in agents])
-        if self.maskable:
+        if self.memory is not None:
+            masks = self._masks(agents) if self.memory.mask_width else None
+            actions = self.memory.predict(agents, batch, deterministic=self.deterministic, masks=masks)
+        elif self.maskable:
             actions, _ = self.model.predict(batch, deterministic=self.deterministic, action_masks=self._masks(agents))
         else:
             actions, _ = self.model.predict(batch, deterministic=self.deterministic)
         space = self.env.action_space(agents[0])
         out: dict[str, Any] = {}
         for i, agent in enumerate(agents):
-            if isinstance(space, spaces.Discrete):
+            if self.codec is not None:
+                out[agent] = self.codec.decode(actions[i])
+            elif isinstance(space, spaces.Discrete):
                 out[agent] = int(np.asarray(actions[i]).reshape(()))
             elif isinstance(space, spaces.Box):
                 out[agent] = np.clip(np.asarray(actions[i], dtype=space.dtype).reshape(space.shape), space.low, space.high)
@@ -298,4 +373,26 @@ class SB3Policy(Policy):
         masks = self.env.action_masks() if hasattr(self.env, "action_masks") else {}
         if not all(a in masks for a in agents):
             return None
+        if self.codec is not None:
+            masks = {a: self.codec.mask(masks[a]) for a in agents}
         return np.stack([np.asarray(masks[a], dtype=bool).reshape(-1) for a in agents])
+
+
+def _codec_of(path: Path, env: TeamEnv) -> Any:
+    """The message codec a model's sidecar records (``message_actions``) for ``env``, else ``None``."""
+    from baselines.rl.message_actions import MessageCodec, MessageSettings
+
+    try:
+        record = (read_sidecar(path) or {}).get("message_actions")
+    except ValueError:  # a damaged sidecar: the model is loaded as without one
+        record = None
+    if record is None or not env.possible_agents:
+        return None
+    space = env.action_space(env.possible_agents[0])
+    try:
+        return MessageCodec(space, MessageSettings.from_record(record))
+    except ValueError as error:
+        raise ValueError(
+            f"the SB3 model {str(path)!r} acts with motion ⊕ message actions (its sidecar's message_actions), which do not fit "
+            f"the env's action space {space}: {error}"
+        ) from None

@@ -8,6 +8,10 @@ Command line::
         [--tensorboard DIR] [--progress-bar] [--checkpoint-every N] [--resume PATH]
         [--eval-every N] [--eval-episodes 10] [--eval-seed 10000]
         [--seeds 0,1,2] [--jobs 1] [--bc-expert NAME] [--bc-steps 20000] [--bc-epochs 30]
+        [--bc-noise 0.5] [--bc-batch-size 64] [--bc-lr 1e-3] [--bc-std-fraction 0.2]
+        [--bc-label-smoothing 0.1] [--bc-no-value] [--bc-dagger-steps N] [--bc-dagger-epochs K]
+        [--message-levels 5] [--message-tokens 8] [--message-vocab 64]
+        [--critic local|central] [--agent-id] [--independent]
 
 Timesteps count agent transitions (every robot's step is one SB3 step, see
 :class:`baselines.rl.sb3_env.TeamVecEnv`). The model is saved to ``--out`` and a sidecar
@@ -44,7 +48,24 @@ Research tooling (all off by default; see ``docs/training.md``):
   adds R rounds of DAgger (the clone drives, the expert labels, the clone is refitted on
   all data); a preset's ``bc.expert_kwargs`` are the expert's constructor arguments; the
   sidecar's ``bc`` records the settings and the expert's and the clone's success on the
-  collected episodes.
+  collected episodes. ``--bc-noise`` (DART noise of the executed expert actions, default 0.5;
+  0: the expert's own episodes), ``--bc-batch-size``, ``--bc-lr``, ``--bc-std-fraction``,
+  ``--bc-label-smoothing``, ``--bc-no-value``, ``--bc-dagger-steps`` and ``--bc-dagger-epochs``
+  set the rest of :func:`baselines.rl.imitation.pretrain`'s settings (a preset's ``bc`` otherwise).
+* ``--algo recurrent-ppo``: sb3-contrib's ``RecurrentPPO`` (LSTM); evaluation carries each
+  robot's hidden state through the episode (:mod:`baselines.rl.recurrent`); on masked action types
+  it is refused (sb3-contrib has no masked RecurrentPPO) and ``--algo maskable-recurrent-ppo``
+  is the masked variant (:mod:`baselines.rl.masked_recurrent`).
+* A motion ⊕ message action (``--set comm_dim=K``, Rendezvous' ``protocol_messages=True``) is
+  trained as one flat Box or MultiDiscrete action (:mod:`baselines.rl.message_actions`;
+  ``--message-levels``, ``--message-tokens``, ``--message-vocab``); the sidecar's
+  ``message_actions`` lets ``baselines.evaluate`` decode it.
+* ``--critic central``: a centralised critic (MAPPO-style): each robot's observation carries the
+  team ``state()``, which only the critic reads (:mod:`baselines.rl.central_critic`);
+  ``--agent-id``: a one-hot of the robot's index in its observation; ``--independent``: one
+  policy per robot, no shared parameters, stored in one zip (:mod:`baselines.rl.independent`).
+  The sidecar records them (``obs_features``) and ``sb3:PATH`` evaluation widens the
+  observations the same way (:mod:`baselines.rl.agent_features`, :mod:`baselines.rl.team_methods`).
 
 Bad arguments exit with code 2 and one ``error: ...`` line before training starts (``--hp``
 values and a preset's hyperparameters before any env is built: :mod:`baselines.rl.hyperparameters`;
@@ -67,6 +88,7 @@ from pathlib import Path
 from typing import Any
 
 from baselines.rl.imitation import DEFAULT_BC_EPOCHS, DEFAULT_BC_NOISE, DEFAULT_BC_STEPS
+from baselines.rl.recurrent import MASKED_RECURRENT
 
 __all__ = ["DEFAULT_EVAL_SEED", "Training", "build_parser", "default_hyperparameters", "main", "train", "train_seeds"]
 
@@ -80,7 +102,7 @@ def default_hyperparameters(algo: str, num_envs: int) -> dict[str, Any]:
     from baselines.rl.sb3_policy import algorithm_name
 
     algo = algorithm_name(algo)
-    if algo in ("ppo", "maskable_ppo"):
+    if algo in ("ppo", "maskable_ppo", "recurrent_ppo", "maskable_recurrent_ppo"):
         n_steps = max(8, math.ceil(2048 / num_envs / 8) * 8)
         return {"n_steps": n_steps, "batch_size": n_steps * num_envs // 8}
     if algo == "a2c":
@@ -137,6 +159,20 @@ def _write_json(path: Path, data: Mapping[str, Any]) -> Path:
     return write_json(path, data, default=repr)
 
 
+def _team_methods(critic: str | None, agent_id: bool | None, independent: bool | None, saved: Mapping[str, Any] | None) -> Any:
+    """The run's :class:`~baselines.rl.team_methods.TeamMethods`: as given, or a resumed model's (other choices refused)."""
+    from baselines.rl.team_methods import TeamMethods
+
+    given = TeamMethods(critic or "local", bool(agent_id), bool(independent))
+    if saved is None:
+        return given
+    before = TeamMethods.from_sidecar(saved)
+    for name, value in (("critic", critic), ("agent_id", agent_id), ("independent", independent)):
+        if value is not None and value != getattr(before, name):
+            raise ValueError(f"the resumed model was trained with {name}={getattr(before, name)!r}, not {value!r}")
+    return before
+
+
 class Training:
     """One training run, built and checked in the constructor, run by :meth:`learn`.
 
@@ -178,13 +214,23 @@ class Training:
         bc_batch_size: int | None = None,
         bc_noise: float | None = None,
         bc_expert_kwargs: Mapping[str, Any] | None = None,
+        bc_learning_rate: float | None = None,
+        bc_std_fraction: float | None = None,
+        bc_label_smoothing: float | None = None,
+        bc_fit_value: bool | None = None,
         workers: int = 1,
         preset: str | None = None,
+        message_levels: int | None = None,
+        message_tokens: int | None = None,
+        message_vocab: int | None = None,
+        critic: str | None = None,
+        agent_id: bool | None = None,
+        independent: bool | None = None,
     ) -> None:
         import teamgym
         from baselines.rl.callbacks import EvalLog, PaddingShareLog
         from baselines.rl.hyperparameters import check_hyperparameters, check_rollout
-        from baselines.rl.sb3_env import TeamVecEnv
+        from baselines.rl.message_actions import FlatMessageActions, MessageCodec, MessageSettings, is_message_space
         from baselines.rl.sb3_policy import (
             algorithm_class,
             algorithm_name,
@@ -222,6 +268,8 @@ class Training:
         resumed_hp = _saved_hyperparameters(previous) if self.resume else {}
         check_hyperparameters(self.algo, hyperparameters or {}, resumed_hp)  # before any env: keys, types and ranges
         hyperparameters = dict(hyperparameters or {})
+        self.methods = _team_methods(critic, agent_id, independent, previous if self.resume else None)
+        self.methods.check(self.algo, bc=bc_expert is not None, workers=workers)
         if progress_bar:
             _require("tqdm", "the progress bar")
             _require("rich", "the progress bar")
@@ -254,6 +302,8 @@ class Training:
                 if not isinstance(bc_expert_kwargs, Mapping) or not all(isinstance(k, str) for k in bc_expert_kwargs):
                     raise ValueError(f"bc expert_kwargs must map argument names to values, got {bc_expert_kwargs!r}")
                 self.bc["expert_kwargs"] = dict(bc_expert_kwargs)
+            self.bc.update(_clone_options(bc_learning_rate, bc_std_fraction, bc_label_smoothing, bc_fit_value))
+        settings = MessageSettings(message_levels, message_tokens, message_vocab).check()
         if threads is not None:
             import torch
 
@@ -261,8 +311,21 @@ class Training:
         probe = teamgym.make(env_id, **self.config)  # validate id and config (and the expert) before building the VecEnv
         try:
             action_space = probe.action_space(probe.possible_agents[0])
+            self.codec: MessageCodec | None = None
+            if is_message_space(action_space):  # comm_dim / protocol_messages: one flat action of motion ⊕ message
+                self.codec = MessageCodec(action_space, settings)
+                action_space = self.codec.space
+                if bc_expert is not None:
+                    raise ValueError("behaviour cloning (--bc-expert) does not support motion ⊕ message actions yet")
+            elif settings.given():
+                raise ValueError(
+                    f"--message-levels/--message-tokens/--message-vocab flatten a motion ⊕ message action (comm_dim > 0, "
+                    f"or Rendezvous' protocol_messages=True); {env_id}'s action space is {action_space}"
+                )
             check_action_space(self.algo, action_space)
             check_masks(self.algo, probe)
+            self.methods.check_env(probe)
+            self.policy_spec = self.methods.policy(self.algo, probe)
             slots = self.n_envs * len(probe.possible_agents)  # TeamVecEnv's num_envs
             base = resumed_hp if self.resume else default_hyperparameters(self.algo, slots)
             check_rollout(self.algo, {**base, **hyperparameters}, action_space, slots)
@@ -277,14 +340,19 @@ class Training:
         self.workers, self.preset = int(workers), preset
 
         def make_copy() -> Any:
-            return teamgym.make(env_id, **self.config)
+            env = teamgym.make(env_id, **self.config)
+            return FlatMessageActions(env, settings) if self.codec is not None else env
 
         if self.workers == 1:
-            self.venv = TeamVecEnv(make_copy, n_envs=self.n_envs)
+            self.venv = self.methods.make_venv(make_copy, self.n_envs)
         else:
             from baselines.rl.subproc import SubprocTeamVecEnv
 
             self.venv = SubprocTeamVecEnv(make_copy, self.n_envs, n_workers=self.workers)
+        if self.algo == MASKED_RECURRENT:  # the masks ride in the observations (baselines.rl.masked_recurrent)
+            from baselines.rl.masked_recurrent import MasksInObservation
+
+            self.venv = MasksInObservation(self.venv)
         self.eval_env = None
         self.padding_log = PaddingShareLog()
         try:
@@ -307,14 +375,21 @@ class Training:
                 self.resumed_at, self.reset_seed = None, self.seed
                 params = default_hyperparameters(self.algo, self.venv.num_envs)
                 params.update(hyperparameters)
+                if self.algo == MASKED_RECURRENT:
+                    params["policy_kwargs"] = {**(params.get("policy_kwargs") or {}), "mask_width": self.venv.width}
+                policy, policy_kwargs = self.policy_spec
+                if policy_kwargs:  # the methods' (baselines.rl.team_methods) beside the user's
+                    params_in = {**params, "policy_kwargs": {**params.get("policy_kwargs", {}), **policy_kwargs}}
+                else:
+                    params_in = params
                 self.model = cls(
-                    "MlpPolicy",
+                    policy,
                     self.venv,
                     seed=self.seed,
                     verbose=verbose,
                     device="cpu",
                     tensorboard_log=self.tensorboard_log,
-                    **params,
+                    **params_in,
                 )
                 self.params = {k: repr(v) for k, v in params.items()}
             if self.eval_every:
@@ -325,7 +400,7 @@ class Training:
                         f"the evaluation seeds {self.eval_seed}..{self.eval_seed + self.eval_episodes - 1} include the "
                         f"training envs' reset seeds {clash}; choose held-out seeds outside them"
                     )
-                self.eval_env = teamgym.make(env_id, **self.config)
+                self.eval_env = make_copy()
             # A resumed run continues the eval log and the best model up to its timestep; a new run starts them afresh.
             upto = self.resumed_at or 0
             csv_path = eval_csv_path(self.out)
@@ -379,6 +454,9 @@ class Training:
                 else None
             ),
         }
+        if self.codec is not None:
+            meta["message_actions"] = self.codec.record()
+        meta.update(self.methods.sidecar())
         if kind == "interrupted":
             meta["interrupted"] = True
         return meta
@@ -399,7 +477,7 @@ class Training:
         from baselines.rl.callbacks import evaluate_model, is_better
 
         assert self.eval_env is not None
-        summary = evaluate_model(self.model, self.eval_env, self.eval_episodes, self.eval_seed)
+        summary = evaluate_model(self.model, self.eval_env, self.eval_episodes, self.eval_seed, features=self.methods.features)
         row = self.eval_log.append(timesteps, summary)
         logger = self.model.logger
         for key, value in row.items():
@@ -472,7 +550,7 @@ class Training:
             dagger_epochs=bc.get("dagger_epochs"),
             noise=bc.get("noise", DEFAULT_BC_NOISE),
             expert_kwargs=bc.get("expert_kwargs"),
-            **({"batch_size": bc["batch_size"]} if "batch_size" in bc else {}),
+            **{option: bc[option] for option in ("batch_size", *_CLONE_OPTIONS.values()) if option in bc},
         )
         self.bc.update(record)
         self.bc_pending = False
@@ -497,6 +575,39 @@ class Training:
         for env in (getattr(self, "venv", None), getattr(self, "eval_env", None)):
             if env is not None:
                 env.close()
+
+
+#: Behaviour-cloning settings of :func:`baselines.rl.imitation.behaviour_clone`: ``Training`` argument -> its keyword.
+_CLONE_OPTIONS = {
+    "bc_learning_rate": "learning_rate",
+    "bc_std_fraction": "std_fraction",
+    "bc_label_smoothing": "label_smoothing",
+    "bc_fit_value": "fit_value",
+}
+
+
+def _clone_options(
+    learning_rate: float | None, std_fraction: float | None, label_smoothing: float | None, fit_value: bool | None
+) -> dict[str, Any]:
+    """The cloning settings given (``None``: the default), checked; one-line ``ValueError`` naming a bad one."""
+    given = {"learning_rate": learning_rate, "std_fraction": std_fraction, "label_smoothing": label_smoothing}
+    for name, value in given.items():
+        if value is None:
+            continue
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise ValueError(f"bc_{name} must be a finite number, got {value!r}")
+    if learning_rate is not None and learning_rate <= 0:
+        raise ValueError(f"bc_learning_rate must be > 0, got {learning_rate}")
+    if std_fraction is not None and std_fraction <= 0:
+        raise ValueError(f"bc_std_fraction must be > 0, got {std_fraction}")
+    if label_smoothing is not None and not 0 <= label_smoothing < 1:
+        raise ValueError(f"bc_label_smoothing must be in [0, 1), got {label_smoothing}")
+    if fit_value is not None and not isinstance(fit_value, bool):
+        raise ValueError(f"bc_fit_value must be True or False, got {fit_value!r}")
+    out: dict[str, Any] = {k: float(v) for k, v in given.items() if v is not None}
+    if fit_value is not None:
+        out["fit_value"] = fit_value
+    return out
 
 
 def train(
@@ -736,7 +847,118 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="R",
         help="then R rounds of DAgger: the clone drives, the expert labels, the clone is refitted on all data (default: 0)",
     )
+    _add_knobs(parser)
+    _add_method_arguments(parser)
     return parser
+
+
+def _real(low: float, high: float | None = None, *, open_low: bool = False, open_high: bool = False) -> Callable[[str], float]:
+    """An argparse ``type``: a finite number in the given range."""
+    shown = f"{'(' if open_low else '['}{low:g}, {'inf)' if high is None else f'{high:g}' + (')' if open_high else ']')}"
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a number in {shown}, got {text!r}") from None
+        above = value > low if open_low else value >= low
+        below = high is None or (value < high if open_high else value <= high)
+        if not (math.isfinite(value) and above and below):
+            raise argparse.ArgumentTypeError(f"expected a number in {shown}, got {text!r}")
+        return value
+
+    return parse
+
+
+#: The imitation and message options (``--bc-...`` beyond expert, steps, epochs and DAgger rounds; ``--message-...``).
+_BC_KNOBS = ("bc_noise", "bc_batch_size", "bc_lr", "bc_std_fraction", "bc_label_smoothing", "bc_no_value")
+_BC_DAGGER_KNOBS = ("bc_dagger_steps", "bc_dagger_epochs")
+
+
+def _add_knobs(parser: argparse.ArgumentParser) -> None:
+    """``--bc-noise`` and the other cloning settings, and ``--message-levels/tokens/vocab`` (learned messages)."""
+    from baselines.cli import at_least
+    from baselines.rl.imitation import DEFAULT_STD_FRACTION
+    from baselines.rl.message_actions import DEFAULT_LEVELS, DEFAULT_TOKENS, DEFAULT_VOCAB
+
+    count = at_least(1)
+    parser.add_argument(
+        "--bc-noise",
+        type=_real(0, 1),
+        default=None,
+        metavar="X",
+        help=f"DART noise of the executed expert actions while collecting, 0 = none (default: {DEFAULT_BC_NOISE})",
+    )
+    parser.add_argument("--bc-batch-size", type=count, default=None, metavar="B", help="cloning mini-batch (default: 64)")
+    parser.add_argument(
+        "--bc-lr", type=_real(0, open_low=True), default=None, metavar="LR", help="cloning Adam step size (default: 1e-3)"
+    )
+    parser.add_argument(
+        "--bc-std-fraction",
+        type=_real(0, open_low=True),
+        default=None,
+        metavar="F",
+        help=f"Box action std after cloning, as a fraction of the half range (default: {DEFAULT_STD_FRACTION})",
+    )
+    parser.add_argument(
+        "--bc-label-smoothing",
+        type=_real(0, 1, open_high=True),
+        default=None,
+        metavar="E",
+        help="label smoothing of the discrete cloning loss (default: 0.1)",
+    )
+    parser.add_argument(
+        "--bc-no-value", action="store_true", default=None, help="do not fit the value head to the expert's returns"
+    )
+    parser.add_argument(
+        "--bc-dagger-steps", type=count, default=None, metavar="N", help="transitions per DAgger round (default: --bc-steps)"
+    )
+    parser.add_argument(
+        "--bc-dagger-epochs", type=count, default=None, metavar="K", help="passes per DAgger refit (default: --bc-epochs)"
+    )
+    parser.add_argument(
+        "--message-levels",
+        type=at_least(2),
+        default=None,
+        metavar="L",
+        help=f"comm_dim with discrete motion: values per message entry (default: {DEFAULT_LEVELS})",
+    )
+    parser.add_argument(
+        "--message-tokens",
+        type=count,
+        default=None,
+        metavar="K",
+        help=f"protocol_messages: message values the policy writes (default: {DEFAULT_TOKENS})",
+    )
+    parser.add_argument(
+        "--message-vocab",
+        type=at_least(2),
+        default=None,
+        metavar="V",
+        help=f"protocol_messages: values per token, -1 .. V-2 (default: {DEFAULT_VOCAB})",
+    )
+
+
+def _add_method_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--critic``, ``--agent-id``, ``--independent`` (:mod:`baselines.rl.team_methods`)."""
+    from baselines.rl.team_methods import CRITICS
+
+    parser.add_argument(
+        "--critic",
+        choices=CRITICS,
+        default=None,
+        help="local: the critic reads the robot's observation (default); central: also the team state() (MAPPO-style; "
+        "ppo, a2c, maskable_ppo)",
+    )
+    parser.add_argument(
+        "--agent-id", action="store_true", default=None, help="append a one-hot of the robot's index to its observation"
+    )
+    parser.add_argument(
+        "--independent",
+        action="store_true",
+        default=None,
+        help="one policy per robot, no shared parameters (fixed teams; ppo, a2c, maskable_ppo; one zip holds them all)",
+    )
 
 
 def _preset_settings(name: str, env_id: str | None) -> dict[str, Any]:
@@ -838,6 +1060,9 @@ def _plan(args: argparse.Namespace) -> tuple[dict[str, Any], list[int] | None]:
         kwargs["preset"] = args.preset
     if args.workers is not None:
         kwargs["workers"] = args.workers
+    for name in ("critic", "agent_id", "independent"):
+        if getattr(args, name, None) is not None:
+            kwargs[name] = getattr(args, name)
     bc = saved.get("bc") if args.preset and isinstance(saved.get("bc"), dict) else {}
     expert = args.bc_expert if args.bc_expert is not None else bc.get("expert")
     if expert is not None:  # a --bc-expert other than the preset's keeps the preset's amounts unless given
@@ -845,14 +1070,27 @@ def _plan(args: argparse.Namespace) -> tuple[dict[str, Any], list[int] | None]:
         kwargs["bc_steps"] = _pick(args.bc_steps, bc.get("steps"), DEFAULT_BC_STEPS)
         kwargs["bc_epochs"] = _pick(args.bc_epochs, bc.get("epochs"), DEFAULT_BC_EPOCHS)
         kwargs["bc_dagger"] = _pick(args.bc_dagger, bc.get("dagger_rounds"), 0)
-        kwargs["bc_dagger_steps"] = bc.get("dagger_steps")
-        kwargs["bc_dagger_epochs"] = bc.get("dagger_epochs")
-        kwargs["bc_batch_size"] = bc.get("batch_size")
-        kwargs["bc_noise"] = bc.get("noise")
+        kwargs["bc_dagger_steps"] = _pick(args.bc_dagger_steps, bc.get("dagger_steps"), None)
+        kwargs["bc_dagger_epochs"] = _pick(args.bc_dagger_epochs, bc.get("dagger_epochs"), None)
+        kwargs["bc_batch_size"] = _pick(args.bc_batch_size, bc.get("batch_size"), None)
+        kwargs["bc_noise"] = _pick(args.bc_noise, bc.get("noise"), None)
+        kwargs["bc_learning_rate"] = _pick(args.bc_lr, bc.get("learning_rate"), None)
+        kwargs["bc_std_fraction"] = _pick(args.bc_std_fraction, bc.get("std_fraction"), None)
+        kwargs["bc_label_smoothing"] = _pick(args.bc_label_smoothing, bc.get("label_smoothing"), None)
+        kwargs["bc_fit_value"] = False if args.bc_no_value else bc.get("fit_value")
         if expert == bc.get("expert"):  # the preset's expert arguments fit only its expert
             kwargs["bc_expert_kwargs"] = bc.get("expert_kwargs")
     elif args.bc_dagger:
         raise ValueError("--bc-dagger needs --bc-expert (or a preset with behaviour cloning)")
+    else:
+        given = [f"--{k.replace('_', '-')}" for k in (*_BC_KNOBS, *_BC_DAGGER_KNOBS) if getattr(args, k) is not None]
+        if given:
+            raise ValueError(f"{', '.join(given)} need --bc-expert (or a preset with behaviour cloning)")
+    message = saved.get("message_actions") if args.resume and isinstance(saved.get("message_actions"), dict) else {}
+    for key in ("levels", "tokens", "vocab"):
+        value = _pick(getattr(args, f"message_{key}"), message.get(key), None)
+        if value is not None:
+            kwargs[f"message_{key}"] = value
     if args.seeds is not None:
         out_dir = Path(args.out) if args.out is not None else Path("results") / "models" / f"{env_id}_{algo}"
         if out_dir.suffix == ".zip" or out_dir.is_file():

@@ -33,10 +33,18 @@ from teamgym.maps.graph import (
 )
 from teamgym.maps.model import DoorObject, Furniture, MapError, OfficeMap, Sector, available_maps, load_map, map_from_dict
 from teamgym.maps.plot import plot_graph_map
-from teamgym.maps.topology import ClutterEstimate, TopologicalModel, characteristic_distance, door_cost, passage_cost
+from teamgym.maps.topology import (
+    DOOR_READINGS,
+    ClutterEstimate,
+    TopologicalModel,
+    characteristic_distance,
+    door_cost,
+    passage_cost,
+)
 from teamgym.maps.validate import validate
 
 __all__ = [
+    "DOOR_READINGS",
     "ClutterEstimate",
     "DoorObject",
     "Furniture",

@@ -16,8 +16,20 @@ straight distance on average) and with o_j as the chance of finding the door ope
     w(S_i, S_k)               = ½ L_ik · (1 / (1 − c_i) + 1 / (1 − c_k))    (3c)
 
 Costs grow with L and c, grow as o falls, and are infinite for a door known to be closed
-(o_j = 0). Eq. (2) is also lost; we read it as c_i = 1 − (1/K) Σ_k d_k,0 / d_k,T (0 for an
-empty sector, → 1 when the travelled distance d_T grows without bound), with the designer's
+(o_j = 0). That is the default reading ``door_reading="per-attempt"``: 1 / o_j attempts, each
+costing the way to the door. The second reading, ``"return-trip"``, charges every failed
+attempt the way back as well (the robot that finds the door closed returns, L, and comes again,
+L): 1 + 2 (1 − o_j) / o_j trips, i.e.
+
+    w(S_i, D_j) = w(D_j, S_i) = L_ij (2 − o_j) / ((1 − c_i) · o_j)          (3a, 3b; "return-trip")
+
+Both equal L / (1 − c) for a door that is always open; for o = 0.2 (the paper's D3,6, "closed
+most of the time", "almost for sure closed", section 5.3) the door costs 5 L in the first
+reading and 9 L in the second. Only the second keeps robot 1 of Table 1 off D3,6
+(experiments/paper000_exploration.py ``table1``; docs/exploration.md).
+
+Eq. (2) is also lost; we read it as c_i = 1 − (1/K) Σ_k d_k,0 / d_k,T (0 for an empty sector,
+→ 1 when the travelled distance d_T grows without bound), with the designer's
 initial value counted as ``prior_weight`` earlier observations (:class:`ClutterEstimate`).
 """
 
@@ -36,11 +48,27 @@ def characteristic_distance(a: tuple[float, float], b: tuple[float, float]) -> f
     return math.hypot(a[0] - b[0], a[1] - b[1])
 
 
-def door_cost(length: float, clutter: float, open_probability: float) -> float:
-    """w(S_i, D_j) = L / ((1 − c_i) o_j), eqs. (3a)/(3b) as read here; inf if o_j = 0 or c_i = 1."""
+#: The readings of eqs. (3a)/(3b) (module docstring): the first is the default everywhere.
+DOOR_READINGS = ("per-attempt", "return-trip")
+
+
+def check_door_reading(reading: str) -> str:
+    """Return ``reading`` if it is one of :data:`DOOR_READINGS`, else raise a one-line ValueError."""
+    if reading not in DOOR_READINGS:
+        raise ValueError(f"door_reading must be one of {DOOR_READINGS}, got {reading!r}")
+    return reading
+
+
+def door_cost(length: float, clutter: float, open_probability: float, reading: str = "per-attempt") -> float:
+    """w(S_i, D_j) of eqs. (3a)/(3b) as read here; inf if o_j = 0 or c_i = 1.
+
+    ``"per-attempt"``: L / ((1 − c_i) o_j); ``"return-trip"``: L (2 − o_j) / ((1 − c_i) o_j).
+    """
+    check_door_reading(reading)
     if open_probability <= 0.0 or clutter >= 1.0:
         return math.inf
-    return length / ((1.0 - clutter) * open_probability)
+    trips = 1.0 if reading == "per-attempt" else 2.0 - open_probability
+    return length * trips / ((1.0 - clutter) * open_probability)
 
 
 def passage_cost(length: float, clutter_a: float, clutter_b: float) -> float:
@@ -93,10 +121,12 @@ class TopologicalModel:
 
     ``clutter`` (one per sector) and ``door_open`` (one per door, o_j) are arrays the owner
     may update (e.g. o_j = 0 once a door is seen closed); every cost query reads them.
-    Vertex ``k`` is ``vertices[k]``: sectors first, then doors.
+    Vertex ``k`` is ``vertices[k]``: sectors first, then doors. ``door_reading`` is the reading of
+    eqs. (3a)/(3b), one of :data:`DOOR_READINGS` (module docstring).
     """
 
-    def __init__(self, office: OfficeMap) -> None:
+    def __init__(self, office: OfficeMap, door_reading: str = "per-attempt") -> None:
+        self.door_reading = check_door_reading(door_reading)
         self.map = office
         self.vertices = office.vertex_ids
         self.index = {v: k for k, v in enumerate(self.vertices)}
@@ -134,7 +164,7 @@ class TopologicalModel:
         if a < n and b < n:
             return passage_cost(length, self.clutter[a], self.clutter[b])
         sector, door = (a, b - n) if a < n else (b, a - n)
-        return door_cost(length, self.clutter[sector], self.door_open[door])
+        return door_cost(length, self.clutter[sector], self.door_open[door], self.door_reading)
 
     def cost_matrix(self) -> np.ndarray:
         """Matrix of w for every pair of vertex indices (0 on the diagonal, inf off the graph)."""

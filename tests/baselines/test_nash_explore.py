@@ -150,6 +150,7 @@ def test_default_reward_and_parameters():
         ({"unexplored": "nearest"}, "unexplored"),
         ({"selection": "best"}, "selection"),
         ({"reward": -1}, "reward"),
+        ({"door_reading": "squared"}, "door_reading"),
     ]:
         with pytest.raises(ValueError, match=fragment):
             NashExplore(env, **kwargs)
@@ -157,6 +158,21 @@ def test_default_reward_and_parameters():
         with pytest.raises(ValueError, match="action_type='operator'"):
             cls(teamgym.make("Exploration-v0"))
     assert required_config("nash-explore") == {"action_type": "operator"}
+
+
+@pytest.mark.parametrize("reading", ["per-attempt", "return-trip"])
+def test_door_reading_reaches_the_planner_costs(reading):
+    """nash-explore's model prices D3,6 (o = 0.2) by the chosen reading of eq. (3); per-attempt is the default."""
+    env = operator_env()
+    policy = NashExplore(env, door_reading=reading) if reading != "per-attempt" else NashExplore(env)
+    assert policy.model.door_reading == reading
+    model = policy.model
+    s3, d36 = model.index["S3"], model.index["D3,6"]
+    length = model.graph.edges["S3", "D3,6"]["length"]
+    trips = {"per-attempt": 1.0, "return-trip": 1.8}[reading]
+    assert model.cost(s3, d36) == pytest.approx(length * trips / (0.9 * 0.2))  # c(S3) = 0.1
+    policy.act(*env.reset(seed=0))
+    assert policy.last_game["view"].model is model  # the stage's costs come from that model
 
 
 def test_assignment_cost():

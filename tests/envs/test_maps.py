@@ -226,6 +226,50 @@ def test_cost_reading_of_eq3():
     assert passage_cost(0.4, 0.5, 0.0) == pytest.approx(0.2 * 2 + 0.2)
 
 
+def test_return_trip_reading_of_eq3():
+    """Every failed attempt also costs the way back: L (2 − o) / ((1 − c) o), equal to per-attempt at o = 1."""
+    for length, clutter in [(0.2, 0.0), (0.3, 0.6)]:
+        assert door_cost(length, clutter, 1.0, "return-trip") == pytest.approx(door_cost(length, clutter, 1.0))
+    assert door_cost(0.2, 0.0, 0.2, "return-trip") == pytest.approx(0.2 * 9)  # D3,6: 9 L against 5 L
+    assert door_cost(0.2, 0.5, 0.5, "return-trip") == pytest.approx(0.2 * 1.5 / 0.25)
+    assert door_cost(0.2, 0.0, 0.0, "return-trip") == math.inf
+    with pytest.raises(ValueError, match="door_reading must be one of"):
+        door_cost(0.2, 0.0, 1.0, "squared")
+    with pytest.raises(ValueError, match="door_reading must be one of"):
+        TopologicalModel(load_map("office12"), door_reading="squared")
+    office = load_map("office12")
+    default, trips = TopologicalModel(office), TopologicalModel(office, door_reading="return-trip")
+    changed = ~np.isclose(default.cost_matrix(), trips.cost_matrix()) & np.isfinite(default.cost_matrix())
+    d36 = default.index["D3,6"]
+    assert {tuple(sorted((a, b))) for a, b in zip(*np.nonzero(changed))} == {
+        (default.index["S3"], d36),
+        (default.index["S6"], d36),
+    }
+    assert trips.cost(default.index["S3"], d36) == pytest.approx(9 / 5 * default.cost(default.index["S3"], d36))
+
+
+def test_office12_table1_rebuilt_for_table_1():
+    """No door of S9-S11 onto the corridor; the unnamed doors join S12 to S8; the rest as office12."""
+    rebuilt, office = load_map("office12-table1"), load_map("office12")
+    assert rebuilt.sector_ids == office.sector_ids and rebuilt.size == office.size
+    assert [s.clutter for s in rebuilt.sectors] == PAPER_CLUTTER
+    assert set(rebuilt.door_ids) == TABLE1_DOORS | {"D8,12_1", "D8,12_2"}
+    assert rebuilt.door_ids.index("D3,6") == 4  # o_5 in the paper
+    assert {d.id: d.open_probability for d in rebuilt.doors if d.open_probability != 1.0} == {"D3,6": 0.2}
+    corridor = {"S5", "S6", "S7", "S8"}
+    for door in rebuilt.doors:
+        if {"S9", "S10", "S11"} & set(door.sectors):
+            assert not corridor & set(door.sectors), door.id
+    assert [f.id for f in rebuilt.furniture] == [f.id for f in office.furniture]
+    named = {d.id: d for d in office.doors}
+    for door in rebuilt.doors:
+        if door.id in named:
+            assert door == named[door.id]
+    graph = TopologicalModel(rebuilt).graph
+    graph.remove_node("D3,6")
+    assert nx.is_connected(graph)  # every sector stays reachable with D3,6 closed
+
+
 def test_topological_model_costs_and_paths():
     office = load_map("office12")
     model = TopologicalModel(office)

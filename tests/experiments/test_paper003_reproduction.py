@@ -20,24 +20,57 @@ def joined(plan):
     return red + blue[::-1][1:]
 
 
-@pytest.mark.parametrize("policy", ["bidir-astar", "bidir-astar-opt", "centralized"])
+PROTOCOLS = ["bidir-astar", "bidir-astar-opt"]
+
+# Where each plan starts (red robot, blue robot), as section 6 tells it. Figs. 5-7: from 1 and 38;
+# "when the red robot is in the position 4", the blue one at 33 (its plan is quoted from its next
+# place, 36 - 32 - 25 - 20); at 16 and 20, the ends of the "further blocked way (16 - 20)" (plans
+# quoted from the next places 9 and 25); "until the first robot is in the position 7 and the
+# second robot is in the position 34".
+FIG5_STARTS = [("1", "38"), ("4", "33"), ("16", "20"), ("7", "34")]
+# Fig. 8: from 1 and 5; "when reaching the positions 3 and respectively 4"; "when the robots are
+# in the positions 2 and 5"; "after two movement steps" the red robot is at 1, the blue one at 8.
+FIG8_STARTS = [("1", "5"), ("3", "4"), ("2", "5"), ("1", "8")]
+
+
+def starts(run):
+    return [(p["path"][0], p["path"][-1]) for p in run["plans"]]
+
+
+@pytest.mark.parametrize("policy", [*PROTOCOLS, "centralized"])
 def test_fig8_plans_replans_and_meeting(policy):
     run = run_scenario("paper003_fig8", policy)
     assert run["success"] and run["replans"] == 3
+    assert starts(run) == FIG8_STARTS
     assert [p["path"] for p in run["plans"]] == [joined(p) for p in run["paper"]["plans"]]
     assert run["paper"]["meeting"] in run["places"].values()
 
 
-@pytest.mark.parametrize("policy", ["bidir-astar", "bidir-astar-opt", "centralized"])
-def test_fig5_plans_follow_the_papers_routes(policy):
+@pytest.mark.parametrize("policy", [*PROTOCOLS, "centralized"])
+def test_fig5_every_plan_is_the_papers_from_where_the_paper_starts_it(policy):
+    """All four plans of Figs. 5-7, the fourth from place 7 (section 5: execution ends at the next position)."""
     run = run_scenario("paper003_fig5", policy)
-    assert run["success"]
-    announced = [p["path"] for p in run["plans"]]
-    # Every plan of the paper is announced, from where the robots stood when it was made.
-    for plan in run["paper"]["plans"]:
-        route = joined(plan)
-        assert any(route[1:-1] == [x for x in path if x in route][1:-1] or set(route) <= set(path) for path in announced), route
-    assert run["replans"] == 3 and len(announced) == 4 and "23" in run["places"].values()
+    assert run["success"] and run["replans"] == 3
+    assert starts(run) == FIG5_STARTS
+    assert [p["path"] for p in run["plans"]] == [joined(p) for p in run["paper"]["plans"]]
+    assert run["plans"][-1]["path"][:6] == ["7", "3", "6", "14", "19", "23"]  # "7 - 3 - 6 - 14 - 19 - 23"
+    assert "23" in run["places"].values()
+
+
+@pytest.mark.parametrize("name", ["paper003_fig5", "paper003_fig8"])
+@pytest.mark.parametrize("policy", PROTOCOLS)
+def test_protocol_plans_after_as_many_moves_as_the_paper(name, policy):
+    """Robots set off together on a plan and stop where the partner's request finds them: the paper's lockstep."""
+    run = run_scenario(name, policy)
+    assert [p["moves"] for p in run["plans"]] == [p["step"] for p in run["paper"]["plans"]]
+
+
+def test_eager_execution_runs_two_places_on_before_the_fourth_plan():
+    """The former timing (``execution="eager"``): the red robot moves while the PATH, then the REPLAN, travel."""
+    run = run_scenario("paper003_fig5", "bidir-astar-eager")
+    assert run["success"] and run["replans"] == 3
+    assert starts(run) == FIG5_STARTS[:3] + [("18", "34")]
+    assert run["plans"][-1]["path"][:3] == ["18", "13", "7"]
 
 
 def test_cli_writes_the_table_and_figures(tmp_path):
