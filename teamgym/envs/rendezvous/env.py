@@ -477,8 +477,14 @@ class Rendezvous(TeamEnv):
         self._block(self.way_index[ends])
 
     def _block(self, way: int) -> None:
-        self._arrays.block(self._copy, way)
-        if not self._arrays.on_way(self._copy, self.way_ends[way]):
+        """Block ``way``; its obstacle appears now unless a robot is on the way (or it is already there).
+
+        A way blocked twice (a scheduled blocking of a way blocked at random, say) keeps its one
+        obstacle (the second blocking used to add a second obstacle of the same name, a ValueError).
+        """
+        state, k = self._arrays, self._copy
+        state.block(k, way)
+        if not state.placed[k, way] and not state.on_way(k, self.way_ends[way]):
             self._place_blocker(way)
 
     def _place_blocker(self, way: int) -> None:
