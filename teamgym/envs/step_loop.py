@@ -46,11 +46,6 @@ class CopyPhases:
     #: Whether a world may take its last state read as the start of its next step
     #: (``World.step(reuse_states=True)``): true for a task that moves no body between steps.
     reuse_states: bool = False
-    #: Most copies :func:`step_group` runs control step by control step together (``None``: the
-    #: whole group). A larger group is stepped in blocks of this many, one block after another:
-    #: each copy's world and bodies then stay in the CPU caches over its macro step instead of
-    #: being evicted by the others' (a task whose macro step is many control steps gains).
-    copies_at_once: int | None = None
 
     def __init__(self, copies: Sequence[TeamEnv]) -> None:
         self.copies = copies
@@ -126,11 +121,6 @@ def step_group(phases: CopyPhases, group: list[int], actions: list[dict[str, Any
     The caller has checked every action and that every copy has a live agent; the end phase,
     observations, infos and the agents' leaving are the caller's (a lone env's dicts, a batch's arrays).
     """
-    size = phases.copies_at_once
-    if size is not None and len(group) > size:
-        for start in range(0, len(group), size):  # the array form of the actions is dropped: it spans the group
-            step_group(phases, group[start : start + size], actions[start : start + size])
-        return
     copies = phases.copies
     for k, joint in zip(group, actions):
         env = copies[k]

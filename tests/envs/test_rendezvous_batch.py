@@ -1,6 +1,6 @@
 """Rendezvous batches over the paths a short default episode does not reach, copy by copy against lone envs.
 
-Blocks of copies (``RendezvousPhases.copies_at_once``; K = 10 steps a block of 8 and one of 2),
+Ten copies at once (goals and rewards over the group in numpy, ``RendezvousPhases``),
 meetings and their bonus, three robots (the mean over pairs), noisy rings, scheduled and random
 blockings (obstacles waiting for a way to clear, ways detected), ``stage_end="all"``,
 protocol messages, auto-reset, and pickling mid-episode: every copy's observations, rewards,

@@ -37,7 +37,6 @@ class RendezvousPhases(CopyPhases):
 
     copies: list[Rendezvous]
     reuse_states = True  # nothing moves a copy's bodies between its steps: its last read is the next start
-    copies_at_once = 8  # measured: blocks of 8 copies step faster than 1 or 64 (benchmarks/bench_batch_every_env.py)
 
     def __init__(self, copies: list[Rendezvous]) -> None:
         super().__init__(copies)
