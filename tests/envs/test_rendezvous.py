@@ -206,8 +206,8 @@ def test_robots_of_different_speeds_meet_nearer_the_slow_one():
 def test_a_collision_between_robots_spoils_the_meeting():
     env = parallel_env(**SQUARE)
     env.reset(seed=0)
-    env._robot_collisions = 1  # as if the robots had bumped on the way
-    env._met = True
+    env._arrays.robot_collisions[env._copy] = 1  # as if the robots had bumped on the way
+    env._arrays.met[env._copy] = True
     assert not env.episode_success()
 
 
@@ -240,5 +240,5 @@ def test_nearest_place_is_the_argmin_of_the_norms_within_half_a_corridor():
         x, y = (centre + rng.normal(0.0, half, 2) * (0.01, 1.0, 2.0)[trial % 3]).tolist()
         d = np.linalg.norm(places - np.array((x, y)), axis=1)
         k = int(np.argmin(d))
-        env._nearest_seen[0] = ()
+        env._arrays.nearest_seen[env._copy][0] = ()
         assert env._nearest_place(0, (x, y, 0.0)) == (k if d[k] <= half else int(env._place[0]))

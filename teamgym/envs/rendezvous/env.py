@@ -75,7 +75,9 @@ from teamgym.envs.infos import InfoKey, categorical, metrics, unknown
 from teamgym.envs.rendezvous.actions import NextPlaceAction, WithRecords
 from teamgym.envs.rendezvous.config import RendezvousConfig
 from teamgym.envs.rendezvous.messages import MESSAGE_VALUE_MAX, Kind, decode
+from teamgym.envs.rendezvous.phases import RendezvousPhases
 from teamgym.envs.rendezvous.scene import blocker_vertices, corridor_walls
+from teamgym.envs.rendezvous.state import RendezvousArrays
 from teamgym.envs.spaces import Field, ObservationLayout
 from teamgym.maps.walls import JoinedWalls
 from teamgym.sim.objects import StaticPolygon, Wall
@@ -99,6 +101,7 @@ class Rendezvous(TeamEnv):
     config_class = RendezvousConfig
     config: RendezvousConfig
     pixels_per_metre = 150.0
+    phases_class = RendezvousPhases  # the step's phases over RendezvousArrays rows (one pass for a batch's copies)
 
     # -- construction ------------------------------------------------------------------
     def _agent_names(self) -> list[str]:
@@ -117,12 +120,12 @@ class Rendezvous(TeamEnv):
         for i, row in enumerate(neighbours):
             self.neighbour_table[i, : len(row)] = row
         self.way_index = {frozenset((self.place_index[w.a], self.place_index[w.b])): k for k, w in enumerate(self.map.ways)}
-        #: Per place, the way index behind each neighbour slot (−1 padding); ``_places``: ``places_xy`` as tuples.
-        self._slot_ways = [
+        #: Per place, the way index behind each neighbour slot (−1 padding); ``places``: ``places_xy`` as tuples.
+        self.slot_ways = [
             [self.way_index[frozenset((p, q))] if q >= 0 else -1 for q in row]
             for p, row in enumerate(self.neighbour_table.tolist())
         ]
-        self._places = [tuple(xy) for xy in self.places_xy.tolist()]
+        self.places = [tuple(xy) for xy in self.places_xy.tolist()]
         self.way_ends = [(self.place_index[w.a], self.place_index[w.b]) for w in self.map.ways]
         #: The map as a graph over place indices (map units): node ``pos``, edge ``length`` and ``way`` index.
         self.graph = nx.Graph()
@@ -134,8 +137,15 @@ class Rendezvous(TeamEnv):
         self.ring = ProximityRing(KHEPERA_RING, c.sensor_range, c.sensor_noise)
         speeds = c.speeds or (_DEFAULT_SPEED,) * c.n_robots
         self.followers = [WayFollower(speed=v, stop_distance=0.9 * c.meet_distance) for v in speeds]
+        #: Time allowed per robot and way driven ``(i, from, to)``: three times its length at the robot's speed, plus 5 s.
+        self.move_timeouts = {
+            (i, a, b): 3.0 * float(np.linalg.norm(self.places_xy[b] - self.places_xy[a])) / follower.speed + 5.0
+            for i, follower in enumerate(self.followers)
+            for a, b in (*self.way_ends, *((b, a) for a, b in self.way_ends))
+        }
         n, w = c.n_robots, len(self.way_ends)
         self.state_space = spaces.Box(-np.inf, np.inf, shape=(5 * n + w,), dtype=np.float32)
+        self._use_rows(RendezvousArrays(n, len(ids), w, self.ring.width, c.sensor_range, 1), 0)
         walls = corridor_walls(self.map, c.scale, c.corridor_width, _MARGIN) if c.corridor_walls else []
         #: The corridor walls as one entity (:mod:`teamgym.maps.walls`), built once and placed in every
         #: episode's world first (see :mod:`teamgym.sim.scene`).
@@ -146,8 +156,12 @@ class Rendezvous(TeamEnv):
     def _make_action_type(self) -> ActionType:
         c = self.config
         motion: ActionType = (
-            NextPlaceAction(self.max_degree) if c.action_type == "next_place" else VelocityAction(self.spec_robot)
+            NextPlaceAction(self.max_degree, self.followers, c.stage_end)
+            if c.action_type == "next_place"
+            else VelocityAction(self.spec_robot)
         )
+        #: The way-following action type, when it is the motion (the phases drive its robots in one pass).
+        self.next_place = motion if isinstance(motion, NextPlaceAction) else None
         return WithRecords(motion, c.message_len) if c.protocol_messages else motion
 
     def _make_layout(self) -> ObservationLayout:
@@ -192,98 +206,64 @@ class Rendezvous(TeamEnv):
             x, y = self.places_xy[place]
             self.robots[agent] = self.world.add(DiffDriveRobot(agent, (float(x), float(y)), heading, self.spec_robot))
         self.robot_list = list(self.robots.values())
-        self._place = starts.astype(np.int64).copy()
-        self._from = self._place.copy()
-        self._target = np.full(n, -1, dtype=np.int64)
-        self._arrived_now = np.zeros(n, dtype=bool)
-        self._known = [set() for _ in range(n)]
-        self._blocked: set[int] = set()
-        self._blockers: dict[int, StaticPolygon] = {}
-        self._pending_blockings = sorted(c.blockings, key=lambda b: b[2])
-        self._collisions = np.zeros(n, dtype=np.int64)
-        self._move_start = np.zeros(n)
-        self._visits = np.zeros(len(self.place_index), dtype=np.int64)
-        self._failed_moves = np.zeros(n, dtype=np.int64)
-        self._new_contacts = np.zeros(n, dtype=np.int64)
-        self._robot_collisions = 0
-        self._met = False
-        self._meeting_time = math.nan
-        self._plans: list[float] = []
-        self._announced: dict[str, list[int]] = {}
-        self._stale_plans = 0
-        self._expansions = 0
-        self._proximity = np.full((n, self.ring.width), c.sensor_range, dtype=np.float32)
+        self._arrays.start(self._copy, starts.astype(np.int64), sorted(c.blockings, key=lambda b: b[2]))
         self._pose_rows = PoseRows()
         self._distances: tuple[np.ndarray | None, list[float], float] = (None, [], 0.0)
-        self._nearest_seen: list[tuple] = [()] * n  # per robot: (x, y, nearest place, within reach) last computed
-        self._timeouts: dict[tuple[int, int, int], float] = {}
-        self._any_contact = False
         for a, b in c.blocked_ways:
             self._block(self.way_index[frozenset((self.place_index[a], self.place_index[b]))])
         self.world.read_states()
         self._update_state()
-        self._distance = self._mean_distance()
+        self._arrays.distance[self._copy] = self._mean_distance()
         self._check_goals()
         self._sense()
 
-    # -- the next-place macro action (NextPlaceAction calls these) --------------------------
-    def start_moves(self, actions: dict[str, Any]) -> None:
-        """Start the chosen ways; a robot already on a way finishes it, "wait" stays."""
-        for agent, slot in actions.items():
-            i = self._row[agent]
-            if self._target[i] >= 0 or int(slot) == self.max_degree:
-                continue
-            self._from[i] = self._place[i]
-            self._target[i] = self.neighbour_table[self._place[i], int(slot)]
-            self._move_start[i] = self.world.time
-        self._stage_start = self.cycles
+    # -- per-episode state (this copy's rows of ``self._arrays``) ---------------------------
+    def _use_rows(self, team: RendezvousArrays, k: int) -> None:
+        """Keep this env's episode state in copy row ``k`` of ``team`` (a batch's; see :class:`RendezvousArrays`)."""
+        self._arrays, self._copy = team, k
 
-    def follow_way(self, agent: str) -> tuple[float, float]:
-        """The way-following controller's command for ``agent`` (zero when standing)."""
-        i = self._row[agent]
-        target = int(self._target[i])
-        if target < 0:
-            return 0.0, 0.0
-        poses = self._poses()
-        places = self._places
-        return self.followers[i].command(poses[i], places[int(self._from[i])], places[target], self._nearest_ahead(i, poses))
+    def _episode_state(self) -> dict[str, Any]:
+        """The base's, with this copy's rows of ``_arrays`` in place of the arrays (a batch's hold every copy)."""
+        state = super()._episode_state()
+        team, k = state.pop("_arrays"), state.pop("_copy")
+        state["_episode_rows"] = team.row(k)
+        return state
 
-    def moves_over(self) -> bool:
-        """The stage ends on meeting, when no robot moves, or (``stage_end="any"``) when one reaches its next place."""
-        if self._met or max(self._target.tolist()) < 0:
-            return True
-        return self.config.stage_end == "any" and True in self._arrived_now.tolist()
+    def _adopt_episode_state(self, state: dict[str, Any]) -> None:
+        rows = state.pop("_episode_rows")
+        super()._adopt_episode_state(state)
+        self._arrays.set_row(self._copy, rows)
 
-    def move_mask(self, agent: str) -> np.ndarray:
-        """Admissible slots: unblocked ways from the robot's place (as it knows them) and "wait"."""
-        i = self._row[agent]
-        mask = np.zeros(self.max_degree + 1, dtype=np.int8)
-        mask[self.max_degree] = 1
-        place, target = int(self._place[i]), int(self._target[i])
-        if target >= 0:
-            row = self.neighbour_table[place].tolist()
-            if target in row:  # a robot driving back from a way it could not pass has only "wait"
-                mask[row.index(target)] = 1
-            return mask
-        known = self._known[i]
-        for k, way in enumerate(self._slot_ways[place]):
-            if way >= 0 and way not in known:
-                mask[k] = 1
-        return mask
+    @property
+    def _place(self) -> np.ndarray:
+        """Each robot's last place (a view of this copy's row)."""
+        return self._arrays.place[self._copy]
+
+    @property
+    def _target(self) -> np.ndarray:
+        """Each robot's next place, −1 standing (a view of this copy's row)."""
+        return self._arrays.target[self._copy]
+
+    @property
+    def _blocked(self) -> set[int]:
+        """The ways blocked so far (a new set)."""
+        return self._arrays.blocked_set(self._copy)
 
     def note_message(self, agent: str, values: np.ndarray) -> None:
         """Score the whole paths a message announces (PATH records; see the module docstring).
 
         A PATH equal to the last one the same robot announced is a retransmission, not a new plan.
         """
+        state, k = self._arrays, self._copy
+        announced = state.announced[k]
         for kind, args in decode(values):
             if kind == Kind.PATH and len(args) >= 2:
                 path = list(args[1:])
-                if self._announced.get(agent) == path:
+                if announced.get(agent) == path:
                     continue
-                self._announced[agent] = path
-                self._expansions += max(0, args[0])
-                self._plans.append(self._optimality(path))
+                announced[agent] = path
+                state.expansions[k] += max(0, args[0])
+                state.plans[k].append(self._optimality(path))
 
     def _optimality(self, path: list[int]) -> float:
         """Cost of ``path`` over the shortest-path cost between its ends on the map as the team knows it.
@@ -297,9 +277,9 @@ class Rendezvous(TeamEnv):
         ways = [self.way_index.get(frozenset((a, b))) for a, b in zip(path, path[1:])]
         if any(k is None for k in ways):
             return math.inf
-        known = set().union(*self._known)
+        known = set(np.flatnonzero(self._arrays.known[self._copy].any(axis=0)).tolist())
         if known & set(ways):
-            self._stale_plans += 1
+            self._arrays.stale_plans[self._copy] += 1
             known -= set(ways)
         cost = sum(self.graph.edges[a, b]["length"] for a, b in zip(path, path[1:]))
         best = self._shortest_cost(path[0], path[-1], known)
@@ -314,60 +294,68 @@ class Rendezvous(TeamEnv):
         except nx.NetworkXNoPath:
             return math.inf
 
-    # -- step phases ---------------------------------------------------------------------
+    # -- step phases (the lone env's; a batch runs RendezvousPhases over its copies) --------
     def _update_state(self) -> None:
-        """Arrivals at places, contacts; obstacles waiting for a way to clear are put in place."""
-        poses, time, places = self._poses(), self.world.time, self._places
-        self._arrived_now[:] = False
-        moves = zip(self.followers, self._target.tolist(), self._move_start.tolist())
-        for i, (follower, target, start) in enumerate(moves):
+        """Arrivals at places, give-ups, contacts; obstacles waiting for a way to clear are put in place."""
+        state, k = self._arrays, self._copy
+        poses, time, places = self._poses(), self.world.time, self.places
+        state.arrived_now[k] = False
+        targets, starts, place = state.target[k].tolist(), state.move_start[k].tolist(), state.place[k]
+        for i, target in enumerate(targets):
             if target < 0:
-                self._place[i] = self._nearest_place(i, poses[i])
-            elif follower.arrived(poses[i], places[target]):
-                self._place[i], self._target[i] = target, -1
-                self._arrived_now[i] = True
+                place[i] = self._nearest_place(i, poses[i])
+            elif self.followers[i].arrived(poses[i], places[target]):
+                place[i], state.target[k, i] = target, -1
+                state.arrived_now[k, i] = True
                 self._on_arrival(target)
-            elif time - start > self._move_timeout(i):
+            elif time - starts[i] > self.move_timeouts[i, int(state.origin[k, i]), target]:
                 self._abandon_move(i)
         contacts = self.world.contacts
         if contacts:
             hits = self.world.contacts_per(self.possible_agents)
-            self._collisions += hits
-            self._new_contacts = hits
-            self._robot_collisions += sum(1 for ct in contacts if ct.a in self._row and ct.b in self._row)
-            self._any_contact = True
-        elif self._any_contact:  # the counts of the last step with contacts: 0 now
-            self._new_contacts = np.zeros_like(self._new_contacts)
-            self._any_contact = False
-        if self._blocked:
-            for k in [k for k in self._blocked if k not in self._blockers and not self._on_way(k)]:
-                self._place_blocker(k)
+            state.collisions[k] += hits
+            state.new_contacts[k] = hits
+            state.robot_collisions[k] += sum(1 for ct in contacts if ct.a in self._row and ct.b in self._row)
+            state.any_contact[k] = True
+        elif state.any_contact[k]:  # the counts of the last step with contacts: 0 now
+            state.new_contacts[k] = 0
+            state.any_contact[k] = False
+        if state.blocked_order[k] and not state.placed[k][state.blocked[k]].all():
+            self._place_waiting_blockers()
+
+    def _place_waiting_blockers(self) -> None:
+        """Blocked ways whose obstacle waits for the way to clear get it once no robot is on them."""
+        state, k = self._arrays, self._copy
+        for way in [w for w in state.blocked_set(k) if not state.placed[k, w] and not state.on_way(k, self.way_ends[w])]:
+            self._place_blocker(way)
 
     def _apply_events(self) -> None:
         c, time = self.config, self.world.time
-        while self._pending_blockings and self._pending_blockings[0][2] <= time + 1e-9:
-            a, b, _ = self._pending_blockings.pop(0)
+        pending = self._arrays.pending[self._copy]
+        while pending and pending[0][2] <= time + 1e-9:
+            a, b, _ = pending.pop(0)
             self._block(self.way_index[frozenset((self.place_index[a], self.place_index[b]))])
         if c.block_rate > 0 and self.np_random.random() < c.block_rate * c.dt:
             self._block_random()
 
     def _check_goals(self) -> None:
-        if self._met:
+        state, k = self._arrays, self._copy
+        if state.met[k]:
             return
         meet = self.config.meet_distance
         if all(d <= meet for d in self._pair_distances()[1]):
-            self._met = True
-            self._meeting_time = self.world.time
+            state.met[k] = True
+            state.meeting_time[k] = self.world.time
 
     def _accumulate_rewards(self, total: np.ndarray) -> None:
-        c = self.config
+        c, state, k = self.config, self._arrays, self._copy
         distance = self._mean_distance()
-        reward = c.progress_reward * (self._distance - distance) - c.time_penalty
-        self._distance = distance
-        if self._met and self._meeting_time == self.world.time:
+        reward = c.progress_reward * (float(state.distance[k]) - distance) - c.time_penalty
+        state.distance[k] = distance
+        if state.met[k] and float(state.meeting_time[k]) == self.world.time:
             reward += c.meet_bonus
-        if self._any_contact:
-            total += reward - c.collision_penalty * self._new_contacts
+        if state.any_contact[k]:
+            total += reward - c.collision_penalty * state.new_contacts[k]
         else:  # the same values: every count is 0
             total += reward - c.collision_penalty * 0.0
 
@@ -378,22 +366,33 @@ class Rendezvous(TeamEnv):
         observes (:meth:`_read_rings`), once per macro step instead of every control step: no
         body moves in between, so the readings are the same.
         """
+        state, k = self._arrays, self._copy
         if self.ring.noiseless:
-            self._rings_due = True
+            state.rings_due[k] = True
         else:
             self._read_rings()
-        if not self._blocked:
-            return
-        for i, (place, target) in enumerate(zip(self._place.tolist(), self._target.tolist())):
+        if state.blocked_order[k]:
+            self._detect_blocked()
+
+    def _detect_blocked(self) -> None:
+        """Robots standing at a place learn which of its ways are blocked."""
+        state, k = self._arrays, self._copy
+        blocked, known = state.blocked[k], state.known[k]
+        for i, (place, target) in enumerate(zip(state.place[k].tolist(), state.target[k].tolist())):
             if target < 0:
-                self._known[i].update(k for k in self._slot_ways[place] if k >= 0 and k in self._blocked)
+                for way in self.slot_ways[place]:
+                    if way >= 0 and blocked[way]:
+                        known[i, way] = True
 
     def _terminations(self) -> dict[str, bool]:
-        return dict.fromkeys(self.live_agents, self._met)
+        return dict.fromkeys(self.live_agents, bool(self._arrays.met[self._copy]))
 
     def episode_success(self) -> bool:
         """The robots met (every pair within ``meet_distance``) without a collision between robots."""
-        return self.world is not None and self._met and self._robot_collisions == 0
+        if self.world is None:
+            return False
+        state, k = self._arrays, self._copy
+        return bool(state.met[k]) and int(state.robot_collisions[k]) == 0
 
     # -- helpers -------------------------------------------------------------------------
     def _poses(self) -> list[tuple[float, float, float]]:
@@ -423,30 +422,24 @@ class Rendezvous(TeamEnv):
 
     def _on_arrival(self, place: int) -> None:
         """``arrival_blockings``: ways that become blocked when a robot reaches a place for the n-th time."""
-        self._visits[place] += 1
+        visits = self._arrays.visits[self._copy]
+        visits[place] += 1
         for a, b, at, visit in self.config.arrival_blockings:
-            if self.place_index[at] == place and self._visits[place] == visit:
+            if self.place_index[at] == place and visits[place] == visit:
                 self._block(self.way_index[frozenset((self.place_index[a], self.place_index[b]))])
-
-    def _move_timeout(self, i: int) -> float:
-        """Time allowed for a way: three times its length at the robot's speed, plus 5 s (kept per robot and way)."""
-        key = (i, int(self._from[i]), int(self._target[i]))
-        timeout = self._timeouts.get(key)
-        if timeout is None:
-            length = float(np.linalg.norm(self.places_xy[key[2]] - self.places_xy[key[1]]))
-            timeout = self._timeouts[key] = 3.0 * length / self.followers[i].speed + 5.0
-        return timeout
 
     def _abandon_move(self, i: int) -> None:
         """A robot that cannot get through a way (an obstacle in its corridor): it drives back, and
         the way counts as blocked and known to it, as a blocked way seen from its place would."""
-        k = self.way_index[frozenset((int(self._from[i]), int(self._target[i])))]
-        self._blocked.add(k)
-        self._known[i].add(k)
-        self._failed_moves[i] += 1
-        self._target[i], self._from[i] = self._from[i], self._target[i]  # return to where it came from
-        self._move_start[i] = self.world.time
-        self._arrived_now[i] = True
+        state, k = self._arrays, self._copy
+        origin, target = int(state.origin[k, i]), int(state.target[k, i])
+        way = self.way_index[frozenset((origin, target))]
+        state.block(k, way)
+        state.known[k, i, way] = True
+        state.failed_moves[k, i] += 1
+        state.target[k, i], state.origin[k, i] = origin, target  # return to where it came from
+        state.move_start[k, i] = self.world.time
+        state.arrived_now[k, i] = True
 
     def _nearest_place(self, i: int, pose: tuple[float, float, float]) -> int:
         """The nearest place if it is within half a corridor width of robot ``i`` at ``pose``, else its place.
@@ -456,34 +449,18 @@ class Rendezvous(TeamEnv):
         place within it). A robot standing still is not looked up again.
         """
         x, y = pose[0], pose[1]
-        seen = self._nearest_seen[i]
+        cache = self._arrays.nearest_seen[self._copy]
+        seen = cache[i]
         if not seen or seen[0] != x or seen[1] != y:
             half, best, k = self.config.corridor_width / 2, math.inf, -1
-            for j, (px, py) in enumerate(self._places):
+            for j, (px, py) in enumerate(self.places):
                 dx = px - x
                 if -half <= dx <= half:
                     dy = py - y
                     if -half <= dy <= half and (d := math.sqrt(dx * dx + dy * dy)) < best:
                         best, k = d, j
-            seen = self._nearest_seen[i] = (x, y, k, best <= half)
-        return seen[2] if seen[3] else int(self._place[i])
-
-    def _nearest_ahead(self, i: int, poses: list[tuple[float, float, float]]) -> float:
-        """Distance to the nearest other robot within 60° of the heading (inf if none)."""
-        x, y, theta = poses[i]
-        best = math.inf
-        for j, (xj, yj, _) in enumerate(poses):
-            if j != i:
-                d = math.hypot(xj - x, yj - y)
-                if d < best and abs(math.remainder(math.atan2(yj - y, xj - x) - theta, math.tau)) < math.pi / 3:
-                    best = d
-        return best
-
-    def _on_way(self, k: int) -> bool:
-        ends = set(self.way_ends[k])
-        return any(
-            self._target[i] >= 0 and {int(self._from[i]), int(self._target[i])} == ends for i in range(len(self.robot_list))
-        )
+            seen = cache[i] = (x, y, k, best <= half)
+        return seen[2] if seen[3] else int(self._arrays.place[self._copy, i])
 
     def block_way(self, a: str, b: str) -> None:
         """Block way ``a``–``b`` now, between steps (its obstacle appears once no robot is on it).
@@ -499,48 +476,60 @@ class Rendezvous(TeamEnv):
         self._record("block_way", a, b)
         self._block(self.way_index[ends])
 
-    def _block(self, k: int) -> None:
-        self._blocked.add(k)
-        if not self._on_way(k):
-            self._place_blocker(k)
+    def _block(self, way: int) -> None:
+        """Block ``way``; its obstacle appears now unless a robot is on the way (or it is already there).
 
-    def _place_blocker(self, k: int) -> None:
-        a, b = self.way_ends[k]
+        A way blocked twice (a scheduled blocking of a way blocked at random, say) keeps its one
+        obstacle (the second blocking used to add a second obstacle of the same name, a ValueError).
+        """
+        state, k = self._arrays, self._copy
+        state.block(k, way)
+        if not state.placed[k, way] and not state.on_way(k, self.way_ends[way]):
+            self._place_blocker(way)
+
+    def _place_blocker(self, way: int) -> None:
+        a, b = self.way_ends[way]
         vertices = blocker_vertices(tuple(self.places_xy[a]), tuple(self.places_xy[b]), self.config.corridor_width)
-        self._blockers[k] = self.world.add(StaticPolygon(f"blocker_{k}", vertices))
+        state, k = self._arrays, self._copy
+        state.blockers[k][way] = self.world.add(StaticPolygon(f"blocker_{way}", vertices))
+        state.placed[k, way] = True
 
     def _block_random(self) -> None:
         """Block a random way that is not blocked and whose loss keeps the map connected."""
-        candidates = [k for k in range(len(self.way_ends)) if k not in self._blocked]
+        blocked = self._arrays.blocked_set(self._copy)
+        candidates = [k for k in range(len(self.way_ends)) if k not in blocked]
         if not candidates:
             return
         k = candidates[int(self.np_random.integers(len(candidates)))]
         a, b = self.way_ends[k]
-        if math.isfinite(self._shortest_cost(a, b, self._blocked | {k})):
+        if math.isfinite(self._shortest_cost(a, b, blocked | {k})):
             self._block(k)
 
     # -- state, metrics, rendering -------------------------------------------------------
     def _read_rings(self) -> None:
-        self.ring.read_rows(self.world, self.robot_list, self.world.robot_states, self.np_random, self._proximity)
-        self._rings_due = False
+        state, k = self._arrays, self._copy
+        self.ring.read_rows(self.world, self.robot_list, self.world.robot_states, self.np_random, state.proximity[k])
+        state.rings_due[k] = False
 
     def _observe(self, out: np.ndarray) -> None:
-        if self._rings_due:
+        state, k = self._arrays, self._copy
+        if state.rings_due[k]:
             self._read_rings()
         layout, poses, fields = self.layout, self._poses(), self.layout.slices
         place_at, target_at, progress_at = fields["place"], fields["target"], fields["progress"]
         neighbours_at, blocked_at, proximity_at = fields["neighbours"], fields["blocked"], fields["proximity"]
+        places, targets, known, proximity = state.place[k].tolist(), state.target[k].tolist(), state.known[k], state.proximity[k]
         for row, agent in enumerate(self.live_agents):
             i, buffer = self._row[agent], out[row]
             x, y, theta = poses[i]
             buffer[0:3] = (x, y, math.remainder(theta, math.tau))
-            place, known = int(self._place[i]), self._known[i]
+            place = places[i]
             buffer[place_at] = place
-            buffer[target_at] = int(self._target[i])
+            buffer[target_at] = targets[i]
             buffer[progress_at] = self._progress(i)
             buffer[neighbours_at] = self.neighbour_table[place]
-            buffer[blocked_at] = [way >= 0 and way in known for way in self._slot_ways[place]]
-            buffer[proximity_at] = self._proximity[i]
+            buffer[blocked_at] = [way >= 0 and bool(known[i, way]) for way in self.slot_ways[place]]
+            buffer[proximity_at] = proximity[i]
             if self.config.protocol_messages:
                 packed = self.channel.inbox_array(agent, self.config.message_len, self.config.n_robots - 1, kind="protocol")
                 layout.view(buffer, "messages")[:] = packed.payload
@@ -548,9 +537,10 @@ class Rendezvous(TeamEnv):
                 layout.view(buffer, "message_mask")[:] = packed.mask
 
     def _progress(self, i: int) -> float:
-        if self._target[i] < 0:
+        state, k = self._arrays, self._copy
+        if state.target[k, i] < 0:
             return 0.0
-        a, b = self.places_xy[self._from[i]], self.places_xy[self._target[i]]
+        a, b = self.places_xy[state.origin[k, i]], self.places_xy[state.target[k, i]]
         squared = float(np.dot(b - a, b - a))
         done = float(np.dot(self.world.robot_states[i, :2] - a, b - a)) / max(squared, 1e-12)
         return float(np.clip(done, 0.0, 1.0))
@@ -563,23 +553,24 @@ class Rendezvous(TeamEnv):
         return {**keys, **unknown("optimality", "meeting_time")}
 
     def _metrics(self, agent: str) -> dict[str, Any]:
-        i = self._row[agent]
+        i, state, k = self._row[agent], self._arrays, self._copy
+        plans = state.plans[k]
         metrics: dict[str, Any] = {
             "path_length": float(self.robot_list[i].odometer),
-            "place": int(self._place[i]),
-            "collisions": int(self._collisions[i]),
-            "robot_collisions": int(self._robot_collisions),
-            "blocked_known": len(self._known[i]),
-            "plans": len(self._plans),
-            "replans": max(0, len(self._plans) - 1),
-            "expansions": int(self._expansions),
-            "stale_plans": int(self._stale_plans),
-            "failed_moves": int(self._failed_moves[i]),
+            "place": int(state.place[k, i]),
+            "collisions": int(state.collisions[k, i]),
+            "robot_collisions": int(state.robot_collisions[k]),
+            "blocked_known": int(state.known[k, i].sum()),
+            "plans": len(plans),
+            "replans": max(0, len(plans) - 1),
+            "expansions": int(state.expansions[k]),
+            "stale_plans": int(state.stale_plans[k]),
+            "failed_moves": int(state.failed_moves[k, i]),
         }
-        if self._plans:
-            metrics["optimality"] = float(max(self._plans))
-        if self._met:
-            metrics["meeting_time"] = float(self._meeting_time)
+        if plans:
+            metrics["optimality"] = float(max(plans))
+        if state.met[k]:
+            metrics["meeting_time"] = float(state.meeting_time[k])
         return metrics
 
     def place_id(self, index: int) -> str:
@@ -589,17 +580,18 @@ class Rendezvous(TeamEnv):
     def state(self) -> np.ndarray:
         if self.world is None:
             raise RuntimeError("state() called before reset()")
-        states = self.world.robot_states
-        robots = np.column_stack([states[:, :3], self._place, self._target]).ravel()
-        blocked = np.array([k in self._blocked for k in range(len(self.way_ends))], dtype=float)
+        states, team, k = self.world.robot_states, self._arrays, self._copy
+        robots = np.column_stack([states[:, :3], team.place[k], team.target[k]]).ravel()
+        blocked = team.blocked[k].astype(float)
         return np.concatenate([robots, blocked]).astype(np.float32)
 
     def _overlay(self) -> Overlay:
         overlay = Overlay(
             points=[(tuple(self.places_xy[p]), robot_colour(i)) for i, p in enumerate(self._target.tolist()) if p >= 0]
         )
+        blocked = self._arrays.blocked[self._copy]
         for k, (a, b) in enumerate(self.way_ends):
-            colour = (200, 40, 40) if k in self._blocked else (200, 200, 200)
+            colour = (200, 40, 40) if blocked[k] else (200, 200, 200)
             overlay.paths.append(([tuple(self.places_xy[a]), tuple(self.places_xy[b])], colour))
         return overlay
 
