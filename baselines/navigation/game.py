@@ -31,25 +31,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-
-@dataclass(frozen=True)
-class ForceGains:
-    """Gains and distances of eqs. (15), (19), (21) (SI units).
-
-    The paper gives no values. Defaults chosen by sweeps on held-out seeds of the obstacle
-    experiment (5 robots, 2 obstacles, Δt = 0.2 s; seeds 0–99 are kept for the reported
-    results): k_a = 0.5, k_r = 1, k_rb = 8 (obstacles move without negotiating; on seeds
-    100–199 k_rb = 2, 4, 8, 16 gave 85, 85, 90, 90% success in the walled arena). L0 = 0.45 m
-    from a sweep on 600 seeds (100–199 and 700–1199) in both the walled and the open
-    workspace: L0 = 0.35, 0.45, 0.55 m gave 83.8, 85.0, 83.7% walled and 95.2, 97.3, 97.8%
-    open (0.65 m: 97.8%, 0.8 m: 98.3% open). An earlier sweep on seeds 100–199 alone (walled)
-    had reported 79% for L0 = 0.45 m.
-    """
-
-    k_a: float = 0.5
-    k_r: float = 1.0
-    k_rb: float = 8.0
-    influence: float = 0.45
+from teamgym.control.forces import ForceGains
+from teamgym.control.forces import repulsion as _repulsion
 
 
 @dataclass
@@ -91,14 +74,6 @@ def _predict(state: TeamState, rates: np.ndarray, dt: float, delay: float) -> tu
     px = x + v_prev * delay * np.cos(first) + v * (dt - delay) * cos
     py = y + v_prev * delay * np.sin(first) + v * (dt - delay) * sin
     return px, py, heading, cos, sin
-
-
-def _repulsion(dx: np.ndarray, dy: np.ndarray, gain: float | np.ndarray, influence: float) -> tuple[np.ndarray, np.ndarray]:
-    """x and y of the forces of eqs. (19)/(21) for offsets (dx, dy) pointing from the source to the robot."""
-    distance = np.sqrt(dx * dx + dy * dy)
-    safe = np.maximum(distance, 1e-6)
-    magnitude = np.where(distance < influence, gain * (1.0 / safe - 1.0 / influence) ** 2, 0.0)
-    return magnitude * dx / safe, magnitude * dy / safe
 
 
 #: Joint tensors of at most this many losses (N · K^N) are assembled by :func:`_assemble_small`.

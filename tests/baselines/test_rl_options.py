@@ -102,3 +102,83 @@ def test_mate_goals_are_the_mates_goals_relative_to_the_robot(local_features):
         theta = env.robot_headings[i]
         rotation = np.array([[np.cos(theta), np.sin(theta)], [-np.sin(theta), np.cos(theta)]])
         assert np.allclose(d["mate_goals"], world @ rotation.T if local_features else world, atol=1e-5)
+
+
+def _in_frame(theta, vector):
+    """``vector`` (…, 2) in the frame of a robot with heading ``theta`` (x ahead, y left)."""
+    rotation = np.array([[np.cos(theta), np.sin(theta)], [-np.sin(theta), np.cos(theta)]])
+    return vector @ rotation.T
+
+
+def _encoded(theta, force):
+    """A force as field ``forces`` encodes it: unit direction in the robot's frame, log(1 + |F|)."""
+    size = np.hypot(*force)
+    direction = _in_frame(theta, force) / size if size > 0 else np.zeros(2)
+    return np.array([*direction, np.log1p(size)])
+
+
+def test_virtual_forces_are_paper_001_forces_at_the_robots_pose():
+    from teamgym.control.forces import ForceGains
+
+    env = teamgym.make("Navigation-v0", n_robots=3, n_obstacles=2, action_type="heading", virtual_forces=True)
+    plain = teamgym.make("Navigation-v0", n_robots=3, n_obstacles=2, action_type="heading")
+    assert env.observation_space("robot_0").shape[0] == plain.observation_space("robot_0").shape[0] + 15
+    g = ForceGains()
+    observations, _ = env.reset(seed=11)
+    checked = 0
+    for _ in range(60):
+        observations, *_ = env.step({a: 2 for a in env.agents})
+        for agent in env.agents:
+            i = env.possible_agents.index(agent)
+            d = env.decode(observations[agent])
+            pos, theta = env.robot_positions[i].astype(float), float(env.robot_headings[i])
+            to_goal = env.goals[i] - pos
+            distance = np.hypot(*to_goal)
+            expected = {0: g.k_a / distance**2 * to_goal / distance}  # eq. (15)
+            mates = np.zeros(2)
+            for j in range(3):
+                away = pos - env.robot_positions[j]
+                if j != i and np.hypot(*away) < g.influence:  # eq. (19)
+                    mates += g.k_r * (1 / np.hypot(*away) - 1 / g.influence) ** 2 * away / np.hypot(*away)
+            obstacles = np.zeros(2)
+            for centre in env.obstacle_positions + env.obstacle_velocities * env.config.dt:
+                away = pos - centre
+                if np.hypot(*away) < g.influence:  # eq. (21), the obstacle one step ahead
+                    obstacles += g.k_rb * (1 / np.hypot(*away) - 1 / g.influence) ** 2 * away / np.hypot(*away)
+            expected.update({1: mates, 2: obstacles})
+            for row, force in expected.items():
+                assert np.allclose(d["forces"][row], _encoded(theta, force), atol=1e-4), (agent, row)
+            checked += bool(np.any(mates) or np.any(obstacles))
+            # The sum row is the sum of the four sources (the ray hits included).
+            parts = [d["forces"][r, :2] * np.expm1(d["forces"][r, 2]) for r in range(4)]
+            total = d["forces"][4, :2] * np.expm1(d["forces"][4, 2])
+            assert np.allclose(total, np.sum(parts, axis=0), rtol=1e-3, atol=1e-3)
+        if not env.agents:
+            break
+    assert checked, "no step had a mate or an obstacle within L0: the repulsion rows were not exercised"
+
+
+def test_virtual_forces_repel_from_a_ray_hit_and_leave_other_fields_unchanged():
+    env = teamgym.make("Navigation-v0", n_robots=2, n_obstacles=0, virtual_forces=True, local_features=True)
+    plain = teamgym.make("Navigation-v0", n_robots=2, n_obstacles=0, local_features=True)
+    obs, _ = env.reset(seed=2)
+    ref, _ = plain.reset(seed=2)
+    width = plain.observation_space("robot_0").shape[0]
+    hit_steps = 0
+    for _ in range(80):
+        for agent in env.agents:
+            assert np.array_equal(obs[agent][:width], ref[agent])
+            d = env.decode(obs[agent])
+            hits = d["proximity"] < env.config.sensor_range
+            assert (d["forces"][3, 2] > 0) == bool(hits.any())
+            hit_steps += bool(hits.any())
+            if hits.any():  # pushed away from the hit rays: against their mean direction
+                rays = np.asarray(env.ring.angles)[hits]
+                mean = np.array([np.cos(rays).sum(), np.sin(rays).sum()])
+                assert d["forces"][3, :2] @ mean < 0
+        actions = {a: np.array([0.3, 0.0], dtype=np.float32) for a in env.agents}
+        obs, *_ = env.step(actions)
+        ref, *_ = plain.step(actions)
+        if not env.agents:
+            break
+    assert hit_steps, "no ray hit anything: the ray row was not exercised"

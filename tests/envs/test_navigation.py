@@ -51,6 +51,7 @@ EVERY_KEY = dict(
     arrival_bonus=20.0,
     time_penalty=0.02,
     local_features=True,
+    virtual_forces=True,
     obs_format="dict",
     comm_dim=2,
     comm_range=1.0,

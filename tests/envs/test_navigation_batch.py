@@ -18,6 +18,7 @@ CONFIGS = {
         "normalize_actions": True,
         "local_features": True,
         "mate_goals": True,
+        "virtual_forces": True,
         "sensor_noise": 0.01,
         "actuation_delay": 0.05,
         "max_cycles": 120,

@@ -90,6 +90,7 @@ def navigation(draw):
         "sensor_noise": sensor_range,
         "local_features": draw(st.booleans()),
         "mate_goals": draw(st.booleans()),
+        "virtual_forces": draw(st.booleans()),
         "actuation_delay": draw(one_of(0.0, 0.1)),
         "substeps": speed_substeps(max(speed, obstacle_speed)),
     }

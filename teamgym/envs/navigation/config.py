@@ -19,6 +19,13 @@ class NavigationConfig(EnvConfig):
     ``mate_goals`` appends field ``mate_goals`` (N−1, 2): each team mate's goal relative to
     the robot (in its own frame with ``local_features``, else world axes), the information
     that paper 001's central arbiter has and a robot's own observation lacks.
+    ``virtual_forces`` appends field ``forces`` (5, 3): paper 001's virtual forces at the
+    robot's current pose (eqs. 15, 19, 21 with the default gains of
+    :class:`~teamgym.control.forces.ForceGains`): attraction to its goal, repulsion from its
+    team mates, from the obstacles (their centres one step ahead by their velocity, eq. 23),
+    from the points its proximity rays hit, and their sum; each as the unit direction in the
+    robot's frame (x ahead, y left; zero for no force) and log(1 + |F|). For learned policies
+    that imitate ``nash``, whose losses (eq. 25) are these forces at predicted poses.
 
     ``actuation_delay`` T0 is at most ``MAX_DELAY_STEPS`` · ``dt``; above ``dt`` a command acts in a
     later control step (a command queue, see :meth:`Navigation._delay_actuation`). ``true_delay``:
@@ -71,6 +78,7 @@ class NavigationConfig(EnvConfig):
     time_penalty: float = 0.01
     local_features: bool = False
     mate_goals: bool = False
+    virtual_forces: bool = False
 
     def check(self) -> None:
         super().check()

@@ -33,7 +33,11 @@ field              shape         meaning
 With ``local_features`` the fields ``goal_local`` (2,), ``mates_local`` (N−1, 4: Δx, Δy,
 vx, vy) and ``obstacles_local`` (M, 4) follow, in the robot's own frame (x ahead, y left);
 with ``mate_goals`` then ``mate_goals`` (N−1, 2): each mate's goal relative to the robot
-(own frame with ``local_features``, else world axes). Both are off by default (for RL).
+(own frame with ``local_features``, else world axes); with ``virtual_forces`` then
+``forces`` (5, 3): paper 001's virtual forces at the robot's pose (eqs. 15, 19, 21) from
+its goal, team mates, obstacles (one step ahead), ray hits, and their sum, each as a unit
+direction in the robot's frame and log(1 + |F|) (see ``NavigationConfig``). All three are
+off by default (for RL).
 
 This is the paper's "partially centralised sensory system": every robot knows the poses of
 its team mates and the positions of the obstacles (section 2).
@@ -78,7 +82,7 @@ from teamgym.envs.navigation.actions import HeadingAction
 from teamgym.envs.navigation.config import NavigationConfig
 from teamgym.envs.navigation.phases import NavigationPhases
 from teamgym.envs.navigation.scene import NavigationScene, PlacementError, scatter
-from teamgym.envs.navigation.state import NavigationArrays
+from teamgym.envs.navigation.state import FORCE_ROWS, NavigationArrays, force_log_bound
 from teamgym.envs.spaces import Field, ObservationLayout
 from teamgym.sim.categories import SOLID, Category
 from teamgym.sim.objects import MovingPolygon, regular_polygon
@@ -166,6 +170,10 @@ class Navigation(TeamEnv):
         if c.mate_goals:
             local = c.local_features
             fields.append(Field("mate_goals", (n - 1, 2), -goal_far if local else goal_low, goal_far if local else goal_high))
+        if c.virtual_forces:
+            fields.append(
+                Field("forces", (len(FORCE_ROWS), 3), [-1.0, -1.0, 0.0], [1.0, 1.0, force_log_bound(c, len(KHEPERA_RING))])
+            )
         return ObservationLayout(fields)
 
     def _build(self, rng: np.random.Generator) -> None:

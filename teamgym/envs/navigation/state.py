@@ -17,7 +17,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from teamgym.control.forces import MIN_DISTANCE, ForceGains, attraction, repulsion
 from teamgym.sim.chipmunk import shape_distance
+from teamgym.sim.sensors import KHEPERA_RING
 
 if TYPE_CHECKING:
     import pymunk
@@ -25,7 +27,18 @@ if TYPE_CHECKING:
     from teamgym.envs.navigation.config import NavigationConfig
     from teamgym.envs.spaces import ObservationLayout
 
-__all__ = ["NavigationArrays"]
+__all__ = ["FORCE_ROWS", "NavigationArrays", "force_log_bound"]
+
+#: Rows of the ``forces`` observation field (``virtual_forces``): the sources, then their sum.
+FORCE_ROWS = ("goal", "mates", "obstacles", "rays", "total")
+
+
+def force_log_bound(config: NavigationConfig, rays: int) -> float:
+    """Upper bound of log(1 + |F|) in field ``forces``: every source at the clamped distance ``MIN_DISTANCE``."""
+    g = ForceGains()
+    sources = g.k_a + (config.n_robots - 1) * g.k_r + (config.n_obstacles + rays) * g.k_rb
+    return float(np.log1p(sources / MIN_DISTANCE**2))
+
 
 #: Margin (m) beyond the sensor range under which a ring is not known to be free (rounding).
 FREE_MARGIN = 1e-6
@@ -249,6 +262,8 @@ class NavigationArrays:
             if c.local_features:
                 offset = np.stack(self._rotation(ks)(offset[..., 0], offset[..., 1]), axis=-1)
             out[..., s["mate_goals"]] = offset.reshape(k, n, -1)
+        if c.virtual_forces:
+            out[..., s["forces"]] = self._forces(ks).reshape(k, n, -1)
 
     def _rotation(self, ks: slice):
         """``rotate(dx, dy)``: world-axis vectors (axis 2 over objects) in each robot's frame (x ahead, y left)."""
@@ -259,6 +274,44 @@ class NavigationArrays:
             return cos * dx + sin * dy, -sin * dx + cos * dy
 
         return rotate
+
+    def _forces(self, ks: slice) -> np.ndarray:
+        """Field ``forces`` (k, N, 5, 3): eqs. (15), (19), (21) at each robot's pose, in its frame (``FORCE_ROWS``).
+
+        Obstacles count at their centres one step ahead, x_b + v_b Δt (eq. 23 with the
+        velocity for the difference of positions), ray hits at radius + reading along the ray
+        (as ``nash`` places them); each force is encoded as its unit direction in the robot's
+        frame (0 for no force) and log(1 + |F|).
+        """
+        c, g = self.config, ForceGains()
+        pos, theta = self.pos[ks], self.theta[ks]
+        k, n = pos.shape[0], pos.shape[1]
+        forces = np.zeros((k, n, len(FORCE_ROWS), 2))
+        goal = self.goals[ks] - pos
+        forces[..., 0, 0], forces[..., 0, 1] = attraction(goal[..., 0], goal[..., 1], g.k_a)
+        if n > 1:
+            away = pos[:, :, None, :] - pos[:, self.others]
+            fx, fy = repulsion(away[..., 0], away[..., 1], g.k_r, g.influence)
+            forces[..., 1, 0], forces[..., 1, 1] = fx.sum(axis=2), fy.sum(axis=2)
+        if self.obs_pos.shape[1]:
+            ahead = self.obs_pos[ks] + self.obs_vel[ks] * c.dt
+            away = pos[:, :, None, :] - ahead[:, None, :, :]
+            fx, fy = repulsion(away[..., 0], away[..., 1], g.k_rb, g.influence)
+            forces[..., 2, 0], forces[..., 2, 1] = fx.sum(axis=2), fy.sum(axis=2)
+        reading = self.proximity[ks].astype(float)
+        hit = reading < c.sensor_range
+        angles = theta[:, :, None] + np.asarray(KHEPERA_RING, dtype=float)
+        reach = c.robot_radius + reading
+        # From the hit point to the robot: minus the ray's vector.
+        fx, fy = repulsion(-reach * np.cos(angles), -reach * np.sin(angles), g.k_rb, g.influence)
+        forces[..., 3, 0], forces[..., 3, 1] = (fx * hit).sum(axis=2), (fy * hit).sum(axis=2)
+        forces[..., 4, :] = forces[..., :4, :].sum(axis=2)
+        cos, sin = np.cos(theta)[:, :, None], np.sin(theta)[:, :, None]
+        ahead_x = cos * forces[..., 0] + sin * forces[..., 1]
+        left_y = -sin * forces[..., 0] + cos * forces[..., 1]
+        size = np.hypot(ahead_x, left_y)
+        unit = np.where(size > 0, 1.0 / np.maximum(size, 1e-300), 0.0)
+        return np.stack([ahead_x * unit, left_y * unit, np.log1p(size)], axis=-1)
 
     def _observe_local(self, ks: slice, s: dict[str, slice], out: np.ndarray) -> None:
         """Goal offset, mates' and obstacles' offsets and velocities rotated into each robot's frame."""
