@@ -77,7 +77,9 @@ def test_training_in_worker_processes_records_workers_and_padding(tmp_path):
     assert 0.0 <= sidecar["padding_share"] < 1.0
 
 
-@pytest.mark.parametrize("name", ["navigation-ppo", "navigation-dagger-ppo", "navigation-forces-dagger-ppo", "exploration-maskable-ppo"])
+@pytest.mark.parametrize(
+    "name", ["navigation-ppo", "navigation-dagger-ppo", "navigation-forces-dagger-ppo", "exploration-maskable-ppo"]
+)
 def test_shipped_agent_plays_its_env_from_its_sidecar(name):
     import teamgym
     from baselines.episode import run_episode
