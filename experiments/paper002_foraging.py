@@ -1,6 +1,7 @@
 """Reproduce section 5 of paper 002 (DMAPS) on ``Foraging-v0`` and go past it.
 
     python experiments/paper002_foraging.py all --out results/paper002 [--games 2000] [--workers 2]
+    python experiments/paper002_foraging.py consume --radio rate --consumed persist --games 400 --key-games 2000
 
 Subcommands (each writes ``<sweep>.json``, ``<sweep>.md`` and ``<sweep>.png`` into ``--out``):
 
@@ -14,6 +15,15 @@ Subcommands (each writes ``<sweep>.json``, ``<sweep>.md`` and ``<sweep>.png`` in
   ``robots_per_target`` = 2).
 * ``large``: both sweeps on a field four times larger (6.0 m × 4.8 m).
 * ``all``: every sweep above.
+
+The radio axis (``--radio``): ``throughput`` (default) sweeps ``comm_throughput`` over
+:data:`THROUGHPUTS` with a packet every control step (10 per s: throughput 0.25 already
+delivers 2.5 packets/s); ``rate`` sweeps ``packet_rate`` over :data:`RATES` packets per second
+with ``comm_throughput`` 1 (a graded axis, files ``<sweep>-rate.*``). ``--consumed persist``
+keeps consumed targets in the world and the cameras (``consumed_targets``; files
+``<sweep>-persist*``): a robot learns of a teammate's consumption only by radio.
+``--key-games`` sets the games at the axis's two ends (no radio, full radio), ``--games``
+those in between.
 * ``report``: the tables of the sweeps found in ``--out`` and the paper's trends checked
   (differences between no and full communication against their 95 % intervals); redraws
   every sweep's plot from its JSON.
@@ -47,6 +57,13 @@ from baselines.stats import mean_ci, wilson
 from baselines.summary import markdown_table
 
 THROUGHPUTS = (0.0, 0.25, 0.5, 0.75, 1.0)
+#: Packets per second per robot of ``--radio rate`` (10 = one every control step, the default radio).
+RATES = (0.0, 0.1, 0.2, 0.5, 1.0, 2.0, 10.0)
+#: ``--radio`` -> (config key swept, its values, the other radio settings, axis label).
+RADIO_AXES = {
+    "throughput": ("comm_throughput", THROUGHPUTS, {}, "communication throughput (packet every 0.1 s)"),
+    "rate": ("packet_rate", RATES, {"comm_throughput": 1.0}, "packets per second per robot"),
+}
 #: Sweeps: name -> (Foraging-v0 config, metrics reported).
 CONSUME = {"task": "consume", "n_robots": 2, "n_targets": 3}
 SURROUND = {"task": "surround", "n_robots": 2, "n_targets": 1, "robots_per_target": 2}
@@ -90,19 +107,26 @@ def run_setting(config: dict[str, Any], metrics: Sequence[str], games: int, firs
 
 
 def run_sweep(name: str, config: dict, metrics: Sequence[str], args: argparse.Namespace) -> dict:
-    """Every throughput of one sweep, for ``args.policy``."""
+    """Every point of one sweep's radio axis (``args.radio``), for ``args.policy``."""
+    key, values, fixed = RADIO_AXES[args.radio][:3]
+    config = {**config, **fixed, **({"consumed_targets": args.consumed} if args.consumed != "vanish" else {})}
     rows = {}
-    for throughput in THROUGHPUTS:
+    for k, value in enumerate(values):
+        games = args.key_games if k in (0, len(values) - 1) else args.games
         start = time.perf_counter()
-        rows[str(throughput)] = run_setting(
-            {**config, "comm_throughput": throughput}, metrics, args.games, args.first_seed, args.workers, args.policy
-        )
-        rows[str(throughput)]["seconds"] = time.perf_counter() - start
+        rows[str(value)] = run_setting({**config, key: value}, metrics, games, args.first_seed, args.workers, args.policy)
+        rows[str(value)]["seconds"] = time.perf_counter() - start
         if not args.quiet:
-            row = rows[str(throughput)]
+            row = rows[str(value)]
             shown = ", ".join(f"{m} {row[m]['mean']:.1f}±{row[m]['ci95']:.1f}" for m in metrics)
-            print(f"{name} throughput {throughput}: success {100 * row['success']['rate']:.1f}%, {shown}", file=sys.stderr)
-    return {"sweep": name, "policy": args.policy, "config": config, "metrics": list(metrics), "rows": rows}
+            print(f"{name} {key} {value}: success {100 * row['success']['rate']:.1f}%, {shown}", file=sys.stderr, flush=True)
+    return {"sweep": name, "policy": args.policy, "config": config, "axis": key, "metrics": list(metrics), "rows": rows}
+
+
+def axis_label(result: dict) -> str:
+    """The x-axis label of a sweep (older results have no ``axis``: throughput)."""
+    axis = result.get("axis", "comm_throughput")
+    return next(label for key, _, _, label in RADIO_AXES.values() if key == axis)
 
 
 def table(result: dict) -> str:
@@ -110,7 +134,8 @@ def table(result: dict) -> str:
     lines = []
     for throughput, row in result["rows"].items():
         s = row["success"]
-        line = {"throughput": throughput, "success %": f"{100 * s['rate']:.1f} [{100 * s['low']:.1f}, {100 * s['high']:.1f}]"}
+        success = f"{100 * s['rate']:.1f} [{100 * s['low']:.1f}, {100 * s['high']:.1f}]"
+        line = {result.get("axis", "comm_throughput"): throughput, "games": row["games"], "success %": success}
         for m in result["metrics"]:
             unit = "m" if m == "DG" else "s"
             line[f"{m} ({unit})"] = f"{row[m]['mean']:.2f} ± {row[m]['ci95']:.2f}"
@@ -138,7 +163,8 @@ def plot(result: dict, path: Path) -> None:
         marker="o",
         capsize=3,
     )
-    ax_s.set(xlabel="communication throughput", ylabel="successful games (%)", title=result["sweep"])
+    title = result["sweep"] + (f" ({result['config']['consumed_targets']})" if "consumed_targets" in result["config"] else "")
+    ax_s.set(xlabel=axis_label(result), ylabel="successful games (%)", title=title)
     ax_s.set_ylim(max(0.0, float(low.min()) - 5.0), 100.5)
     for m in result["metrics"]:
         mean = np.array([r[m]["mean"] for r in rows])
@@ -149,8 +175,11 @@ def plot(result: dict, path: Path) -> None:
         if m == "DG":
             target.set_ylabel("DG (m per robot)")
             target.legend(loc="upper right")
-    ax_t.set(xlabel="communication throughput", ylabel="time (s), successful games")
+    ax_t.set(xlabel=axis_label(result), ylabel="time (s), successful games")
     ax_t.legend(loc="upper left")
+    if result.get("axis") == "packet_rate":
+        for ax in (ax_s, ax_t):
+            ax.set_xscale("symlog", linthresh=0.1)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -187,9 +216,11 @@ def search_time(games: int, first_seed: int, config: dict | None = None) -> dict
     return {key: {**mean_ci(values), "never": int(np.sum(np.isnan(values)))} for key, values in times.items()}
 
 
-def difference(result: dict, metric: str, low: str = "0.0", high: str = "1.0") -> dict[str, float]:
-    """``metric`` at throughput ``low`` minus at ``high``, with the 95 % half-width of the difference."""
-    a, b = result["rows"][low][metric], result["rows"][high][metric]
+def difference(result: dict, metric: str, low: str | None = None, high: str | None = None) -> dict[str, float]:
+    """``metric`` at radio ``low`` minus at ``high`` (default: the axis's first and last points), with the 95 %
+    half-width of the difference."""
+    keys = list(result["rows"])
+    a, b = result["rows"][low or keys[0]][metric], result["rows"][high or keys[-1]][metric]
     return {"drop": a["mean"] - b["mean"], "ci95": math.hypot(a["ci95"], b["ci95"])}
 
 
@@ -237,10 +268,19 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "--policy", type=nonblank("a policy name"), default="dmaps", help="dmaps (default), dmaps-nocomm or random-walk"
     )
+    parser.add_argument(
+        "--radio", choices=sorted(RADIO_AXES), default="throughput", help="the swept radio setting (default throughput)"
+    )
+    parser.add_argument(
+        "--consumed", choices=["vanish", "persist"], default="vanish", help="consumed_targets of the sweeps (default vanish)"
+    )
+    parser.add_argument("--key-games", type=int, default=None, help="games at the radio axis's two ends (default: --games)")
     parser.add_argument("--quiet", action="store_true")
     args = parser.parse_args(argv)
-    if args.games < 2 or args.workers < 1 or args.first_seed < 0:
-        parser.error("--games must be >= 2, --workers >= 1 and --first-seed >= 0")
+    if args.key_games is None:
+        args.key_games = args.games
+    if args.games < 2 or args.key_games < 2 or args.workers < 1 or args.first_seed < 0:
+        parser.error("--games and --key-games must be >= 2, --workers >= 1 and --first-seed >= 0")
     try:  # an unknown policy, or one that does not fit Foraging-v0, fails here, before any output
         env = teamgym.make("Foraging-v0", **required_config(args.policy))
         try:
@@ -251,6 +291,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.error(f"argument --policy: {message(error)}")
     args.out.mkdir(parents=True, exist_ok=True)
     suffix = "" if args.policy == "dmaps" else f"-{args.policy}"
+    variant = ("-persist" if args.consumed == "persist" else "") + ("-rate" if args.radio == "rate" else "")
     if args.experiment == "report":
         print(report(args.out, suffix))
         return 0
@@ -264,9 +305,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             continue
         for sweep, (config, metrics) in sweeps(name).items():
             result = run_sweep(sweep, config, metrics, args)
-            (args.out / f"{sweep}{suffix}.json").write_text(json.dumps(result, indent=2) + "\n")
-            (args.out / f"{sweep}{suffix}.md").write_text(table(result) + "\n")
-            plot(result, args.out / f"{sweep}{suffix}.png")
+            stem = f"{sweep}{variant}{suffix}"
+            (args.out / f"{stem}.json").write_text(json.dumps(result, indent=2) + "\n")
+            (args.out / f"{stem}.md").write_text(table(result) + "\n")
+            plot(result, args.out / f"{stem}.png")
             if not args.quiet:
                 print(table(result))
     return 0
