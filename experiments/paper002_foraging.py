@@ -123,6 +123,10 @@ def run_sweep(name: str, config: dict, metrics: Sequence[str], args: argparse.Na
     return {"sweep": name, "policy": args.policy, "config": config, "axis": key, "metrics": list(metrics), "rows": rows}
 
 
+#: Table column of each radio axis.
+AXIS_COLUMNS = {"comm_throughput": "throughput", "packet_rate": "packets/s"}
+
+
 def axis_label(result: dict) -> str:
     """The x-axis label of a sweep (older results have no ``axis``: throughput)."""
     axis = result.get("axis", "comm_throughput")
@@ -135,7 +139,7 @@ def table(result: dict) -> str:
     for throughput, row in result["rows"].items():
         s = row["success"]
         success = f"{100 * s['rate']:.1f} [{100 * s['low']:.1f}, {100 * s['high']:.1f}]"
-        line = {result.get("axis", "comm_throughput"): throughput, "games": row["games"], "success %": success}
+        line = {AXIS_COLUMNS[result.get("axis", "comm_throughput")]: throughput, "games": row["games"], "success %": success}
         for m in result["metrics"]:
             unit = "m" if m == "DG" else "s"
             line[f"{m} ({unit})"] = f"{row[m]['mean']:.2f} ± {row[m]['ci95']:.2f}"
@@ -232,9 +236,16 @@ def report(out: Path, suffix: str = "") -> str:
         if "rows" not in result:
             continue
         plot(result, path.with_suffix(".png"))
-        games = next(iter(result["rows"].values()))["games"]
-        title = f"**{result['sweep']}** ({games} games per throughput, `{json.dumps(result['config'])}`)"
+        counts = [row["games"] for row in result["rows"].values()]
+        games = f"{counts[0]} games per point" if len(set(counts)) == 1 else f"{counts[0]} games at the ends, {counts[1]} between"
+        title = f"**{result['sweep']}** ({games}, `{json.dumps(result['config'])}`)"
         lines += [title, "", table(result), ""]
+        ends = [result["rows"][key]["success"] for key in (next(iter(result["rows"])), list(result["rows"])[-1])]
+        lines.append(
+            "- success: "
+            + " → ".join(f"{100 * e['rate']:.1f} % [{100 * e['low']:.1f}, {100 * e['high']:.1f}]" for e in ends)
+            + " (no radio → full radio)"
+        )
         for metric in ("TT2", "TT3", "TG", "DG"):
             if metric in result["metrics"]:
                 d = difference(result, metric)
@@ -246,6 +257,7 @@ def report(out: Path, suffix: str = "") -> str:
                     verdict = f"{abs(d['drop']):.2f} {unit} {side} with full communication than without (± {d['ci95']:.2f})"
                 lines.append(f"- {metric}: {verdict}")
         lines.append("")
+    lines += readings(out, suffix)
     search = out / f"search{suffix}.json"
     if search.exists():
         s = json.loads(search.read_text())["search"]
@@ -255,6 +267,61 @@ def report(out: Path, suffix: str = "") -> str:
             f"{s['100']['mean']:.1f} ± {s['100']['ci95']:.1f} s ({s['100']['n']} games)"
         )
     return "\n".join(lines)
+
+
+def readings(out: Path, suffix: str = "") -> list[str]:
+    """Both ``consumed_targets`` readings of a sweep side by side (no − full radio, 95 % intervals) and a plot of each pair."""
+    lines = []
+    for persist in sorted(out.glob(f"*-persist*{suffix}.json")):
+        vanish = out / persist.name.replace("-persist", "")
+        if not vanish.exists():
+            continue
+        pair = {"vanish": json.loads(vanish.read_text()), "persist": json.loads(persist.read_text())}
+        metrics = [m for m in ("TT1", "TT2", "TT3", "TG", "DG") if m in pair["vanish"]["metrics"]]
+        rows = []
+        for reading, result in pair.items():
+            row = {"consumed_targets": reading}
+            for m in metrics:
+                d = difference(result, m)
+                row[f"{m} gain"] = f"{d['drop']:.2f} ± {d['ci95']:.2f}"
+            ends = [result["rows"][k]["success"]["rate"] for k in (next(iter(result["rows"])), list(result["rows"])[-1])]
+            row["success % (no → full)"] = f"{100 * ends[0]:.1f} → {100 * ends[1]:.1f}"
+            rows.append(row)
+        name = persist.stem.replace("-persist", "")
+        lines += [f"**{name}: both readings** (gain = no radio − full radio, 95 % interval)", "", markdown_table(rows), ""]
+        plot_readings(pair, metrics, out / f"{name}-readings.png")
+    return lines
+
+
+def plot_readings(pair: dict[str, dict], metrics: Sequence[str], path: Path) -> None:
+    """Success and the time measures of both readings against the radio axis (one panel each)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    shown = [m for m in metrics if m != "DG"]
+    fig, axes = plt.subplots(1, 1 + len(shown), figsize=(3.2 * (1 + len(shown)), 3.4), squeeze=False)
+    for reading, result in pair.items():
+        x = np.array([float(t) for t in result["rows"]])
+        rows = list(result["rows"].values())
+        rate = np.array([100 * r["success"]["rate"] for r in rows])
+        spread = np.maximum(
+            0.0, [rate - [100 * r["success"]["low"] for r in rows], [100 * r["success"]["high"] for r in rows] - rate]
+        )
+        axes[0, 0].errorbar(x, rate, yerr=spread, marker="o", capsize=3, label=reading)
+        for ax, m in zip(axes[0, 1:], shown):
+            mean, half = np.array([r[m]["mean"] for r in rows]), np.array([r[m]["ci95"] for r in rows])
+            ax.errorbar(x, mean, yerr=half, marker="o", capsize=3, label=reading)
+            ax.set(title=f"{m} (s)", xlabel=axis_label(result))
+    axes[0, 0].set(title="successful games (%)", xlabel=axis_label(pair["vanish"]))
+    for ax in axes[0]:
+        if pair["vanish"].get("axis") == "packet_rate":
+            ax.set_xscale("symlog", linthresh=0.1)
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
