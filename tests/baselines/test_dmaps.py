@@ -359,3 +359,14 @@ def test_persist_dmaps_consumes_every_target_and_radio_cuts_redundant_operations
         assert sum(r.success for r in results[name]) >= 5
     redundant = {name: sum(sum(m["redundant"] for m in r.metrics.values()) for r in rs) for name, rs in results.items()}
     assert redundant["dmaps"] <= redundant["dmaps-nocomm"]
+
+
+def test_persist_changes_nothing_when_the_one_target_ends_the_game():
+    # Paper 002's surround (one target): the game ends when it is done, so both readings play the same games.
+    surround = {"task": "surround", "n_targets": 1, "packet_rate": 1.0}
+    for seed in (0, 1):
+        a, b = (teamgym.make("Foraging-v0", consumed_targets=reading, **surround) for reading in ("vanish", "persist"))
+        ra = run_episode(a, make_policy("dmaps", a), seed, record_trajectories=False)
+        rb = run_episode(b, make_policy("dmaps", b), seed, record_trajectories=False)
+        assert ra.success and ra.length == rb.length and ra.returns == rb.returns
+        assert all(rb.metrics[k]["redundant"] == 0 for k in rb.metrics)
