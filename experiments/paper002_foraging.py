@@ -106,21 +106,31 @@ def run_setting(config: dict[str, Any], metrics: Sequence[str], games: int, firs
     return row
 
 
-def run_sweep(name: str, config: dict, metrics: Sequence[str], args: argparse.Namespace) -> dict:
-    """Every point of one sweep's radio axis (``args.radio``), for ``args.policy``."""
+def run_sweep(name: str, config: dict, metrics: Sequence[str], args: argparse.Namespace, partial: Path | None = None) -> dict:
+    """Every point of one sweep's radio axis (``args.radio``), for ``args.policy``.
+
+    The axis's two ends (``--key-games`` each) run first, then the points between; after each
+    point the sweep so far is written to ``partial`` (if given), rows in axis order.
+    """
     key, values, fixed = RADIO_AXES[args.radio][:3]
     config = {**config, **fixed, **({"consumed_targets": args.consumed} if args.consumed != "vanish" else {})}
-    rows = {}
-    for k, value in enumerate(values):
-        games = args.key_games if k in (0, len(values) - 1) else args.games
+    last = len(values) - 1
+    done: dict[int, dict] = {}
+    result = {"sweep": name, "policy": args.policy, "config": config, "axis": key, "metrics": list(metrics), "rows": {}}
+    for k in [0, last, *range(1, last)] if last else [0]:
+        value = values[k]
+        games = args.key_games if k in (0, last) else args.games
         start = time.perf_counter()
-        rows[str(value)] = run_setting({**config, key: value}, metrics, games, args.first_seed, args.workers, args.policy)
-        rows[str(value)]["seconds"] = time.perf_counter() - start
+        row = run_setting({**config, key: value}, metrics, games, args.first_seed, args.workers, args.policy)
+        row["seconds"] = time.perf_counter() - start
+        done[k] = row
+        result["rows"] = {str(values[j]): done[j] for j in sorted(done)}
+        if partial is not None:
+            partial.write_text(json.dumps(result, indent=2) + "\n")
         if not args.quiet:
-            row = rows[str(value)]
             shown = ", ".join(f"{m} {row[m]['mean']:.1f}±{row[m]['ci95']:.1f}" for m in metrics)
             print(f"{name} {key} {value}: success {100 * row['success']['rate']:.1f}%, {shown}", file=sys.stderr, flush=True)
-    return {"sweep": name, "policy": args.policy, "config": config, "axis": key, "metrics": list(metrics), "rows": rows}
+    return result
 
 
 #: Table column of each radio axis.
@@ -371,9 +381,11 @@ def main(argv: Sequence[str] | None = None) -> int:
                 print(f"search: {result['search']}", file=sys.stderr)
             continue
         for sweep, (config, metrics) in sweeps(name).items():
-            result = run_sweep(sweep, config, metrics, args)
             stem = f"{sweep}{variant}{suffix}"
+            partial = args.out / f"{stem}.partial"
+            result = run_sweep(sweep, config, metrics, args, partial)
             (args.out / f"{stem}.json").write_text(json.dumps(result, indent=2) + "\n")
+            partial.unlink(missing_ok=True)
             (args.out / f"{stem}.md").write_text(table(result) + "\n")
             plot(result, args.out / f"{stem}.png")
             if not args.quiet:
