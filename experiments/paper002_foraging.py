@@ -194,6 +194,7 @@ def plot(result: dict, path: Path) -> None:
     if result.get("axis") == "packet_rate":
         for ax in (ax_s, ax_t):
             ax.set_xscale("symlog", linthresh=0.1)
+            ax.set_xlim(left=-0.02)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -328,6 +329,7 @@ def plot_readings(pair: dict[str, dict], metrics: Sequence[str], path: Path) -> 
     for ax in axes[0]:
         if pair["vanish"].get("axis") == "packet_rate":
             ax.set_xscale("symlog", linthresh=0.1)
+            ax.set_xlim(left=-0.02)
         ax.legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(path, dpi=100)
