@@ -34,6 +34,16 @@ potential field (:mod:`baselines.foraging.potential`) gives the go-to cell, the 
    ``hold_check`` s while holding. After a consumption (``consume``: progress had reached 1)
    the target is cleared from every partial model; a teammate's consumption is inferred from
    its reports (it stayed put for ``consume_time``) and cleared the same way.
+7. **Consumed targets that persist** (``consumed_targets="persist"``: a consumed target stays
+   in every camera, looking like a live one). The robot remembers the cells of the targets it
+   knows are consumed — its own operation done (``consume_progress`` reached 1 while at a
+   target) and a teammate's inferred from its location tuples as in 6 (the paper's packet
+   carries no "consumed" tuple: "the location tuple of the transmitting robot and targets and
+   obstacles perceived", section 4.3) — and drops the target tuples, its own and received,
+   within ``consumed_radius`` cells of them; at such a target it does not hold. Without the
+   radio a robot learns of a teammate's consumption only by going there and consuming it
+   again ("two robots can redundantly approach and consume the same target", section 5.1).
+   In ``vanish`` nothing is remembered (the world says it: the target is gone).
 
 Only ``goto_cell`` is supported (``required_config``). The policy is deterministic.
 """
@@ -111,6 +121,10 @@ class DMAPSParams:
     stay_slack: float = 1.0
     #: Chebyshev radius (cells) around a consumed target's cell cleared from the model.
     consumed_clear_radius: int = 1
+    #: Persist: target tuples within this many cells (Chebyshev) of a known consumed target's
+    #: cell are that target (dropped); 1, not ``target_separation``: live targets 0.4 m apart
+    #: may lie two cells from a consumed one.
+    consumed_radius: int = 1
     world: WorldModelParams = field(default_factory=WorldModelParams)
     potential: FieldParams = field(default_factory=FieldParams)
 
@@ -130,6 +144,7 @@ class RobotPlanner:
         self.hold_cell: tuple[int, int] | None = None
         self.hold_checked = -math.inf
         self._stays: dict[int, list] = {}  # teammate -> [anchor cell, first time, last time] (consume inference)
+        self.consumed_cells: list[tuple[int, int]] = []  # persist: cells of targets known consumed
         self.prev_at = False
         self.prev_progress = 0.0
         self.known_targets = np.zeros((0, 2), dtype=np.int64)
@@ -149,12 +164,12 @@ class RobotPlanner:
                     if not ok:
                         continue
                     if packet and (int(row[0]) == SENDER or who != sender):
-                        self.model.receive(sender, packet, now)
+                        self.model.receive(sender, self._unconsumed(packet), now)
                         packet = []
                     packet.append(row)
                     sender = who
                 if packet:
-                    self.model.receive(sender, packet, now)
+                    self.model.receive(sender, self._unconsumed(packet), now)
         pose = fields["pose_estimate"].tolist()
         sector = p.sectors.cached(pose[0], pose[1], pose[2])
         own = [row for row, valid in zip(fields["detections"].tolist(), fields["detection_mask"].tolist()) if valid]
@@ -162,7 +177,25 @@ class RobotPlanner:
         if robots:  # cells hidden behind the robots in view are not seen (they keep their memory)
             polar = fields["detection_polar"][np.flatnonzero(fields["detection_mask"])[robots]]
             sector &= ~p.sectors.shadow(pose[0], pose[1], pose[2], polar, p.robot_radius)
-        self.model.observe_own(own, sector, now)
+        self.model.observe_own(self._unconsumed(own), sector, now)
+
+    def _unconsumed(self, rows: list[list[float]]) -> list[list[float]]:
+        """``rows`` without the target tuples within ``consumed_radius`` cells of a cell known consumed (persist)."""
+        if not self.consumed_cells:
+            return rows
+        return [row for row in rows if int(row[0]) != TARGET or not self.is_consumed((int(row[1]), int(row[2])))]
+
+    def is_consumed(self, cell: tuple[int, int]) -> bool:
+        """Whether ``cell`` is within ``consumed_radius`` cells (Chebyshev) of a target known consumed."""
+        reach = self.policy.params.consumed_radius
+        return any(abs(cell[0] - gx) <= reach and abs(cell[1] - gy) <= reach for gx, gy in self.consumed_cells)
+
+    def remember_consumed(self, cell: tuple[int, int] | np.ndarray) -> None:
+        """Persist only: keep ``cell`` as a consumed target's (its tuples are dropped from then on)."""
+        if self.policy.remember_consumed:
+            cell = (int(cell[0]), int(cell[1]))
+            if cell not in self.consumed_cells:
+                self.consumed_cells.append(cell)
 
     def teammates(self, fused: np.ndarray, now: float) -> tuple[np.ndarray, int]:
         """Positions ``(m, 2)`` of the team ordered by agent index (anonymous robots last) and this robot's row."""
@@ -207,10 +240,16 @@ class RobotPlanner:
         if p.search_only:
             team, mine = self.teammates(model.fused_map(self_bias=True), now) if model.n_robots > 1 else (np.zeros((1, 2)), 0)
             return self._search(fields, team, mine, action_mask, now)
-        consumed = self.prev_at and not at and self.prev_progress >= 1.0 - 1.5 * p.dt / p.consume_time
-        if consumed and self.hold_cell is not None and p.task == "consume":  # it is gone
+        if p.remember_consumed:  # persist: the operation here is done (once per stay); the target stays
+            consumed = at and progress >= 1.0 - 1e-6 > self.prev_progress
+        else:  # vanish: it is gone (the robot was at it, almost done, and is no longer at a target)
+            consumed = self.prev_at and not at and self.prev_progress >= 1.0 - 1.5 * p.dt / p.consume_time
+        if consumed and self.hold_cell is not None and p.task == "consume":
             model.clear(self.hold_cell, params.consumed_clear_radius)
+            self.remember_consumed(self.hold_cell)
         self.prev_at, self.prev_progress = at, progress
+        if p.remember_consumed and at and (progress >= 1.0 - 1e-6 or self.is_consumed(self._target_here(fields, self._cell)[1])):
+            at, self.hold_cell = False, None  # persist: done here, or at a target known consumed: drive on
         if p.communication and p.task == "consume":
             self._teammate_stays(now)
         if at and self.hold_cell is not None and now - self.hold_checked < params.hold_check - 1e-9:
@@ -247,7 +286,7 @@ class RobotPlanner:
 
     def _search(self, fields, team, mine, action_mask, now) -> int:
         p, params = self.policy, self.policy.params
-        if self.behaviour == "search" and self.goal >= 0:
+        if self.behaviour == "search" and self.goal >= 0 and not (self.consumed_cells and self.is_consumed(self._goal_cell())):
             elapsed = now - self.goal_time
             gx, gy = self.goal % p.grid.nx, self.goal // p.grid.nx
             admissible = action_mask is None or bool(action_mask[self.goal])
@@ -257,7 +296,26 @@ class RobotPlanner:
                 return self.goal
         others = np.delete(team, mine, axis=0)
         fitness = p.field.search(now, self.model.last_seen, fields["pose_estimate"], others)
-        return self._set_goal("search", p.field.best(fitness, action_mask), now, action_mask, force=True)
+        mask = action_mask
+        if self.consumed_cells:  # persist: no search goal that homes the robot onto a consumed target
+            mask = self._away_from_consumed(action_mask)
+        return self._set_goal("search", p.field.best(fitness, mask), now, action_mask, force=True)
+
+    def _away_from_consumed(self, action_mask: np.ndarray | None) -> np.ndarray | None:
+        """``action_mask`` minus the cells within ``consumed_radius + 1`` of a consumed target (as given if none is left).
+
+        The env's controller homes on a target seen within one cell of the go-to cell, and a
+        consumed target's reports scatter by a cell around the remembered one.
+        """
+        grid, reach = self.policy.grid, self.policy.params.consumed_radius + 1
+        near = np.zeros((grid.ny, grid.nx), dtype=bool)
+        for gx, gy in self.consumed_cells:
+            near[max(0, gy - reach) : gy + reach + 1, max(0, gx - reach) : gx + reach + 1] = True
+        allowed = ~near.ravel() if action_mask is None else (np.asarray(action_mask).ravel() > 0) & ~near.ravel()
+        return allowed if allowed.any() else action_mask
+
+    def _goal_cell(self) -> tuple[int, int]:
+        return self.goal % self.policy.grid.nx, self.goal // self.policy.grid.nx
 
     def _set_goal(self, behaviour: str, flat: int, now: float, action_mask, force: bool = False) -> int:
         flat = int(flat)
@@ -297,6 +355,9 @@ class RobotPlanner:
                 model.clear(anchor, params.consumed_clear_radius)
                 if near:
                     model.clear(min(near)[1:], params.consumed_clear_radius)
+                    _, tx, ty = min(near)
+                    if max(abs(tx - anchor[0]), abs(ty - anchor[1])) <= params.consumed_radius:
+                        self.remember_consumed((tx, ty))  # persist: only a known target the teammate stood at
             self._stays[r] = [tuple(cell), now, now]
 
     def _target_here(self, fields: dict[str, np.ndarray], default: tuple[int, int]) -> tuple[int, tuple[int, int]]:
@@ -356,6 +417,8 @@ class DMAPS(Policy):
         self.dt = float(c.dt)
         self.consume_time = float(c.consume_time)
         self.robots_per_target = int(c.robots_per_target)
+        #: Remember consumed targets' cells (``consumed_targets="persist"``: they stay in the cameras).
+        self.remember_consumed = getattr(c, "consumed_targets", "vanish") == "persist"
         #: The robots' own radius (m), for the shadows they cast in the camera's view.
         self.robot_radius = float(getattr(c, "robot_radius", 0.09))
         self.sectors = ViewSector(self.grid, c.camera_range, c.camera_fov)

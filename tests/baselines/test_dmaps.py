@@ -302,3 +302,71 @@ def test_random_walk_finds_and_consumes_targets():
     policy = make_policy("random-walk", env)
     results = [run_episode(env, policy, seed, record_trajectories=False) for seed in range(3)]
     assert sum(r.success for r in results) >= 2
+
+
+# -- consumed targets that persist (consumed_targets="persist") -------------------------------------
+
+
+@pytest.fixture
+def persist_env():
+    env = teamgym.make("Foraging-v0", consumed_targets="persist")
+    env.reset(seed=0)
+    return env
+
+
+def test_persist_a_robot_remembers_what_it_consumed_and_drives_on_though_it_still_sees_it(persist_env):
+    env, pose = persist_env, (1.0, 1.0, 0.0)  # cell (5, 5); target just ahead in (6, 5)
+    policy = DMAPS(env)
+    assert policy.remember_consumed and not DMAPS(teamgym.make("Foraging-v0")).remember_consumed
+    seen = [(TARGET, 6, 5, 0.9)]
+    decide(policy, "robot_0", observation(env, pose, seen))
+    for k in range(1, 100):
+        assert decide(policy, "robot_0", observation(env, pose, seen, at_target=1, progress=k / 100)) == flat(6, 5)
+    # The operation is done (progress 1); the target is still at_target and in the camera: the robot drives on.
+    for _ in range(3):
+        goal = decide(policy, "robot_0", observation(env, pose, seen, at_target=1, progress=1.0))
+        plan = policy.plans()["robot_0"]
+        assert plan["behaviour"] == "search" and plan["known_targets"] == [] and max(abs(goal % NX - 6), abs(goal // NX - 5)) > 2
+    assert policy.planners["robot_0"].consumed_cells == [(6, 5)]
+    # Its own and received reports of that target are dropped from then on; another target is not.
+    packet = [(1, SENDER, 10, 8, 0.9), (1, TARGET, 7, 5, 0.9), (1, TARGET, 12, 9, 0.9)]
+    decide(policy, "robot_0", observation(env, (1.0, 1.0, np.pi), [], packet))
+    assert policy.plans()["robot_0"]["known_targets"] == [(12, 9)]
+
+
+def test_persist_without_radio_a_robot_approaches_a_target_its_teammate_consumed(persist_env):
+    env = persist_env
+    here = [(1, SENDER, 6, 5, 0.9), (1, TARGET, 7, 5, 0.9)]
+    for communication in (True, False):
+        policy = DMAPS(env, communication=communication)
+        for k in range(int(env.config.consume_time / env.config.dt)):  # robot 1 consumes the target at (7, 5)
+            decide(policy, "robot_0", observation(env, (0.5, 1.1 + 0.1 * (k % 2), np.pi), [], here))
+        decide(policy, "robot_0", observation(env, (0.5, 1.1, np.pi), [], [(1, SENDER, 10, 8, 0.9)]))  # and moves on
+        # robot 0 now looks at it: the target is still there, as any target
+        goal = decide(policy, "robot_0", observation(env, (0.5, 1.1, 0.0), [(TARGET, 7, 5, 0.9)]))
+        if communication:  # known consumed by radio: not approached
+            assert policy.planners["robot_0"].consumed_cells == [(7, 5)] and goal != flat(7, 5)
+        else:  # no news: it goes there (and would consume it again)
+            assert goal == flat(7, 5) and policy.plans()["robot_0"]["behaviour"] == "approach"
+
+
+def test_persist_dmaps_consumes_every_target_and_radio_cuts_redundant_operations():
+    results = {}
+    for name in ("dmaps", "dmaps-nocomm"):
+        env = teamgym.make("Foraging-v0", consumed_targets="persist")
+        policy = make_policy(name, env)
+        results[name] = [run_episode(env, policy, seed, record_trajectories=False) for seed in range(6)]
+        assert sum(r.success for r in results[name]) >= 5
+    redundant = {name: sum(sum(m["redundant"] for m in r.metrics.values()) for r in rs) for name, rs in results.items()}
+    assert redundant["dmaps"] <= redundant["dmaps-nocomm"]
+
+
+def test_persist_changes_nothing_when_the_one_target_ends_the_game():
+    # Paper 002's surround (one target): the game ends when it is done, so both readings play the same games.
+    surround = {"task": "surround", "n_targets": 1, "packet_rate": 1.0}
+    for seed in (0, 1):
+        a, b = (teamgym.make("Foraging-v0", consumed_targets=reading, **surround) for reading in ("vanish", "persist"))
+        ra = run_episode(a, make_policy("dmaps", a), seed, record_trajectories=False)
+        rb = run_episode(b, make_policy("dmaps", b), seed, record_trajectories=False)
+        assert ra.success and ra.length == rb.length and ra.returns == rb.returns
+        assert all(rb.metrics[k]["redundant"] == 0 for k in rb.metrics)

@@ -34,6 +34,9 @@ def batch_cases():
                 cases.append(pytest.param(env_id, {**base, "obs_format": fmt}, id=f"{env_id}-{kind or 'default'}-{fmt}"))
         comm = {"max_cycles": 30, "obs_format": "dict", "comm_dim": 2, "comm_throughput": 0.5, "comm_latency": 1}
         cases.append(pytest.param(env_id, comm, id=f"{env_id}-comm"))
+    # Foraging's consumed targets that stay in the cameras, a graded radio, and consumptions within 30 steps.
+    persist = {"max_cycles": 30, "obs_format": "dict", "consumed_targets": "persist", "packet_rate": 2.5, "consume_time": 0.3}
+    cases.append(pytest.param("Foraging-v0", {**persist, "action_type": "velocity"}, id="Foraging-v0-persist-rate"))
     return cases
 
 

@@ -52,3 +52,25 @@ def test_one_setting_and_the_report(paper002, tmp_path):
 def test_search_time_of_one_robot(paper002):
     times = paper002.search_time(games=1, first_seed=0)
     assert 0 < times["90"]["mean"] <= times["100"]["mean"] < 200
+
+
+def test_rate_sweeps_of_both_readings_and_their_comparison(paper002, tmp_path):
+    for consumed in ("vanish", "persist"):
+        args = ["consume", "--radio", "rate", "--consumed", consumed, "--games", "2", "--key-games", "3"]
+        assert paper002.main([*args, "--workers", "1", "--out", str(tmp_path), "--quiet"]) == 0
+    persist = json.loads((tmp_path / "consume-persist-rate.json").read_text())
+    assert persist["axis"] == "packet_rate" and persist["config"]["consumed_targets"] == "persist"
+    assert list(persist["rows"]) == [str(r) for r in paper002.RATES]
+    assert [row["games"] for row in persist["rows"].values()] == [3, 2, 2, 2, 2, 2, 3]  # --key-games at the ends
+    assert "consumed_targets" not in json.loads((tmp_path / "consume-rate.json").read_text())["config"]  # vanish: the default
+    text = paper002.report(tmp_path)
+    assert "| packets/s |" in text and "**consume-rate: both readings**" in text and "| persist |" in text
+    assert (tmp_path / "consume-rate-readings.png").exists()
+
+
+@pytest.mark.parametrize("bad", [["--radio", "bandwidth"], ["--consumed", "keep"], ["--key-games", "1"]])
+def test_bad_radio_options_exit_2_before_any_output(paper002, tmp_path, bad, capsys):
+    with pytest.raises(SystemExit) as exit_:
+        paper002.main(["consume", *bad, "--out", str(tmp_path / "x")])
+    assert exit_.value.code == 2 and not (tmp_path / "x").exists()
+    assert len(capsys.readouterr().err.strip().splitlines()[-1]) > 0

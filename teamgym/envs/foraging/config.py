@@ -46,6 +46,23 @@ class ForagingConfig(EnvConfig):
     odometry). Ranges: ``vision_noise`` [0, 10] (σ_d up to 1.5 m, σ_b up to 1 rad; measured
     distances saturate at ``camera_range`` + 1 m, bearings wrap to [−π, π]), the odometry
     noises [0, 1].
+
+    Consumed targets (``consume``; the paper does not say what becomes of one):
+    ``consumed_targets="vanish"`` (default) removes a consumed target from the world and from
+    every camera, so a robot sees that a teammate has consumed it. ``"persist"`` keeps it where
+    it was and in every camera, as a target like any other: the Viper's colour-coded vision
+    cannot tell a consumed target from a live one (section 2: implicit communication "requires
+    expensive resolution and recognition"), so a robot learns of a teammate's consumption only
+    by radio, and without it "two robots can redundantly approach and consume the same target"
+    (section 5.1). A consumed target cannot be consumed again; a robot that stays
+    ``consume_time`` at it completes its own (redundant) operation — ``consume_progress``
+    reaches 1 and stays 1 while it is within reach — and nothing else happens.
+
+    Radio rate: ``packet_rate`` (packets per second each robot broadcasts, in [0, 1/``dt``]);
+    ``None`` (default) sends one every control step (1/``dt``, 10 per s). A rate r sends at the
+    control steps k where ⌊k·r·dt⌋ steps up (step 0, at reset, included for r > 0): evenly
+    spaced, no random draw. ``comm_throughput`` still drops each copy with probability
+    1 − throughput, so the robots receive ``packet_rate × comm_throughput`` packets per second.
     """
 
     body_speed_keys: ClassVar[tuple[str, ...]] = ("max_speed",)
@@ -77,6 +94,8 @@ class ForagingConfig(EnvConfig):
     consume_reward: float = 1.0
     progress_reward: float = 0.01
     time_penalty: float = 0.001
+    consumed_targets: Literal["vanish", "persist"] = "vanish"
+    packet_rate: float | None = None
 
     def check(self) -> None:
         super().check()  # max_cycles=None (derived from time_limit) passes EnvConfig's range check
@@ -98,6 +117,8 @@ class ForagingConfig(EnvConfig):
         require(self, "rotational_certainty", 0 < self.rotational_certainty <= 1, "must be in (0, 1]")
         require(self, "odometry_rotation_noise", 0 <= self.odometry_rotation_noise <= 1, "must be in [0, 1] rad/rad")
         require(self, "odometry_distance_noise", 0 <= self.odometry_distance_noise <= 1, "must be in [0, 1] m/m")
+        rate = self.packet_rate
+        require(self, "packet_rate", rate is None or 0 <= rate <= 1e6, "must be None (a packet every step) or >= 0 packets/s")
         for key in ("consume_reward", "progress_reward", "time_penalty"):
             require(self, key, getattr(self, key) >= 0, "must be >= 0")
 
@@ -119,6 +140,12 @@ class ForagingConfig(EnvConfig):
             ("cell_size", "field_size"),
             self.cell_size <= min(width, height) / 2,
             "cell_size must be at most half the field",
+        )
+        require_together(
+            self,
+            ("packet_rate", "dt"),
+            self.packet_rate is None or self.packet_rate * self.dt <= 1 + 1e-9,
+            f"packet_rate must be at most one packet per control step (1/dt = {1 / self.dt:g} packets/s)",
         )
         perimeter = 2 * (width + height)
         require_together(

@@ -5,11 +5,12 @@
 through a forward camera (``camera_range`` 1 m, ``camera_fov`` 73°) that other robots occlude,
 knows its own pose only through odometry whose error grows with rotation and resets at a
 landmark sighting (:mod:`teamgym.envs.foraging.perception`), and shares what it sees over the
-core radio: every control step each live robot broadcasts a packet of perception tuples
-``(class, gx, gy, Pc)`` — its own location first — delivered with probability
-``comm_throughput`` (section 2.1). Tasks (section 4.1, :class:`ForagingConfig`): ``consume``
-(a robot stays at a target for ``consume_time`` and it disappears) and ``surround``
-(``robots_per_target`` robots at a target at once).
+core radio: every control step (or ``packet_rate`` times per second) each live robot broadcasts
+a packet of perception tuples ``(class, gx, gy, Pc)`` — its own location first — delivered
+with probability ``comm_throughput`` (section 2.1). Tasks (section 4.1, :class:`ForagingConfig`):
+``consume`` (a robot stays at a target for ``consume_time``; the target then disappears, or with
+``consumed_targets="persist"`` stays, looking like any target, and cannot be consumed again) and
+``surround`` (``robots_per_target`` robots at a target at once).
 
 Observation fields (``env.decode(obs)``; ``obs_format="dict"`` gives them as a Dict), with
 D = n_targets + n_robots − 1 detection slots and R = (n_robots − 1)(1 + D) received tuples:
@@ -26,6 +27,7 @@ field                       shape         dtype  meaning
 ``received_sender``         (R,)          int32  sender's index in ``possible_agents``, −1 pad
 ``received_mask``           (R,)          int8   1 for a received tuple
 ``at_target``               (1,)          int8   within ``reach_radius`` of a live target
+                                                 (``persist``: of any target)
 ``consume_progress``        (1,)          f32    time at the current target / ``consume_time``
 ``world_model``             (2, ny, nx)   f32    optional (``observe_world_model``): the
                                                  robot's fused grid model (targets, robots)
@@ -35,12 +37,13 @@ Actions: ``goto_cell`` (default; :class:`~teamgym.envs.foraging.actions.GoToCell
 index driven to by :class:`~teamgym.envs.foraging.controller.GoToController`, with a mask) or
 ``velocity`` (continuous (v, ω)). ``comm_dim`` adds a learned message (same channel).
 
-Rewards (team, every robot): ``consume_reward`` per target finished in the step,
+Rewards (team, every robot): ``consume_reward`` per (live) target finished in the step,
 ``progress_reward`` × the decrease of the robot's distance to its nearest live target (m),
 − ``time_penalty``. Metrics in ``infos[agent]`` (section 4.5): ``TL`` (s, once any robot has
 seen a target), ``TT1``.. ``TTn`` (s, the k-th target finished), ``TG`` (s, on success), ``DG``
 (m travelled by this robot), ``targets_done``, ``localisation_certainty``, ``position_error``
-(m, estimate vs truth), and the channel counters ``bytes_sent``, ``bytes_delivered``, ...
+(m, estimate vs truth), with ``persist`` ``redundant`` (operations this robot completed at
+targets already consumed), and the channel counters ``bytes_sent``, ``bytes_delivered``, ...
 Reset options fix a scene: ``{"targets": [(x, y), ...], "starts": [(x, y, θ), ...]}``.
 """
 
@@ -70,11 +73,21 @@ from teamgym.sim.render import Overlay
 from teamgym.sim.robot import DiffDriveRobot
 from teamgym.sim.world import World
 
-__all__ = ["Foraging", "env", "parallel_env"]
+__all__ = ["Foraging", "env", "packet_due", "parallel_env"]
 
 #: Channel message kind of the perception packets.
 PACKET_KIND = "perception"
 _PLACEMENT_TRIES = 2000
+
+
+def packet_due(k: int, share: float) -> bool:
+    """Whether sensing phase ``k`` (0 at reset) sends at ``share`` packets per control step: ⌊k·share⌋ steps up at k.
+
+    Phase 0 sends iff ``share > 0``; ``share = 1`` sends at every phase (see ``ForagingConfig.packet_rate``).
+    """
+    if k == 0:
+        return share > 0
+    return math.floor(k * share + 1e-9) > math.floor((k - 1) * share + 1e-9)
 
 
 class Foraging(TeamEnv):
@@ -200,6 +213,10 @@ class Foraging(TeamEnv):
         n, t = c.n_robots, c.n_targets
         self.target_live = np.ones(t, dtype=bool)
         self._live_targets = np.arange(t)
+        self._persist = c.consumed_targets == "persist"
+        self._all_targets = np.arange(t)  # what the cameras see and the robots may stand at (persist)
+        self._redundant = np.zeros(n, dtype=np.int64)
+        self._senses = 0  # sensing phases since reset (the packet schedule of packet_rate)
         self.target_done_at = np.full(t, np.nan)
         self._done_order: list[float] = []
         self._first_seen = math.nan
@@ -273,9 +290,12 @@ class Foraging(TeamEnv):
             if np.count_nonzero(close):
                 homing = table[np.arange(len(table)), 1 + np.argmin(gap, axis=1), POLAR].astype(float)
                 homing[~close] = np.nan
-        # Stop at a target when the go-to cell is within one cell of the robot's estimated cell.
+        # Stop at a target when the go-to cell is within one cell of the robot's estimated cell
+        # (persist: while the robot's own operation there is unfinished).
         stop = None
         present = at >= 0
+        if self._persist and self.config.task == "consume":  # a robot whose own operation there is done is not held
+            present &= (self._timer if everyone else self._timer[rows]) < self.config.consume_time - 1e-9
         if np.count_nonzero(present):  # (the own cell of the last packet is the estimated cell now)
             stop = present & (np.maximum.reduce(np.abs(table[:, 0, 1:3] - goal), axis=1) <= 1)
         commands = self.controller.commands(estimate, pose, self._cell_centre[index], homing, stop, self.grid_size, (c, s))
@@ -308,6 +328,11 @@ class Foraging(TeamEnv):
             self._nearest_live = nearest = np.minimum.reduce(gap, axis=1)
             reached = nearest <= self.config.reach_radius
             at = np.where(reached, live[np.argmin(gap, axis=1)], -1) if np.count_nonzero(reached) else self._no_target
+        if self._persist and len(live) < self.config.n_targets:  # a consumed target still holds a robot
+            gap = self._geometry.distance[:, : self.config.n_targets]
+            nearest = np.minimum.reduce(gap, axis=1)
+            reached = nearest <= self.config.reach_radius
+            at = np.where(reached, np.argmin(gap, axis=1), -1) if np.count_nonzero(reached) else self._no_target
         if at is self._no_target:  # no robot at a target: every timer restarts
             self._timer = self._zero_timer
         else:
@@ -325,10 +350,13 @@ class Foraging(TeamEnv):
         if c.task == "consume":
             self._timer[present] += c.dt
             finished = present & (self._timer >= c.consume_time - 1e-9) & self._live_mask()
+            if self._persist and np.count_nonzero(finished):  # at a consumed target: a redundant operation
+                self._redundant += finished & ~self.target_live[self._at] & (self._timer < c.consume_time + 0.5 * c.dt - 1e-9)
+                finished &= self.target_live[self._at]
             done = np.unique(self._at[finished]) if np.count_nonzero(finished) else ()
         else:
             counts = np.bincount(self._at[present & self._live_mask()], minlength=c.n_targets)
-            done = np.flatnonzero(counts >= c.robots_per_target)
+            done = np.flatnonzero((counts >= c.robots_per_target) & self.target_live)
         if len(done):
             for j in done.tolist():
                 self._finish_target(j, now)
@@ -341,7 +369,8 @@ class Foraging(TeamEnv):
         self.target_done_at[j] = now
         self._done_order.append(now)
         self._finished_now += 1
-        self.world.remove(self._target_names[j])
+        if not self._persist:
+            self.world.remove(self._target_names[j])
 
     def _nearest_target_distance(self) -> np.ndarray:
         return np.zeros(len(self._pose)) if self._nearest_live is None else self._nearest_live
@@ -367,7 +396,7 @@ class Foraging(TeamEnv):
             self.odometry,
             self._pose,
             self._geometry,
-            self._live_targets,
+            self._all_targets if self._persist else self._live_targets,
             self._live_mask(),
             self.n_detections,
             self.np_random,
@@ -377,7 +406,11 @@ class Foraging(TeamEnv):
         self._send_packets()
 
     def _send_packets(self) -> None:
-        """Every live robot broadcasts its location tuple and detections (section 4.3)."""
+        """Every live robot broadcasts its location tuple and detections (section 4.3), at ``packet_rate``."""
+        rate, k = self.config.packet_rate, self._senses
+        self._senses += 1
+        if rate is not None and not packet_due(k, rate * self.config.dt):
+            return
         sightings, sizes, send = self._sightings, self._packet_sizes, self.channel.send_array
         count = sightings.count.tolist()
         for agent, i in zip(self.live_agents, self._live_rows().tolist()):
@@ -456,7 +489,8 @@ class Foraging(TeamEnv):
         """``TL`` (first target seen), ``TT1``..``TTn`` (k-th target done) and ``TG`` (success), in s, NaN until then;
         ``DG``, ``targets_done``, ``localisation_certainty``, ``position_error`` from reset on."""
         times = ("TL", *(f"TT{k}" for k in range(1, self.config.n_targets + 1)), "TG")
-        return {**unknown(*times), **metrics("DG", "targets_done", "localisation_certainty", "position_error")}
+        extra = ("redundant",) if self.config.consumed_targets == "persist" else ()
+        return {**unknown(*times), **metrics("DG", "targets_done", "localisation_certainty", "position_error", *extra)}
 
     def _metrics(self, agent: str) -> dict[str, Any]:
         return self._metrics_of([agent])[agent]
@@ -482,6 +516,8 @@ class Foraging(TeamEnv):
                 "localisation_certainty": certainty[i],
                 "position_error": errors[i],
             }
+            if self._persist:
+                out[agent]["redundant"] = int(self._redundant[i])
         return out
 
     def episode_success(self) -> bool:
