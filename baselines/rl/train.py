@@ -115,6 +115,32 @@ def _zip_path(path: str | Path) -> Path:
     return path if path.suffix == ".zip" else path.with_name(path.name + ".zip")
 
 
+def load_weights(model: Any, path: str | Path, cls: Any) -> None:
+    """Copy the policy weights (actor, critic, log std) of the model saved at ``path`` into ``model``.
+
+    ``--init``: a new run (its own seed, hyper-parameters, env config and timestep counter)
+    that starts from another run's network, e.g. an agent trained in another situation of
+    the same env. The observation and action spaces must have the same shapes (their bounds
+    may differ); ``ValueError`` naming what differs otherwise.
+    """
+    try:
+        source = cls.load(str(path), device="cpu")
+    except Exception as error:  # noqa: BLE001 - a damaged or foreign file: one clear message
+        raise ValueError(f"cannot load {str(path)!r} as a {cls.__name__} model for --init: {error}") from None
+    for name in ("observation_space", "action_space"):
+        mine, theirs = getattr(model, name), getattr(source, name)
+        if (
+            type(mine) is not type(theirs)
+            or getattr(mine, "shape", None) != getattr(theirs, "shape", None)
+            or (getattr(mine, "n", None) != getattr(theirs, "n", None))
+        ):
+            raise ValueError(f"--init {str(path)!r}: its {name} {theirs} does not fit this run's {mine}")
+    try:
+        model.policy.load_state_dict(source.policy.state_dict())
+    except RuntimeError as error:  # other layer sizes (net_arch) or another policy class
+        raise ValueError(f"--init {str(path)!r}: its network does not fit this run's policy: {error}") from None
+
+
 def checkpoint_path(out: str | Path, timesteps: int) -> Path:
     """``<out-stem>_<timesteps>_steps.zip`` beside ``out``."""
     out = _zip_path(out)
@@ -226,6 +252,7 @@ class Training:
         critic: str | None = None,
         agent_id: bool | None = None,
         independent: bool | None = None,
+        init: str | Path | None = None,
     ) -> None:
         import teamgym
         from baselines.rl.callbacks import EvalLog, PaddingShareLog
@@ -258,6 +285,9 @@ class Training:
         self.tensorboard_log = str(tensorboard_log) if tensorboard_log is not None else None
         self.tb_log_name = tb_log_name or self.out.stem
         self.resume = resolve_model(resume) if resume is not None else None
+        if init is not None and resume is not None:
+            raise ValueError("--init starts a new model from saved weights; it cannot be combined with --resume")
+        self.init = resolve_model(init) if init is not None else None
         previous = (read_sidecar(self.resume) or {}) if self.resume else {}
         if self.resume:
             detected = detect_algorithm(self.resume)
@@ -392,6 +422,8 @@ class Training:
                     **params_in,
                 )
                 self.params = {k: repr(v) for k, v in params.items()}
+                if self.init is not None:
+                    load_weights(self.model, self.init, cls)
             if self.eval_every:
                 train_seeds = {self.reset_seed + e * self.agents_per_env for e in range(self.n_envs)}
                 clash = sorted(s for s in train_seeds if self.eval_seed <= s < self.eval_seed + self.eval_episodes)
@@ -433,6 +465,7 @@ class Training:
             "kind": "final" if kind == "interrupted" else kind,
             "model": str(self.out),
             "resumed_from": str(self.resume) if self.resume else None,
+            "init": str(self.init) if self.init else None,
             "resumed_at": self.resumed_at,
             "reset_seed": self.reset_seed,
             "tensorboard": self.tensorboard_log,
@@ -800,6 +833,13 @@ def build_parser() -> argparse.ArgumentParser:
         "--resume", type=nonblank("a model path"), default=None, metavar="PATH", help="continue training the model saved at PATH"
     )
     parser.add_argument(
+        "--init",
+        type=nonblank("a model path"),
+        default=None,
+        metavar="PATH",
+        help="start a new run from the policy weights of the model saved at PATH (or a shipped agent name)",
+    )
+    parser.add_argument(
         "--eval-every",
         type=natural,
         default=None,
@@ -982,6 +1022,7 @@ def _preset_settings(name: str, env_id: str | None) -> dict[str, Any]:
         "hyperparameters": dict(preset.hyperparameters),
         "bc": preset.bc,
         "eval": preset.eval,
+        "init": preset.init,
     }
 
 
@@ -1058,6 +1099,11 @@ def _plan(args: argparse.Namespace) -> tuple[dict[str, Any], list[int] | None]:
     }
     if args.preset is not None:
         kwargs["preset"] = args.preset
+    init = args.init if args.init is not None else saved.get("init") if args.preset else None
+    if init is not None:
+        if args.resume:
+            raise ValueError("--init starts a new model from saved weights; it cannot be combined with --resume")
+        kwargs["init"] = init
     if args.workers is not None:
         kwargs["workers"] = args.workers
     for name in ("critic", "agent_id", "independent"):
