@@ -11,7 +11,8 @@ fit and ``expert_kwargs`` (the expert's constructor arguments, e.g. ``{"look_cyc
 for ``sbs``), and optional DAgger rounds
 ``dagger_rounds``, ``dagger_steps``, ``dagger_epochs``), ``eval`` (optional held-out evaluation while training: ``every``,
 ``episodes``, ``seed``), ``init`` (optional: a saved model or shipped agent whose policy
-weights the new run starts from, as ``--init``), ``changes`` (each config key and hyper-parameter the preset sets, with
+weights the new run starts from, as ``--init``), ``critic`` (optional: ``local`` or ``central``,
+as ``--critic``), ``changes`` (each config key and hyper-parameter the preset sets, with
 why) and ``measured`` (what the preset reached, with the command). docs/training.md lists them.
 """
 
@@ -38,6 +39,7 @@ _KEYS = {
     "measured",
     "description",
     "init",
+    "critic",
 }
 
 
@@ -58,6 +60,7 @@ class Preset:
     measured: dict[str, Any] = field(default_factory=dict)
     description: str = ""
     init: str | None = None
+    critic: str | None = None
 
 
 def presets() -> list[str]:

@@ -115,30 +115,54 @@ def _zip_path(path: str | Path) -> Path:
     return path if path.suffix == ".zip" else path.with_name(path.name + ".zip")
 
 
-def load_weights(model: Any, path: str | Path, cls: Any) -> None:
-    """Copy the policy weights (actor, critic, log std) of the model saved at ``path`` into ``model``.
+#: The actor's parameters in an SB3 actor-critic policy (what ``--init`` copies into a central-critic run).
+ACTOR_KEYS = ("mlp_extractor.policy_net.", "action_net.", "log_std")
+
+
+def load_weights(model: Any, path: str | Path, cls: Any) -> str:
+    """Copy the policy weights of the model saved at ``path`` into ``model``; returns ``"all"`` or ``"actor"``.
 
     ``--init``: a new run (its own seed, hyper-parameters, env config and timestep counter)
     that starts from another run's network, e.g. an agent trained in another situation of
-    the same env. The observation and action spaces must have the same shapes (their bounds
-    may differ); ``ValueError`` naming what differs otherwise.
+    the same env. With the same observation and action shapes (their bounds may differ)
+    every weight is copied (``"all"``); into a centralised-critic run (``--critic central``,
+    whose observation appends the team state) whose actor reads exactly the saved model's
+    observation, only the actor is copied (``"actor"``) and the critic starts afresh.
+    ``ValueError`` naming what differs otherwise.
     """
     try:
         source = cls.load(str(path), device="cpu")
     except Exception as error:  # noqa: BLE001 - a damaged or foreign file: one clear message
         raise ValueError(f"cannot load {str(path)!r} as a {cls.__name__} model for --init: {error}") from None
-    for name in ("observation_space", "action_space"):
+
+    def fits(name: str) -> bool:
         mine, theirs = getattr(model, name), getattr(source, name)
-        if (
-            type(mine) is not type(theirs)
-            or getattr(mine, "shape", None) != getattr(theirs, "shape", None)
-            or (getattr(mine, "n", None) != getattr(theirs, "n", None))
-        ):
-            raise ValueError(f"--init {str(path)!r}: its {name} {theirs} does not fit this run's {mine}")
+        same = (getattr(mine, "shape", None), getattr(mine, "n", None)) == (
+            getattr(theirs, "shape", None),
+            getattr(theirs, "n", None),
+        )
+        return type(mine) is type(theirs) and same
+
+    if not fits("action_space"):
+        raise ValueError(
+            f"--init {str(path)!r}: its action_space {source.action_space} does not fit this run's {model.action_space}"
+        )
+    actor_dim = getattr(model.policy, "actor_dim", None)
+    if fits("observation_space"):
+        state, strict, copied = source.policy.state_dict(), True, "all"
+    elif actor_dim is not None and (actor_dim,) == source.observation_space.shape:
+        state = {k: v for k, v in source.policy.state_dict().items() if k.startswith(ACTOR_KEYS)}
+        strict, copied = False, "actor"
+    else:
+        theirs, mine = source.observation_space, model.observation_space
+        raise ValueError(f"--init {str(path)!r}: its observation_space {theirs} does not fit this run's {mine}")
     try:
-        model.policy.load_state_dict(source.policy.state_dict())
+        missing, _ = model.policy.load_state_dict(state, strict=strict)
     except RuntimeError as error:  # other layer sizes (net_arch) or another policy class
         raise ValueError(f"--init {str(path)!r}: its network does not fit this run's policy: {error}") from None
+    if copied == "actor" and any(k.startswith(ACTOR_KEYS) for k in missing):
+        raise ValueError(f"--init {str(path)!r}: its actor does not fit this run's policy (missing {sorted(missing)[:3]})")
+    return copied
 
 
 def checkpoint_path(out: str | Path, timesteps: int) -> Path:
@@ -288,6 +312,7 @@ class Training:
         if init is not None and resume is not None:
             raise ValueError("--init starts a new model from saved weights; it cannot be combined with --resume")
         self.init = resolve_model(init) if init is not None else None
+        self.init_copied: str | None = None
         previous = (read_sidecar(self.resume) or {}) if self.resume else {}
         if self.resume:
             detected = detect_algorithm(self.resume)
@@ -422,8 +447,7 @@ class Training:
                     **params_in,
                 )
                 self.params = {k: repr(v) for k, v in params.items()}
-                if self.init is not None:
-                    load_weights(self.model, self.init, cls)
+                self.init_copied = load_weights(self.model, self.init, cls) if self.init is not None else None
             if self.eval_every:
                 train_seeds = {self.reset_seed + e * self.agents_per_env for e in range(self.n_envs)}
                 clash = sorted(s for s in train_seeds if self.eval_seed <= s < self.eval_seed + self.eval_episodes)
@@ -465,7 +489,7 @@ class Training:
             "kind": "final" if kind == "interrupted" else kind,
             "model": str(self.out),
             "resumed_from": str(self.resume) if self.resume else None,
-            "init": str(self.init) if self.init else None,
+            "init": {"model": str(self.init), "copied": self.init_copied} if self.init else None,
             "resumed_at": self.resumed_at,
             "reset_seed": self.reset_seed,
             "tensorboard": self.tensorboard_log,
@@ -1023,6 +1047,7 @@ def _preset_settings(name: str, env_id: str | None) -> dict[str, Any]:
         "bc": preset.bc,
         "eval": preset.eval,
         "init": preset.init,
+        "critic": preset.critic,
     }
 
 
@@ -1109,6 +1134,8 @@ def _plan(args: argparse.Namespace) -> tuple[dict[str, Any], list[int] | None]:
     for name in ("critic", "agent_id", "independent"):
         if getattr(args, name, None) is not None:
             kwargs[name] = getattr(args, name)
+        elif args.preset is not None and saved.get(name) is not None:
+            kwargs[name] = saved[name]
     bc = saved.get("bc") if args.preset and isinstance(saved.get("bc"), dict) else {}
     expert = args.bc_expert if args.bc_expert is not None else bc.get("expert")
     if expert is not None:  # a --bc-expert other than the preset's keeps the preset's amounts unless given

@@ -37,8 +37,10 @@ def test_s3_preset_loads_builds_the_s3_env_and_plans_its_init():
     kwargs = plan("--preset", NAME, "--out", "m.zip")
     assert kwargs["init"] == "boxpushing-s1-ppo" and kwargs["timesteps"] == preset.timesteps
     assert kwargs["hyperparameters"] == preset.hyperparameters and "bc_expert" not in kwargs
+    assert kwargs["critic"] == preset.critic == "central"
+    assert plan("--preset", NAME, "--critic", "local", "--out", "m.zip")["critic"] == "local"
     assert plan("--preset", NAME, "--init", "other.zip", "--out", "m.zip")["init"] == "other.zip"
-    assert "init" not in plan("--preset", "boxpushing-s1-ppo", "--out", "m.zip")
+    assert not {"init", "critic"} & set(plan("--preset", "boxpushing-s1-ppo", "--out", "m.zip"))
 
 
 def test_init_copies_the_weights_and_is_recorded(tmp_path):
@@ -61,8 +63,30 @@ def test_init_copies_the_weights_and_is_recorded(tmp_path):
     args += ["--hp", "n_steps=32", "--hp", "batch_size=64", "--hp", "policy_kwargs={'net_arch': [128, 128]}"]
     assert train_main([*args, "--timesteps", "64", "--init", "boxpushing-s1-ppo", "--out", str(out)]) == 0
     sidecar = json.loads(out.with_suffix(".json").read_text())
-    assert sidecar["init"].endswith("boxpushing-s1-ppo.zip") and sidecar["resumed_from"] is None
+    assert sidecar["init"]["model"].endswith("boxpushing-s1-ppo.zip") and sidecar["init"]["copied"] == "all"
+    assert sidecar["resumed_from"] is None
     assert sidecar["trained_timesteps"] >= 64  # a new run: its own counter from 0
+
+
+def test_init_into_a_central_critic_copies_the_actor_only(tmp_path):
+    import torch
+    from stable_baselines3 import PPO
+
+    from baselines.rl.train import ACTOR_KEYS, Training
+
+    config = {"situation": "S3", "max_cycles": 20}
+    hp = {"n_steps": 32, "batch_size": 64, "policy_kwargs": {"net_arch": [128, 128]}}
+    run = Training("BoxPushing-v0", "ppo", 64, 0, tmp_path / "a.zip", config, 1, hp, init="boxpushing-s1-ppo", critic="central")
+    try:
+        assert run.init_copied == "actor" and run.model.policy.actor_dim == 21
+        source = PPO.load("baselines/rl/agents/boxpushing-s1-ppo.zip", device="cpu").policy.state_dict()
+        mine = run.model.policy.state_dict()
+        actor = [k for k in source if k.startswith(ACTOR_KEYS)]
+        assert actor and all(torch.equal(source[k], mine[k]) for k in actor)
+        critic = "mlp_extractor.value_net.0.weight"
+        assert source[critic].shape != mine[critic].shape  # the critic reads the team state too: fresh
+    finally:
+        run.close()
 
 
 @pytest.mark.parametrize(
