@@ -102,3 +102,17 @@ def test_init_errors_are_one_line(args, needle, tmp_path, capsys):
     assert train_main([*args, "--timesteps", "64", "--n-envs", "1", "--out", str(tmp_path / "m.zip")]) == 2
     err = capsys.readouterr().err
     assert needle in err and len(err.strip().splitlines()) == 1
+
+
+def test_shipped_s3_agent_plays_s3_from_its_sidecar():
+    from baselines.episode import run_episode
+    from baselines.registry import make_policy
+    from baselines.rl.sb3_policy import read_sidecar, resolve_model, shipped_agents
+
+    assert NAME in shipped_agents()
+    sidecar = read_sidecar(resolve_model(NAME))
+    assert sidecar["preset"] == NAME and sidecar["critic"] == "central" and sidecar["init"]["copied"] == "actor"
+    env = teamgym.make("BoxPushing-v0", **{**sidecar["config"], "max_cycles": 15})
+    assert env.config.situation == "S3" and len(env.possible_agents) == 4
+    result = run_episode(env, make_policy(f"sb3:{NAME}", env), 31000, record_trajectories=False)
+    assert set(result.returns) == set(env.possible_agents) and result.length == 15
