@@ -10,7 +10,9 @@ on), ``n_envs``, ``timesteps``, ``hyperparameters`` (SB3 keyword arguments, incl
 fit and ``expert_kwargs`` (the expert's constructor arguments, e.g. ``{"look_cycles": 0}``
 for ``sbs``), and optional DAgger rounds
 ``dagger_rounds``, ``dagger_steps``, ``dagger_epochs``), ``eval`` (optional held-out evaluation while training: ``every``,
-``episodes``, ``seed``), ``changes`` (each config key and hyper-parameter the preset sets, with
+``episodes``, ``seed``), ``init`` (optional: a saved model or shipped agent whose policy
+weights the new run starts from, as ``--init``), ``critic`` (optional: ``local`` or ``central``,
+as ``--critic``), ``changes`` (each config key and hyper-parameter the preset sets, with
 why) and ``measured`` (what the preset reached, with the command). docs/training.md lists them.
 """
 
@@ -24,7 +26,21 @@ from typing import Any
 __all__ = ["PRESET_DIR", "Preset", "load_preset", "presets"]
 
 PRESET_DIR = Path(__file__).with_name("presets")
-_KEYS = {"env", "algo", "config", "n_envs", "timesteps", "hyperparameters", "bc", "eval", "changes", "measured", "description"}
+_KEYS = {
+    "env",
+    "algo",
+    "config",
+    "n_envs",
+    "timesteps",
+    "hyperparameters",
+    "bc",
+    "eval",
+    "changes",
+    "measured",
+    "description",
+    "init",
+    "critic",
+}
 
 
 @dataclass(frozen=True)
@@ -43,6 +59,8 @@ class Preset:
     changes: dict[str, str] = field(default_factory=dict)
     measured: dict[str, Any] = field(default_factory=dict)
     description: str = ""
+    init: str | None = None
+    critic: str | None = None
 
 
 def presets() -> list[str]:

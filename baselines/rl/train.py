@@ -115,6 +115,56 @@ def _zip_path(path: str | Path) -> Path:
     return path if path.suffix == ".zip" else path.with_name(path.name + ".zip")
 
 
+#: The actor's parameters in an SB3 actor-critic policy (what ``--init`` copies into a central-critic run).
+ACTOR_KEYS = ("mlp_extractor.policy_net.", "action_net.", "log_std")
+
+
+def load_weights(model: Any, path: str | Path, cls: Any) -> str:
+    """Copy the policy weights of the model saved at ``path`` into ``model``; returns ``"all"`` or ``"actor"``.
+
+    ``--init``: a new run (its own seed, hyper-parameters, env config and timestep counter)
+    that starts from another run's network, e.g. an agent trained in another situation of
+    the same env. With the same observation and action shapes (their bounds may differ)
+    every weight is copied (``"all"``); into a centralised-critic run (``--critic central``,
+    whose observation appends the team state) whose actor reads exactly the saved model's
+    observation, only the actor is copied (``"actor"``) and the critic starts afresh.
+    ``ValueError`` naming what differs otherwise.
+    """
+    try:
+        source = cls.load(str(path), device="cpu")
+    except Exception as error:  # noqa: BLE001 - a damaged or foreign file: one clear message
+        raise ValueError(f"cannot load {str(path)!r} as a {cls.__name__} model for --init: {error}") from None
+
+    def fits(name: str) -> bool:
+        mine, theirs = getattr(model, name), getattr(source, name)
+        same = (getattr(mine, "shape", None), getattr(mine, "n", None)) == (
+            getattr(theirs, "shape", None),
+            getattr(theirs, "n", None),
+        )
+        return type(mine) is type(theirs) and same
+
+    if not fits("action_space"):
+        raise ValueError(
+            f"--init {str(path)!r}: its action_space {source.action_space} does not fit this run's {model.action_space}"
+        )
+    actor_dim = getattr(model.policy, "actor_dim", None)
+    if fits("observation_space"):
+        state, strict, copied = source.policy.state_dict(), True, "all"
+    elif actor_dim is not None and (actor_dim,) == source.observation_space.shape:
+        state = {k: v for k, v in source.policy.state_dict().items() if k.startswith(ACTOR_KEYS)}
+        strict, copied = False, "actor"
+    else:
+        theirs, mine = source.observation_space, model.observation_space
+        raise ValueError(f"--init {str(path)!r}: its observation_space {theirs} does not fit this run's {mine}")
+    try:
+        missing, _ = model.policy.load_state_dict(state, strict=strict)
+    except RuntimeError as error:  # other layer sizes (net_arch) or another policy class
+        raise ValueError(f"--init {str(path)!r}: its network does not fit this run's policy: {error}") from None
+    if copied == "actor" and any(k.startswith(ACTOR_KEYS) for k in missing):
+        raise ValueError(f"--init {str(path)!r}: its actor does not fit this run's policy (missing {sorted(missing)[:3]})")
+    return copied
+
+
 def checkpoint_path(out: str | Path, timesteps: int) -> Path:
     """``<out-stem>_<timesteps>_steps.zip`` beside ``out``."""
     out = _zip_path(out)
@@ -226,6 +276,7 @@ class Training:
         critic: str | None = None,
         agent_id: bool | None = None,
         independent: bool | None = None,
+        init: str | Path | None = None,
     ) -> None:
         import teamgym
         from baselines.rl.callbacks import EvalLog, PaddingShareLog
@@ -258,6 +309,10 @@ class Training:
         self.tensorboard_log = str(tensorboard_log) if tensorboard_log is not None else None
         self.tb_log_name = tb_log_name or self.out.stem
         self.resume = resolve_model(resume) if resume is not None else None
+        if init is not None and resume is not None:
+            raise ValueError("--init starts a new model from saved weights; it cannot be combined with --resume")
+        self.init = resolve_model(init) if init is not None else None
+        self.init_copied: str | None = None
         previous = (read_sidecar(self.resume) or {}) if self.resume else {}
         if self.resume:
             detected = detect_algorithm(self.resume)
@@ -392,6 +447,7 @@ class Training:
                     **params_in,
                 )
                 self.params = {k: repr(v) for k, v in params.items()}
+                self.init_copied = load_weights(self.model, self.init, cls) if self.init is not None else None
             if self.eval_every:
                 train_seeds = {self.reset_seed + e * self.agents_per_env for e in range(self.n_envs)}
                 clash = sorted(s for s in train_seeds if self.eval_seed <= s < self.eval_seed + self.eval_episodes)
@@ -433,6 +489,7 @@ class Training:
             "kind": "final" if kind == "interrupted" else kind,
             "model": str(self.out),
             "resumed_from": str(self.resume) if self.resume else None,
+            "init": {"model": str(self.init), "copied": self.init_copied} if self.init else None,
             "resumed_at": self.resumed_at,
             "reset_seed": self.reset_seed,
             "tensorboard": self.tensorboard_log,
@@ -800,6 +857,13 @@ def build_parser() -> argparse.ArgumentParser:
         "--resume", type=nonblank("a model path"), default=None, metavar="PATH", help="continue training the model saved at PATH"
     )
     parser.add_argument(
+        "--init",
+        type=nonblank("a model path"),
+        default=None,
+        metavar="PATH",
+        help="start a new run from the policy weights of the model saved at PATH (or a shipped agent name)",
+    )
+    parser.add_argument(
         "--eval-every",
         type=natural,
         default=None,
@@ -982,6 +1046,8 @@ def _preset_settings(name: str, env_id: str | None) -> dict[str, Any]:
         "hyperparameters": dict(preset.hyperparameters),
         "bc": preset.bc,
         "eval": preset.eval,
+        "init": preset.init,
+        "critic": preset.critic,
     }
 
 
@@ -1058,11 +1124,18 @@ def _plan(args: argparse.Namespace) -> tuple[dict[str, Any], list[int] | None]:
     }
     if args.preset is not None:
         kwargs["preset"] = args.preset
+    init = args.init if args.init is not None else saved.get("init") if args.preset else None
+    if init is not None:
+        if args.resume:
+            raise ValueError("--init starts a new model from saved weights; it cannot be combined with --resume")
+        kwargs["init"] = init
     if args.workers is not None:
         kwargs["workers"] = args.workers
     for name in ("critic", "agent_id", "independent"):
         if getattr(args, name, None) is not None:
             kwargs[name] = getattr(args, name)
+        elif args.preset is not None and saved.get(name) is not None:
+            kwargs[name] = saved[name]
     bc = saved.get("bc") if args.preset and isinstance(saved.get("bc"), dict) else {}
     expert = args.bc_expert if args.bc_expert is not None else bc.get("expert")
     if expert is not None:  # a --bc-expert other than the preset's keeps the preset's amounts unless given
