@@ -177,7 +177,8 @@ def plot(result: dict, path: Path) -> None:
         marker="o",
         capsize=3,
     )
-    title = result["sweep"] + (f" ({result['config']['consumed_targets']})" if "consumed_targets" in result["config"] else "")
+    consumed = result.get("config", {}).get("consumed_targets")  # a sweep made before the option has no such entry
+    title = result["sweep"] + (f" ({consumed})" if consumed else "")
     ax_s.set(xlabel=axis_label(result), ylabel="successful games (%)", title=title)
     ax_s.set_ylim(max(0.0, float(low.min()) - 5.0), 100.5)
     for m in result["metrics"]:
