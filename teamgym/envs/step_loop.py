@@ -53,6 +53,18 @@ class CopyPhases:
     def regroup(self) -> None:
         """The list of copies changed (a batch added, dropped or replaced copies)."""
 
+    def _bind_to_shared_rows(self, shared: Any) -> None:
+        """Bind copy ``k`` to row ``k`` of ``shared`` (a task's arrays with ``shrink``/``grow``/``row``/``set_row``),
+        copying in the rows a copy held elsewhere; copies already bound there are left alone."""
+        copies = self.copies
+        shared.shrink(len(copies))
+        shared.grow(len(copies))
+        for k, env in enumerate(copies):
+            if env._arrays is shared and env._copy == k:
+                continue
+            shared.set_row(k, env._arrays.row(env._copy))
+            env._use_rows(shared, k)
+
     def control(self, group: list[int], actions: list[dict[str, Any]], rows: ActionRows | None) -> None:
         """Control phase: every acting robot's body command, then each copy's ``_before_physics``.
 

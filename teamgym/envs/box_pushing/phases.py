@@ -42,14 +42,7 @@ class BoxPushingPhases(CopyPhases):
             self._shared = BoxPushingArrays(
                 own.config, own.n_robots, own.box_capacity, own.width, own.n_events, own.light_width, n_copies=0
             )
-        team = self._shared
-        team.shrink(len(copies))
-        team.grow(len(copies))
-        for k, env in enumerate(copies):
-            if env._arrays is team and env._copy == k:
-                continue
-            team.set_row(k, env._arrays.row(env._copy))
-            env._use_rows(team, k)
+        self._bind_to_shared_rows(self._shared)
 
     def _rows(self, group: list[int]) -> tuple[BoxPushingArrays, slice | np.ndarray]:
         """The arrays and the rows of the copies ``group`` (a slice when they are consecutive)."""

@@ -47,14 +47,7 @@ class RendezvousPhases(CopyPhases):
         copies = self.copies
         if self._shared is None:
             self._shared = RendezvousArrays(*copies[0]._arrays.shape, copies[0]._arrays.sensor_range, 0)
-        team = self._shared
-        team.shrink(len(copies))
-        team.grow(len(copies))
-        for k, env in enumerate(copies):
-            if env._arrays is team and env._copy == k:
-                continue
-            team.set_row(k, env._arrays.row(env._copy))
-            env._use_rows(team, k)
+        self._bind_to_shared_rows(self._shared)
 
     def control(self, group: list[int], actions: list[dict[str, Any]], rows: ActionRows | None) -> None:
         """The acting robots' commands: the way-following controllers of ``next_place``, else the action type's ``act``.
