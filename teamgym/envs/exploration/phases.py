@@ -97,8 +97,23 @@ class ExplorationPhases(CopyPhases):
         for env, reward in zip(span, team.team_rewards(ks, c.explore_reward, c.time_penalty).tolist()):
             env._reward_total += reward
             env._contact_penalties(env._reward_total)
-        for env in span:
-            env._sense()
+        self._sense(team, ks, span)
+
+    @staticmethod
+    def _sense(team: ExplorationArrays, ks: slice | np.ndarray, span: list[Exploration]) -> None:
+        """Every copy's proximity rings: the rays of all robots of the group at once (``ProximityRing.read_many``),
+        then each copy's noise from its own stream (the draws ``read_rows`` makes for it)."""
+        ring, n = span[0].ring, span[0].config.n_robots
+        spaces = [env.world.space for env in span for _ in range(n)]
+        robots = [robot for env in span for robot in env.robot_list]
+        block = np.empty((len(span) * n, ring.width), dtype=team.proximity.dtype)
+        ring.read_many(spaces, robots, np.concatenate([env.world.robot_states for env in span]), block)
+        size = ring.noise_size
+        if size or not ring.noiseless:
+            for j, env in enumerate(span):
+                rows = block[j * n : (j + 1) * n]
+                ring.apply_noise(env.np_random.standard_normal((n, size)) if size else None, rows, env.robot_list)
+        team.proximity[ks] = block.reshape(len(span), n, ring.width)
 
     def observe(self, group: list[int], out: np.ndarray) -> None:
         """Every robot row of the copies ``group`` in one pass (``Exploration._observe``'s fields); rows not live are zeroed."""
