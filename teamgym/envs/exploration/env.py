@@ -410,9 +410,12 @@ class Exploration(TeamEnv):
         if fresh:
             visited[fresh] = True
             state.explored_all[k] = bool(np.all(visited[self.goal]))
-        newly = sum(self._goal_list[p] for p in fresh)
-        state.newly_explored[k] = newly
-        state.explored_goals[k] += newly
+        if fresh:
+            newly = sum(self._goal_list[p] for p in fresh)
+            state.newly_explored[k] = newly
+            state.explored_goals[k] += newly
+        else:
+            state.newly_explored[k] = 0
         self._count_contacts()
 
     def _count_contacts(self) -> None:
@@ -424,7 +427,7 @@ class Exploration(TeamEnv):
             state.collisions[k] += hits
             state.collided[k] = hits > 0
             state.any_hits[k] = True
-        elif state.any_hits[k]:  # no contact this step: every count 0
+        elif state.any_hits.item(k):  # no contact this step: every count 0
             state.hits[k] = 0
             state.collided[k] = False
             state.any_hits[k] = False
@@ -446,19 +449,19 @@ class Exploration(TeamEnv):
 
     def _check_goals(self) -> None:
         state, k = self._arrays, self._copy
-        if state.newly_explored[k] and state.explored_all[k] and math.isnan(state.explore_time[k]):
+        if state.newly_explored.item(k) and state.explored_all.item(k) and math.isnan(state.explore_time.item(k)):
             state.explore_time[k] = self.cycles * self.config.dt
 
     def _accumulate_rewards(self, total: np.ndarray) -> None:
         """``explore_reward`` per newly explored goal sector − ``time_penalty``, shared; − ``collision_penalty`` per contact."""
         c, state, k = self.config, self._arrays, self._copy
-        total += c.explore_reward * int(state.newly_explored[k]) - c.time_penalty
+        total += c.explore_reward * state.newly_explored.item(k) - c.time_penalty
         self._contact_penalties(total)
 
     def _contact_penalties(self, total: np.ndarray) -> None:
         """``collision_penalty`` off ``total[i]`` once per contact of robot ``i`` this control step (a running sum)."""
         state, k = self._arrays, self._copy
-        if not state.any_hits[k]:
+        if not state.any_hits.item(k):
             return
         penalty, hits = self.config.collision_penalty, state.hits[k]
         for i in np.flatnonzero(hits).tolist():
@@ -472,37 +475,46 @@ class Exploration(TeamEnv):
 
     def _all_explored(self) -> bool:
         """Every goal sector explored (kept up to date by :meth:`_update_state`)."""
-        return bool(self._arrays.explored_all[self._copy])
+        return self._arrays.explored_all.item(self._copy)
 
     def _terminations(self) -> dict[str, bool]:
         return dict.fromkeys(self.live_agents, self._all_explored())
 
     # -- observations, metrics -------------------------------------------------------
     def _observe(self, out: np.ndarray) -> None:
-        fields = self.layout.slices
-        at = {name: fields[name].start for name in ("velocity", "sector", "place", "mates_sector", "mates_place")}
-        at.update(task_status=fields["task_status"].start, task=fields["task"].start)
+        """Rows of the live agents (module docstring); fields every robot observes alike written once for all rows."""
+        at = self.__dict__.get("_field_starts")
+        if at is None:
+            names = ("velocity", "sector", "place", "mates_sector", "mates_place", "task_status", "task")
+            at = self._field_starts = {name: self.layout.slices[name].start for name in names}
         s, v = self.n_sectors, self.n_sectors + self.n_doors
-        shared = [(fields[name], value) for name, value in self._shared_fields()]
         team, k = self._arrays, self._copy
-        sectors, places, proximity = team.sector[k].tolist(), team.place[k].tolist(), team.proximity[k]
-        status, tasks = self._task_rows()
+        sectors, places = team.sector[k].tolist(), team.place[k].tolist()
+        index, states, others = self._index, self.world.robot_states, self._others
         for row, agent in enumerate(self.live_agents):
-            i = self._index[agent]
+            i = index[agent]
             buffer = out[row]
-            x, y, theta, vx, vy, omega = self.world.robot_states[i].tolist()
+            x, y, theta, vx, vy, omega = states[i].tolist()
             buffer[0:3] = (x, y, math.remainder(theta, 2 * math.pi))
             buffer[at["velocity"] : at["velocity"] + 2] = (vx * math.cos(theta) + vy * math.sin(theta), omega)
             buffer[at["sector"] + sectors[i]] = 1.0
             buffer[at["place"] + places[i]] = 1.0
-            buffer[fields["proximity"]] = proximity[i]
-            for row_m, j in enumerate(self._others[i].tolist()):
+            for row_m, j in enumerate(others[i].tolist()):
                 buffer[at["mates_sector"] + row_m * s + sectors[j]] = 1.0
                 buffer[at["mates_place"] + row_m * v + places[j]] = 1.0
-            for where, value in shared:
-                buffer[where] = value
-            buffer[at["task_status"] + status[i]] = 1.0
-            buffer[at["task"]] = tasks[i]
+        fields, rows = self.layout.slices, self._live_rows()
+        out[:, fields["proximity"]] = team.proximity[k] if len(rows) == len(sectors) else team.proximity[k, rows]
+        for name, value in self._shared_fields():
+            out[:, fields[name]] = value
+        operators = self._operators if self.action_type.is_macro else None
+        if operators is None:
+            out[:, at["task_status"] + int(WatcherState.WAITING)] = 1.0
+            out[:, at["task"]] = -1.0
+            return
+        status, tasks = operators.task_rows()
+        for row, i in enumerate(rows.tolist()):
+            out[row, at["task_status"] + status[i]] = 1.0
+            out[row, at["task"]] = tasks[i]
 
     def _task_rows(self) -> tuple[list[int], list[int]]:
         """Per robot row: watcher state and current operator (−1); waiting and none without operators."""
@@ -540,16 +552,16 @@ class Exploration(TeamEnv):
     def _metrics_of(self, agents: list[str]) -> dict[str, dict[str, Any]]:
         """Per-robot metrics; the team-wide ones (explored set, team path, explore time) computed once."""
         state, k = self._arrays, self._copy
-        explored = int(state.explored_goals[k])  # np.count_nonzero(self.visited & self.goal), kept by _update_state
+        explored = state.explored_goals.item(k)  # np.count_nonzero(self.visited & self.goal), kept by _update_state
         team: dict[str, Any] = {
             "explored": explored,
             "explored_fraction": explored / self._n_goals,
-            "explored_all": self._all_explored(),
+            "explored_all": state.explored_all.item(k),
         }
         team_path = float(sum(r.odometer for r in self.robot_list))
         collisions, sectors, places = state.collisions[k].tolist(), state.sector[k].tolist(), state.place[k].tolist()
         operators = self._operators if self.action_type.is_macro else None  # task bookkeeping: operators only
-        explore_time = float(state.explore_time[k])
+        explore_time = state.explore_time.item(k)
         out = {}
         for agent in agents:
             i = self._index[agent]
@@ -557,9 +569,9 @@ class Exploration(TeamEnv):
                 **team,
                 "path_length": float(self.robot_list[i].odometer),
                 "team_path_length": team_path,
-                "collisions": int(collisions[i]),
-                "sector": int(sectors[i]),
-                "place": int(places[i]),
+                "collisions": collisions[i],
+                "sector": sectors[i],
+                "place": places[i],
             }
             if not math.isnan(explore_time):
                 metrics["explore_time"] = explore_time
