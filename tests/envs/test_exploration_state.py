@@ -212,3 +212,47 @@ def test_the_arrays_grow_shrink_and_start_copies_in_place():
     assert math.isnan(arrays.explore_time[1]) and arrays.clutter[1].tolist() == [0.1, 0.2, 0.3]
     arrays.shrink(1)
     assert arrays.n_copies == 1 and arrays.proximity.shape == (1, 2, 8) and arrays.clutter_sum.shape == (1, 3)
+
+
+@pytest.mark.parametrize("action_type", ["velocity", "operator"])
+def test_a_snapshot_with_the_episode_in_attributes_is_converted_on_load(action_type):
+    """Snapshots of earlier releases kept the episode in ``_*`` attributes (and ``visited``, ``model``,
+    ``clutter_estimate``, the watchers on the env): adopting one fills the copy's rows, bit for bit."""
+    env = teamgym.make("Exploration-v0", action_type=action_type, door_resample_period=2.0)
+    env.reset(seed=5)
+    rng = np.random.default_rng(1)
+
+    def actions(e):
+        if action_type == "operator":
+            masks = e.action_masks()
+            return {a: int(rng.choice(np.flatnonzero(masks[a]))) for a in e.agents}
+        return {a: rng.uniform(-0.1, 0.1, 2).astype(np.float32) for a in e.agents}
+
+    for _ in range(8 if action_type == "operator" else 80):
+        env.step(actions(env))
+    clone = copy.deepcopy(env)
+    state = clone._episode_state()
+    rows = state.pop("_episode_rows")
+    for name in rows:
+        if name not in ("door_is_open", "in_stage", "clutter", "door_belief", "clutter_sum", "clutter_count", "visited"):
+            state[f"_{name}"] = rows[name]
+    state["_stage_robots"] = np.flatnonzero(rows["in_stage"]).tolist()
+    state["visited"] = rows["visited"]
+    model, estimate = copy.deepcopy(clone.model), copy.deepcopy(clone.clutter_estimate)
+    model.clutter, model.door_open, estimate.ratio_sum, estimate.count = (
+        rows["clutter"],
+        rows["door_belief"],
+        rows["clutter_sum"],
+        rows["clutter_count"],
+    )
+    state["model"], state["clutter_estimate"] = model, estimate
+    operators = clone._operators
+    if operators is not None:
+        state["_watchers"], state["_tasks"] = operators.watchers, operators.tasks
+        operators.watchers, operators.tasks = [], None
+    clone._arrays.start(clone._copy, np.zeros(clone.n_doors, dtype=bool))  # what the conversion must restore
+    clone._adopt_episode_state(state)
+    for _ in range(12):
+        joint = actions(env)
+        assert all(same(a, b) for a, b in zip(clone.step(joint), env.step(joint)))
+    assert np.array_equal(clone.state(), env.state())

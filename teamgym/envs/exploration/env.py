@@ -68,6 +68,8 @@ from teamgym.envs.bounds import region, speed_limits
 from teamgym.envs.config import ConfigError
 from teamgym.envs.exploration.config import ExplorationConfig, cached_map
 from teamgym.envs.exploration.operators import OperatorAction, OperatorSet
+from teamgym.envs.exploration.operators import _door_is_open as _door_is_open  # pickles of earlier releases name them here
+from teamgym.envs.exploration.operators import _door_known_closed as _door_known_closed
 from teamgym.envs.exploration.phases import ExplorationPhases
 from teamgym.envs.exploration.state import ExplorationArrays
 from teamgym.envs.infos import InfoKey, categorical, metrics, unknown
@@ -235,7 +237,9 @@ class Exploration(TeamEnv):
         return state
 
     def _adopt_episode_state(self, state: dict[str, Any]) -> None:
-        rows = state.pop("_episode_rows")
+        rows = state.pop("_episode_rows", None)
+        if rows is None:  # a snapshot of a release that kept the episode in attributes
+            rows = _rows_of_attributes(self, state)
         super()._adopt_episode_state(state)
         self._arrays.set_row(self._copy, rows)
 
@@ -620,6 +624,30 @@ class Exploration(TeamEnv):
         return Overlay(
             points=[(s.centre, (190, 60, 60)) for s, seen, g in zip(self.map.sectors, self.visited, self.goal) if g and not seen]
         )
+
+
+def _rows_of_attributes(env: Exploration, state: dict[str, Any]) -> dict[str, np.ndarray]:
+    """The episode rows of a snapshot that earlier releases wrote (the state in ``_*`` attributes); ``state`` loses them.
+
+    Their watchers and task factory move to the operator action type, as this release keeps them.
+    """
+    old = {key: state.pop(key) for key in [*state] if key.startswith("_") and key not in env.__dict__}
+    visited, model, estimate = state.pop("visited"), state.pop("model"), state.pop("clutter_estimate")
+    rows = env._arrays.row(env._copy)
+    for name in ("sector", "place", "collisions", "collided", "hits", "completed", "failed", "task_sector", "proximity"):
+        rows[name][...] = old[f"_{name}"]
+    rows["in_stage"][old.get("_stage_robots", [])] = True
+    rows["visited"][:], rows["clutter"][:], rows["door_belief"][:] = visited, model.clutter, model.door_open
+    rows["clutter_sum"][:], rows["clutter_count"][:] = estimate.ratio_sum, estimate.count
+    rows["door_is_open"][:] = [state["doors"][d].is_open for d in env.map.door_ids]
+    for name in ("explored_all", "explored_goals", "newly_explored", "any_hits", "explore_time", "stages"):
+        rows[name] = old[f"_{name}"]
+    rows["stage_start"], rows["stage_ended"] = old.get("_stage_start", 0), old.get("_stage_ended", False)
+    action_type = getattr(state.get("action_type"), "motion", state.get("action_type"))
+    if isinstance(action_type, OperatorAction):
+        action_type.config, action_type.robot_radius = env.config, env.spec_robot.radius
+        action_type.watchers, action_type.tasks = old["_watchers"], old["_tasks"]
+    return rows
 
 
 def parallel_env(render_mode: str | None = None, **config: Any) -> Exploration:
