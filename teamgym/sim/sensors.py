@@ -334,9 +334,11 @@ class ProximityRing(NoisyRowSensor):
         r = np.array([robots[m].spec.radius for m in reach])[:, None]
         picked = poses[reach]
         start_x, start_y = picked[:, 0, None] + r * dx, picked[:, 1, None] + r * dy
-        ends = np.stack([start_x, start_y, start_x + span * dx, start_y + span * dy], axis=-1).tolist()
-        distances = caster.ray_distances([spaces[m] for m in reach], ends, [robots[m].sensor_filter for m in reach], span)
-        out[reach] = distances
+        ends = np.stack([start_x, start_y, start_x + span * dx, start_y + span * dy], axis=-1).ravel().tolist()
+        width = len(self._cos)
+        filters = [robots[m].sensor_filter for m in reach]
+        distances = caster.ray_distances([spaces[m] for m in reach], ends, filters, width, span)
+        out[reach] = np.array(distances).reshape(len(reach), width)
 
     def _cast_one(self, robot: DiffDriveRobot, space: pymunk.Space, x: float, y: float, theta: float, out: np.ndarray) -> None:
         """Cast one robot's rays; hits go into ``out`` (the other values are left as they are)."""
