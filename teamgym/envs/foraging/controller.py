@@ -20,8 +20,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from teamgym.envs.foraging.frames import to_robot
-
 __all__ = ["GoToController"]
 
 
@@ -48,14 +46,37 @@ class GoToController:
         stop: np.ndarray | None,
         field_size: tuple[float, float],
         heading_trig: tuple[np.ndarray, np.ndarray] | None = None,
+        mates: tuple[np.ndarray, np.ndarray] | None = None,
     ) -> np.ndarray:
         """``(v, ω)`` per robot (n, 2).
 
         ``estimate``/``true_pose`` (n, 3); ``aim`` (n, 2): the go-to point in the field frame
         (used through the estimate); ``homing`` (n, 2): measured (distance, bearing) of a target
         to home on, NaN where none (None: no robot homes); ``stop`` (n,) bool (None: none stops);
-        ``heading_trig``: cos and sin of the true headings, if known already.
+        ``heading_trig``: cos and sin of the true headings, if known already; ``mates``: the
+        offsets (n, n, 2) of every robot from every robot and their lengths (n, n), if known
+        already (``true_pose[j] − true_pose[i]``, as the cameras' view computes them).
+
+        The geometry of every robot (go-to distance and bearing) is one numpy pass; the few
+        products and sums per robot that follow are scalar float arithmetic (the same IEEE
+        operations, in the same order, as the array form they replace), and the turn error
+        is one more numpy pass (``np.arctan2``, whose last bit may differ from ``math.atan2``).
         """
+        pairs = self.command_pairs(estimate, true_pose, aim, homing, stop, field_size, heading_trig, mates)
+        return np.array(pairs, dtype=float).reshape(len(pairs), 2)
+
+    def command_pairs(
+        self,
+        estimate: np.ndarray,
+        true_pose: np.ndarray,
+        aim: np.ndarray,
+        homing: np.ndarray | None,
+        stop: np.ndarray | None,
+        field_size: tuple[float, float],
+        heading_trig: tuple[np.ndarray, np.ndarray] | None = None,
+        mates: tuple[np.ndarray, np.ndarray] | None = None,
+    ) -> list[tuple[float, float]]:
+        """:meth:`commands` as a list of ``(v, ω)`` tuples (what the robots' ``set_command`` takes)."""
         goal = aim - estimate[:, :2]
         distance = np.hypot(goal[:, 0], goal[:, 1])
         bearing = np.arctan2(goal[:, 1], goal[:, 0])
@@ -66,43 +87,68 @@ class GoToController:
             distance = np.where(home, homing[:, 0], distance)
             bearing = np.where(home, homing[:, 1], bearing)
         c, s = (np.cos(true_pose[:, 2]), np.sin(true_pose[:, 2])) if heading_trig is None else heading_trig
-        push = self._repulsion(true_pose, field_size, c, s)
-        push[:, 0] += np.cos(bearing)
-        push[:, 1] += np.sin(bearing)  # the aim's direction plus the push (the push added to it, as one sum)
-        error = np.arctan2(push[:, 1], push[:, 0])
-        omega = np.minimum(np.maximum(self.turn_gain * error, -self.max_turn_rate), self.max_turn_rate)
-        v = self.max_speed * np.maximum(0.0, np.cos(error)) * np.minimum(1.0, distance / self.slow_distance)
-        halt = distance < self.arrive_distance
-        if home is not None:
-            halt &= ~home
-        if stop is not None:
-            halt |= stop
-        out = np.empty((len(estimate), 2))
-        out[:, 0] = v
-        out[:, 1] = omega
-        out[halt] = 0.0
+        push_x, push_y = self._pushes(true_pose, field_size, c.tolist(), s.tolist(), mates)
+        for i, (cos_b, sin_b) in enumerate(zip(np.cos(bearing).tolist(), np.sin(bearing).tolist())):
+            push_x[i] += cos_b  # the aim's direction plus the push (the push added to it, as one sum)
+            push_y[i] += sin_b
+        error = np.arctan2(push_y, push_x)
+        top, gain, speed = self.max_turn_rate, self.turn_gain, self.max_speed
+        slow, arrive = self.slow_distance, self.arrive_distance
+        halts = (
+            [False] * len(error) if stop is None else stop.tolist(),
+            [False] * len(error) if home is None else home.tolist(),
+        )
+        out = []
+        for e, cos_e, d, stopped, homes in zip(error.tolist(), np.cos(error).tolist(), distance.tolist(), *halts):
+            if stopped or (d < arrive and not homes):
+                out.append((0.0, 0.0))
+            else:
+                out.append((speed * max(0.0, cos_e) * min(1.0, d / slow), min(max(gain * e, -top), top)))
         return out
 
-    def _repulsion(self, pose: np.ndarray, field_size: tuple[float, float], c: np.ndarray, s: np.ndarray) -> np.ndarray:
-        """Egocentric push away from near robots and walls (n, 2); ``c``, ``s``: cos and sin of the headings."""
+    def _pushes(
+        self,
+        pose: np.ndarray,
+        field_size: tuple[float, float],
+        c: list[float],
+        s: list[float],
+        mates: tuple[np.ndarray, np.ndarray] | None,
+    ) -> tuple[list[float], list[float]]:
+        """Egocentric push (x and y lists over robots) away from near robots and walls; ``c``, ``s``: heading cos, sin."""
         n = len(pose)
-        push = np.zeros((n, 2))
+        xy = pose[:, :2].tolist()
+        push_x, push_y = [0.0] * n, [0.0] * n
         if n > 1:
-            rel = pose[None, :, :2] - pose[:, None, :2]  # j relative to i
-            gap = np.hypot(rel[..., 0], rel[..., 1])
-            gap.flat[:: n + 1] = np.inf
+            if mates is None:
+                rel = pose[None, :, :2] - pose[:, None, :2]  # j relative to i
+                gap = np.hypot(rel[..., 0], rel[..., 1])
+            else:
+                rel, gap = mates
             near = gap < self.avoid_range
+            near.flat[:: n + 1] = False
             if np.count_nonzero(near):
-                strength = np.where(near, (self.avoid_range - gap) / (self.avoid_range - 2 * self.robot_radius + 1e-9), 0.0)
-                unit = rel / np.maximum(gap, 1e-9)[..., None]
-                world = -(strength[..., None] * unit).sum(axis=1) * self.avoid_gain * 2
-                push += to_robot(world, c, s)
-        # Clearance to the walls x = 0, y = 0 (row 0) and x = width, y = height (row 1), each pushing away.
-        clearance = np.empty((2, n, 2))
-        np.subtract(pose[:, :2], self.robot_radius, out=clearance[0])
-        np.subtract(field_size, pose[:, :2], out=clearance[1])
-        clearance[1] -= self.robot_radius
-        strength = np.maximum((self.wall_range - clearance) / self.wall_range, 0.0)
-        strength *= self.avoid_gain
-        push += to_robot(strength[0] - strength[1], c, s)
-        return push
+                # Σ_j strength_ij · unit_ij over the near robots j, in index order (the others add zeros).
+                scale, gain = self.avoid_range - 2 * self.robot_radius + 1e-9, self.avoid_gain
+                rows, cols = np.nonzero(near)
+                pairs = zip(rows.tolist(), rel[rows, cols].tolist(), gap[rows, cols].tolist())
+                world = {}
+                for i, (dx, dy), g in pairs:
+                    strength, length = (self.avoid_range - g) / scale, max(g, 1e-9)
+                    term = (strength * (dx / length), strength * (dy / length))
+                    if i in world:
+                        world[i] = (world[i][0] + term[0], world[i][1] + term[1])
+                    else:
+                        world[i] = term
+                for i, (wx, wy) in world.items():
+                    wx, wy = -wx * gain * 2, -wy * gain * 2
+                    push_x[i] += wx * c[i] + wy * s[i]
+                    push_y[i] += wy * c[i] - wx * s[i]
+        # Clearance to the walls x = 0, y = 0 and x = width, y = height, each pushing away.
+        width, height = field_size
+        radius, reach, gain = self.robot_radius, self.wall_range, self.avoid_gain
+        for i, (x, y) in enumerate(xy):
+            wx = max((reach - (x - radius)) / reach, 0.0) * gain - max((reach - (width - x - radius)) / reach, 0.0) * gain
+            wy = max((reach - (y - radius)) / reach, 0.0) * gain - max((reach - (height - y - radius)) / reach, 0.0) * gain
+            push_x[i] += wx * c[i] + wy * s[i]
+            push_y[i] += wy * c[i] - wx * s[i]
+        return push_x, push_y

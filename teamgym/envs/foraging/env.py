@@ -298,8 +298,13 @@ class Foraging(TeamEnv):
             present &= (self._timer if everyone else self._timer[rows]) < self.config.consume_time - 1e-9
         if np.count_nonzero(present):  # (the own cell of the last packet is the estimated cell now)
             stop = present & (np.maximum.reduce(np.abs(table[:, 0, 1:3] - goal), axis=1) <= 1)
-        commands = self.controller.commands(estimate, pose, self._cell_centre[index], homing, stop, self.grid_size, (c, s))
-        return dict(zip(agents, map(tuple, commands.tolist())))
+        t, n = len(self.targets), self.config.n_robots
+        rel, gap = self._geometry.rel[:, t : t + n], self._geometry.distance[:, t : t + n]  # teammates, as the cameras see them
+        if not everyone:
+            rel, gap = rel[np.ix_(rows, rows)], gap[np.ix_(rows, rows)]
+        aim = self._cell_centre[index]
+        commands = self.controller.command_pairs(estimate, pose, aim, homing, stop, self.grid_size, (c, s), (rel, gap))
+        return dict(zip(agents, commands))
 
     def _update_state(self) -> None:
         """State phase: true poses, odometry, distance travelled, who is at which target."""
