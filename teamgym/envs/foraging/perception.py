@@ -38,7 +38,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from teamgym.envs.foraging.frames import to_field, to_robot
 from teamgym.envs.foraging.grid import GridSpec
 
 __all__ = [
@@ -226,32 +225,30 @@ class Odometry:
 
         ``trig``: cos and sin of the ``before`` headings and of the estimated headings, if known already.
         """
-        turn = after[:, 2] - before[:, 2]
-        turn += math.pi
-        turn %= 2 * math.pi
-        turn -= math.pi
         step = after[:, :2] - before[:, :2]
         est = self.estimate
         if trig is None:
             trig = (np.cos(before[:, 2]), np.sin(before[:, 2]), np.cos(est[:, 2]), np.sin(est[:, 2]))
-        c, s, ce, se = trig
-        travel = to_robot(step, c, s)  # (forward, lateral) in the robot's frame at the start
-        length = np.hypot(travel[:, 0], travel[:, 1])
         noise = rng.standard_normal((2, len(before)))
-        scale = self.distance_noise * noise[1]
-        scale *= length > 0
-        scale += 1.0
-        moved = to_field(travel, ce, se)
-        moved *= scale[:, None]
-        est[:, :2] += moved
-        size = np.abs(turn)
-        heading = est[:, 2] + turn
-        heading += self.rotation_noise * size * noise[0]
-        heading += math.pi
-        heading %= 2 * math.pi
-        heading -= math.pi
-        est[:, 2] = heading
-        self.certainty *= self.pe**size
+        # Per robot, scalar float arithmetic: the same IEEE operations in the same order as the array form.
+        two_pi, pi, distance_noise, rotation_noise = 2 * math.pi, math.pi, self.distance_noise, self.rotation_noise
+        sizes, rows = [], zip(
+            *(a.tolist() for a in (after[:, 2], before[:, 2], step[:, 0], step[:, 1], est[:, 0], est[:, 1], est[:, 2])),
+            *(a.tolist() for a in trig),
+            noise[0].tolist(),
+            noise[1].tolist(),
+        )
+        estimate = []
+        for th1, th0, dx, dy, ex, ey, eth, c, s, ce, se, turn_noise, length_noise in rows:
+            turn = (th1 - th0 + pi) % two_pi - pi
+            forward, lateral = dx * c + dy * s, dy * c - dx * s  # the motion in the robot's frame at the start
+            scale = distance_noise * length_noise * (1.0 if forward != 0.0 or lateral != 0.0 else 0.0) + 1.0
+            size = abs(turn)
+            heading = (eth + turn + rotation_noise * size * turn_noise + pi) % two_pi - pi
+            estimate.append((ex + (forward * ce - lateral * se) * scale, ey + (lateral * ce + forward * se) * scale, heading))
+            sizes.append(size)
+        est[:] = estimate
+        self.certainty *= self.pe ** np.array(sizes)
         return step
 
     def relocalise(self, robot: int, true_pose: np.ndarray, pv: float, error: tuple[float, float, float]) -> None:
