@@ -456,10 +456,10 @@ def test_one_draw_measures_sightings_then_fixes_as_separate_draws_did():
 
     vision = VisionModel(1.0, 1.28, 2.0)
     sightings = (np.array([0.2, 0.9, 0.5]), np.array([0.1, -0.6, 3.1]), np.array([0.95, 0.5, 0.8]))
-    fixes = (np.array([0, 2]), np.array([0.7, 0.3]), np.array([-0.2, 0.4]), np.array([0.65, 0.9]))
+    fixes = [(0, 0.7, -0.2, 0.65), (2, 0.3, 0.4, 0.9)]  # (robot row, true distance, bearing, Pv)
     (d, b), (fd, fb) = measure_all(vision, sightings, fixes, np.random.default_rng(3))
     rng = np.random.default_rng(3)
     assert np.array_equal(np.stack([d, b]), np.stack(vision.measure(*sightings[:2], sightings[2], rng)))
-    for k in range(2):  # then one robot's (distance, bearing) error after the other's
-        one = vision.measure(fixes[1][k : k + 1], fixes[2][k : k + 1], fixes[3][k : k + 1], rng)
+    for k, (_, true_d, true_b, pv) in enumerate(fixes):  # then one robot's (distance, bearing) error after the other's
+        one = vision.measure(np.array([true_d]), np.array([true_b]), np.array([pv]), rng)
         assert (fd[k], fb[k]) == (one[0][0], one[1][0])

@@ -67,6 +67,7 @@ PV_TABLE = np.array(
         [0.65, 0.60, 0.50],
     ]
 )
+_PV_ROWS = PV_TABLE.tolist()
 #: Measurement errors per unit of (1 − Pv) at ``vision_noise`` = 1: metres and radians.
 DISTANCE_ERROR, BEARING_ERROR = 0.3, 0.2
 #: How far beyond ``camera_range`` a measured distance can read (m): the camera saturates there.
@@ -173,6 +174,12 @@ class VisionModel:
         cols = np.minimum((np.abs(bearing) / (0.5 * self.camera_fov) * 3).astype(np.int64), 2)
         return PV_TABLE[rows, cols]
 
+    def pv_of(self, distance: float, bearing: float) -> float:
+        """:meth:`pv` of one object (the same float operations)."""
+        row = min(int(distance / self.camera_range * 4), 3)
+        col = min(int(abs(bearing) / (0.5 * self.camera_fov) * 3), 2)
+        return _PV_ROWS[row][col]
+
     @property
     def max_distance(self) -> float:
         """The largest measured distance (m): ``camera_range + MEASURED_RANGE_MARGIN``."""
@@ -190,6 +197,17 @@ class VisionModel:
             return np.asarray(distance, dtype=float), np.asarray(bearing, dtype=float)
         noise = rng.standard_normal((2, *np.shape(distance)))
         return self.measure_with(distance, bearing, pv, noise[0], noise[1])
+
+    def measure_one(
+        self, distance: float, bearing: float, pv: float, distance_noise: float, bearing_noise: float
+    ) -> tuple[float, float]:
+        """:meth:`measure_with` of one object (``noise`` > 0; the same float operations)."""
+        spread = self.noise * (1.0 - pv)
+        measured = min(max(0.0, distance + DISTANCE_ERROR * spread * distance_noise), self.max_distance)
+        turned = bearing + BEARING_ERROR * spread * bearing_noise
+        if abs(turned) > math.pi:
+            turned = (turned + math.pi) % (2 * math.pi) - math.pi
+        return measured, turned
 
     def measure_with(
         self, distance: np.ndarray, bearing: np.ndarray, pv: np.ndarray, distance_noise: np.ndarray, bearing_noise: np.ndarray
@@ -232,11 +250,14 @@ class Odometry:
         noise = rng.standard_normal((2, len(before)))
         # Per robot, scalar float arithmetic: the same IEEE operations in the same order as the array form.
         two_pi, pi, distance_noise, rotation_noise = 2 * math.pi, math.pi, self.distance_noise, self.rotation_noise
-        sizes, rows = [], zip(
-            *(a.tolist() for a in (after[:, 2], before[:, 2], step[:, 0], step[:, 1], est[:, 0], est[:, 1], est[:, 2])),
-            *(a.tolist() for a in trig),
-            noise[0].tolist(),
-            noise[1].tolist(),
+        sizes, rows = (
+            [],
+            zip(
+                *(a.tolist() for a in (after[:, 2], before[:, 2], step[:, 0], step[:, 1], est[:, 0], est[:, 1], est[:, 2])),
+                *(a.tolist() for a in trig),
+                noise[0].tolist(),
+                noise[1].tolist(),
+            ),
         )
         estimate = []
         for th1, th0, dx, dy, ex, ey, eth, c, s, ce, se, turn_noise, length_noise in rows:

@@ -13,6 +13,7 @@ landmarks (:func:`relocalise`) and the perception tuples of section 2.1 (eq. 1) 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 from typing import NamedTuple
 
 import numpy as np
@@ -146,72 +147,82 @@ class Cameras:
 
 
 def landmark_fixes(
-    certainty: np.ndarray, seen: np.ndarray, distance: np.ndarray, bearing: np.ndarray, pv: np.ndarray, live: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
-    """The ``live`` robots whose nearest landmark in view (sightings (n, L) with their Pv) re-localises them (Pv ≥ Pl).
+    certainty: list[float],
+    seen: np.ndarray,
+    distance: np.ndarray,
+    bearing: np.ndarray,
+    pv_of: Callable[[float, float], float],
+    live: np.ndarray,
+) -> list[tuple[int, float, float, float]]:
+    """The ``live`` robots whose nearest landmark in view (sightings (n, L)) re-localises them (its Pv ≥ Pl).
 
-    Returns their rows (in index order) and that landmark's true distance, bearing and Pv, or None.
+    Returns, in robot order, each one's row and that landmark's true distance, bearing and Pv
+    (``pv_of(distance, bearing)``); empty if none.
     """
     candidates = np.logical_or.reduce(seen, axis=1)
     candidates &= live
     if not np.count_nonzero(candidates):
-        return None
-    robots = np.arange(len(seen))
-    nearest = np.argmin(np.where(seen, distance, np.inf), axis=1)
-    sighted = pv[robots, nearest]
-    candidates &= sighted >= certainty
-    count = np.count_nonzero(candidates)
-    if not count:
-        return None
-    if count < len(robots):
-        robots = np.flatnonzero(candidates)
-        nearest, sighted = nearest[robots], sighted[robots]
-    return robots, distance[robots, nearest], bearing[robots, nearest], sighted
+        return []
+    nearest = np.argmin(np.where(seen, distance, np.inf), axis=1).tolist()
+    fixes = []
+    for i in np.flatnonzero(candidates).tolist():
+        d, b = float(distance[i, nearest[i]]), float(bearing[i, nearest[i]])
+        pv = pv_of(d, b)
+        if pv >= certainty[i]:
+            fixes.append((i, d, b, pv))
+    return fixes
 
 
 def relocalise(
-    odometry: Odometry, pose: np.ndarray, fixes: tuple[np.ndarray, ...], measured_d: np.ndarray, measured_b: np.ndarray
+    odometry: Odometry,
+    pose: np.ndarray,
+    fixes: list[tuple[int, float, float, float]],
+    measured_d: list[float],
+    measured_b: list[float],
 ) -> None:
-    """Re-localise the robots of :func:`landmark_fixes` from their landmark's measured distance and bearing."""
-    rows, d, b, pv = fixes
-    # The pose implied by the measured landmark differs from the truth by the measurement error.
-    errors = np.empty((len(rows), 3))
-    for k, (i, true_d, true_b, m_d, m_b) in enumerate(
-        zip(rows.tolist(), d.tolist(), b.tolist(), measured_d.tolist(), measured_b.tolist())
-    ):
-        theta = float(pose[i, 2])
+    """Re-localise the robots of :func:`landmark_fixes` from their landmark's measured distance and bearing.
+
+    The estimate becomes the truth plus the measurement error (the pose implied by the measured
+    landmark) and Pl that sighting's Pv (:meth:`Odometry.relocalise`).
+    """
+    estimate, certainty, pi, two_pi = odometry.estimate, odometry.certainty, math.pi, 2 * math.pi
+    for (i, true_d, true_b, pv), m_d, m_b in zip(fixes, measured_d, measured_b):
+        x, y, theta = pose[i].tolist()
         ray, measured_ray = theta + true_b, theta + m_b
-        errors[k] = (
-            true_d * math.cos(ray) - m_d * math.cos(measured_ray),
-            true_d * math.sin(ray) - m_d * math.sin(measured_ray),
-            true_b - m_b,
+        estimate[i] = (
+            x + (true_d * math.cos(ray) - m_d * math.cos(measured_ray)),
+            y + (true_d * math.sin(ray) - m_d * math.sin(measured_ray)),
+            (theta + (true_b - m_b) + pi) % two_pi - pi,
         )
-    odometry.relocalise_rows(rows, pose[rows], pv, errors)
+        certainty[i] = pv
 
 
 def measure_all(
-    vision: VisionModel, sightings: tuple[np.ndarray, ...], fixes: tuple[np.ndarray, ...] | None, rng: np.random.Generator
-) -> tuple[tuple[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]:
-    """Measured (distance, bearing) of the object sightings (true distance, bearing, Pv) and of the landmark fixes.
+    vision: VisionModel,
+    sightings: tuple[Sequence[float], Sequence[float], Sequence[float]],
+    fixes: list[tuple[int, float, float, float]],
+    rng: np.random.Generator,
+) -> tuple[tuple[list[float], list[float]], tuple[list[float], list[float]]]:
+    """Measured (distance, bearing) of the object sightings (true distances, bearings, Pv) and of the landmark fixes.
 
     One draw serves both, in the order of the paper's model run robot by robot: the distance
     errors of every object sighting, then their bearing errors, then each re-localising
-    robot's distance and bearing error.
+    robot's distance and bearing error (:meth:`VisionModel.measure_one` per value).
     """
-    d, b, pv = sightings
-    m = len(d)
-    r = 0 if fixes is None else len(fixes[0])
+    d, b, pv = (list(values) for values in sightings)
+    m, r = len(d), len(fixes)
     if vision.noise == 0.0 or not m + r:
-        return (d, b), ((fixes[1], fixes[2]) if r else (d[:0], b[:0]))
-    noise = rng.standard_normal(2 * (m + r))
-    if r:
-        d, b, pv = np.concatenate([d, fixes[1]]), np.concatenate([b, fixes[2]]), np.concatenate([pv, fixes[3]])
-        distance_noise = np.concatenate([noise[:m], noise[2 * m :: 2]])
-        bearing_noise = np.concatenate([noise[m : 2 * m], noise[2 * m + 1 :: 2]])
-    else:
-        distance_noise, bearing_noise = noise[:m], noise[m:]
-    measured_d, measured_b = vision.measure_with(d, b, pv, distance_noise, bearing_noise)
-    return (measured_d[:m], measured_b[:m]), (measured_d[m:], measured_b[m:])
+        return (d, b), ([f[1] for f in fixes], [f[2] for f in fixes])
+    noise = rng.standard_normal(2 * (m + r)).tolist()
+    measure = vision.measure_one
+    objects = [measure(*values) for values in zip(d, b, pv, noise[:m], noise[m : 2 * m])]
+    fixed = [measure(f[1], f[2], f[3], noise[2 * m + 2 * k], noise[2 * m + 2 * k + 1]) for k, f in enumerate(fixes)]
+    return ([v[0] for v in objects], [v[1] for v in objects]), ([v[0] for v in fixed], [v[1] for v in fixed])
+
+
+def _cell(value: float, cell_size: float, top: int) -> float:
+    """:func:`cells_of` of one coordinate (the same float operations)."""
+    return float(min(max(math.floor(value / cell_size + 1e-9), 0), top))
 
 
 def perceive(
@@ -233,46 +244,43 @@ def perceive(
     the measurement errors of every target and teammate sighting (row-major: per robot,
     targets before robots), then the re-localisations' (:func:`measure_all`). A tuple's
     position and Pc use the odometry after the re-localisation.
+
+    Visibility is one numpy pass over every robot and point; the few sightings that follow are
+    handled one by one in scalar float arithmetic (the same IEEE operations as an array form).
     """
     n, t = len(pose), len(live_targets)
     seen, distance, bearing = cameras.seen(pose, view, live_targets)
-    pv = vision.pv(distance, bearing)
-    objects = seen[:, : t + n]
-    rows, cols = np.nonzero(objects)  # row-major: per robot, targets before robots
-    sighted = distance[:, : t + n][objects], bearing[:, : t + n][objects], pv[:, : t + n][objects]
+    rows, cols = np.nonzero(seen[:, : t + n])  # row-major: per robot, targets before robots
+    sighted_d, sighted_b = distance[rows, cols].tolist(), bearing[rows, cols].tolist()
+    pv_of = vision.pv_of
+    sighted_pv = [pv_of(d, b) for d, b in zip(sighted_d, sighted_b)]
     landmarks = slice(t + n, None)
     fixes = landmark_fixes(
-        odometry.certainty, seen[:, landmarks], distance[:, landmarks], bearing[:, landmarks], pv[:, landmarks], live
+        odometry.certainty.tolist(), seen[:, landmarks], distance[:, landmarks], bearing[:, landmarks], pv_of, live
     )
-    (measured_d, measured_b), fixed = measure_all(vision, sighted, fixes, rng)
-    if fixes is not None:
+    (measured_d, measured_b), fixed = measure_all(vision, (sighted_d, sighted_b, sighted_pv), fixes, rng)
+    if fixes:
         relocalise(odometry, pose, fixes, *fixed)
-    pv_seen = sighted[2]
-    est, certainty = odometry.estimate, odometry.certainty
+    est, certainty = odometry.estimate.tolist(), odometry.certainty.tolist()
+    size, (top_x, top_y) = grid.cell_size, (grid.nx - 1, grid.ny - 1)
     table = cameras.blank(n_slots)
-    own = table[:, 0]
-    own[:, 0] = SENDER
-    own[:, 1:3] = cells_of(grid, est[:, :2])
-    own[:, 3] = certainty
+    table[:, 0, :4] = [(SENDER, _cell(x, size, top_x), _cell(y, size, top_y), pl) for (x, y, _), pl in zip(est, certainty)]
     count = np.bincount(rows, minlength=n)
     any_target = False
     if len(rows):
-        values = np.empty((len(rows), 8))
-        seer = est[rows]
-        heading = seer[:, 2] + measured_b
-        position = values[:, 1:3]
-        np.cos(heading, out=values[:, 1])
-        np.sin(heading, out=values[:, 2])
-        position *= measured_d[:, None]
-        position += seer[:, :2]
-        position[:] = cells_of(grid, position)
-        robot = cols >= t
-        values[:, 0] = robot  # the class: TARGET 0, ROBOT 1
-        np.multiply(pv_seen, certainty[rows], out=values[:, 3])
-        values[:, 4] = measured_d
-        values[:, 5] = measured_b
-        values[:, 6:8] = position
-        values[robot, 6:8] = NO_CELL
-        table[rows, 1 + np.arange(len(rows)) - np.searchsorted(rows, rows)] = values
-        any_target = len(rows) > np.count_nonzero(robot)
+        rows_list, cols_list = rows.tolist(), cols.tolist()
+        headings = np.array([est[i][2] + b for i, b in zip(rows_list, measured_b)])
+        values, slots, slot, previous = [], [], 0, -1
+        for i, j, c, s, d, b, pv in zip(
+            rows_list, cols_list, np.cos(headings).tolist(), np.sin(headings).tolist(), measured_d, measured_b, sighted_pv
+        ):
+            slot = slot + 1 if i == previous else 1
+            previous = i
+            gx, gy = _cell(c * d + est[i][0], size, top_x), _cell(s * d + est[i][1], size, top_y)
+            robot = j >= t
+            cell = (NO_CELL, NO_CELL) if robot else (gx, gy)
+            values.append((float(robot), gx, gy, pv * certainty[i], d, b, *cell))  # the class: TARGET 0, ROBOT 1
+            slots.append(slot)
+            any_target = any_target or not robot
+        table[rows, slots] = values
     return Sightings(table, count, any_target)
