@@ -27,6 +27,8 @@ __all__ = ["NO_CELL", "Cameras", "Sightings", "View", "cells_of", "landmark_fixe
 
 #: Cell coordinate of the rows of :attr:`Sightings.table` that are not target detections (far from every cell).
 NO_CELL = 1.0e6
+#: Above this many (sighting, teammate) pairs :meth:`Cameras.seen` checks occlusion in one numpy pass, below it one by one.
+_SCALAR_CHECKS = 64
 #: Columns of :attr:`Sightings.table`: the tuple, the measured polar position, the target cell.
 TUPLE, POLAR, TARGET_CELL = slice(0, 4), slice(4, 6), slice(6, 8)
 
@@ -135,8 +137,34 @@ class Cameras:
             and np.count_nonzero(seen)
             and np.count_nonzero(distance[:, t : t + self.n] + self._self_gap < self.clear_distance)
         ):
-            seen &= ~occluded(pose, rel, distance, pose[:, :2], self.radius, counted)
+            rows, cols = np.nonzero(seen)
+            if len(rows) * self.n > _SCALAR_CHECKS:
+                seen &= ~occluded(pose, rel, distance, pose[:, :2], self.radius, counted)
+            else:
+                self._hide_occluded(seen, rows.tolist(), cols.tolist(), pose, rel, distance, t)
         return seen, distance, bearing
+
+    def _hide_occluded(
+        self, seen: np.ndarray, rows: list[int], cols: list[int], pose: np.ndarray, rel: np.ndarray, distance: np.ndarray, t: int
+    ) -> None:
+        """:func:`~teamgym.envs.foraging.perception.occluded` for the few sightings ``(rows[k], cols[k])``, one by one
+        (the same float operations); clears ``seen`` where a teammate hides the point (``t``: the robots' first column)."""
+        xy = pose[:, :2].tolist()
+        radius = self.radius
+        reach = radius**2
+        offsets, lengths = rel[rows, cols].tolist(), distance[rows, cols].tolist()
+        for i, j, (rx, ry), d in zip(rows, cols, offsets, lengths):
+            x, y = xy[i]
+            safe = max(d, 1e-12)
+            ux, uy = rx / safe, ry / safe
+            for k, (kx, ky) in enumerate(xy):
+                if k == i or j == t + k:  # a robot does not hide its own view, nor a teammate itself
+                    continue
+                ox, oy = kx - x, ky - y
+                along = ux * ox + uy * oy
+                if along > 0 and along < d - radius and (ox * ox + oy * oy) - along * along < reach:
+                    seen[i, j] = False
+                    break
 
     def blank(self, n_slots: int) -> np.ndarray:
         """An empty :attr:`Sightings.table` (a new array): zeros, :data:`NO_CELL` in the target-cell columns."""
