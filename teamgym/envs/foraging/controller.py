@@ -16,11 +16,15 @@ on-board perception". Every control step, per robot, in its own frame:
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
 __all__ = ["GoToController"]
+
+#: Up to this many robots the controller finds the near pairs one by one, above it in one numpy pass.
+_SCALAR_ROBOTS = 8
 
 
 @dataclass(frozen=True)
@@ -60,7 +64,8 @@ class GoToController:
         The geometry of every robot (go-to distance and bearing) is one numpy pass; the few
         products and sums per robot that follow are scalar float arithmetic (the same IEEE
         operations, in the same order, as the array form they replace), and the turn error
-        is one more numpy pass (``np.arctan2``, whose last bit may differ from ``math.atan2``).
+        is one more numpy pass (``np.arctan2``, whose last bit may differ from ``math.atan2`` with
+        numpy's AVX-512 kernels); cosines and sines are ``math.cos``/``math.sin`` (libm, as numpy's).
         """
         pairs = self.command_pairs(estimate, true_pose, aim, homing, stop, field_size, heading_trig, mates)
         return np.array(pairs, dtype=float).reshape(len(pairs), 2)
@@ -78,32 +83,28 @@ class GoToController:
     ) -> list[tuple[float, float]]:
         """:meth:`commands` as a list of ``(v, ω)`` tuples (what the robots' ``set_command`` takes)."""
         goal = aim - estimate[:, :2]
-        distance = np.hypot(goal[:, 0], goal[:, 1])
-        bearing = np.arctan2(goal[:, 1], goal[:, 0])
-        bearing -= estimate[:, 2]
-        home = None
+        gx, gy = goal[:, 0], goal[:, 1]
+        distance, bearing = np.hypot(gx, gy).tolist(), (np.arctan2(gy, gx) - estimate[:, 2]).tolist()
+        homes = [False] * len(distance)
         if homing is not None:
-            home = ~np.isnan(homing[:, 0])
-            distance = np.where(home, homing[:, 0], distance)
-            bearing = np.where(home, homing[:, 1], bearing)
+            for i, (home_d, home_b) in enumerate(homing.tolist()):
+                if home_d == home_d:  # not NaN: home on that target's measured distance and bearing
+                    distance[i], bearing[i], homes[i] = home_d, home_b, True
         c, s = (np.cos(true_pose[:, 2]), np.sin(true_pose[:, 2])) if heading_trig is None else heading_trig
         push_x, push_y = self._pushes(true_pose, field_size, c.tolist(), s.tolist(), mates)
-        for i, (cos_b, sin_b) in enumerate(zip(np.cos(bearing).tolist(), np.sin(bearing).tolist())):
-            push_x[i] += cos_b  # the aim's direction plus the push (the push added to it, as one sum)
-            push_y[i] += sin_b
-        error = np.arctan2(push_y, push_x)
+        for i, b in enumerate(bearing):  # the aim's direction plus the push (the push added to it, as one sum)
+            push_x[i] += math.cos(b)
+            push_y[i] += math.sin(b)
+        error = np.arctan2(push_y, push_x).tolist()
         top, gain, speed = self.max_turn_rate, self.turn_gain, self.max_speed
         slow, arrive = self.slow_distance, self.arrive_distance
-        halts = (
-            [False] * len(error) if stop is None else stop.tolist(),
-            [False] * len(error) if home is None else home.tolist(),
-        )
+        stops = [False] * len(error) if stop is None else stop.tolist()
         out = []
-        for e, cos_e, d, stopped, homes in zip(error.tolist(), np.cos(error).tolist(), distance.tolist(), *halts):
-            if stopped or (d < arrive and not homes):
+        for e, d, stopped, home in zip(error, distance, stops, homes):
+            if stopped or (d < arrive and not home):
                 out.append((0.0, 0.0))
             else:
-                out.append((speed * max(0.0, cos_e) * min(1.0, d / slow), min(max(gain * e, -top), top)))
+                out.append((speed * max(0.0, math.cos(e)) * min(1.0, d / slow), min(max(gain * e, -top), top)))
         return out
 
     def _pushes(
@@ -124,21 +125,23 @@ class GoToController:
                 gap = np.hypot(rel[..., 0], rel[..., 1])
             else:
                 rel, gap = mates
-            near = gap < self.avoid_range
-            near.flat[:: n + 1] = False
-            if np.count_nonzero(near):
+            if n <= _SCALAR_ROBOTS:  # few robots: the pairs one by one
+                pairs = [
+                    (i, j) for i, row in enumerate(gap.tolist()) for j, g in enumerate(row) if g < self.avoid_range and i != j
+                ]
+            else:
+                near = gap < self.avoid_range
+                near.flat[:: n + 1] = False
+                pairs = list(zip(*(a.tolist() for a in np.nonzero(near))))
+            if pairs:
                 # Σ_j strength_ij · unit_ij over the near robots j, in index order (the others add zeros).
                 scale, gain = self.avoid_range - 2 * self.robot_radius + 1e-9, self.avoid_gain
-                rows, cols = np.nonzero(near)
-                pairs = zip(rows.tolist(), rel[rows, cols].tolist(), gap[rows, cols].tolist())
-                world = {}
-                for i, (dx, dy), g in pairs:
+                world: dict[int, tuple[float, float]] = {}
+                for i, j in pairs:
+                    (dx, dy), g = rel[i, j].tolist(), float(gap[i, j])
                     strength, length = (self.avoid_range - g) / scale, max(g, 1e-9)
                     term = (strength * (dx / length), strength * (dy / length))
-                    if i in world:
-                        world[i] = (world[i][0] + term[0], world[i][1] + term[1])
-                    else:
-                        world[i] = term
+                    world[i] = (world[i][0] + term[0], world[i][1] + term[1]) if i in world else term
                 for i, (wx, wy) in world.items():
                     wx, wy = -wx * gain * 2, -wy * gain * 2
                     push_x[i] += wx * c[i] + wy * s[i]
