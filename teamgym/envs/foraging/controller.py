@@ -90,8 +90,12 @@ class GoToController:
             for i, (home_d, home_b) in enumerate(homing.tolist()):
                 if home_d == home_d:  # not NaN: home on that target's measured distance and bearing
                     distance[i], bearing[i], homes[i] = home_d, home_b, True
-        c, s = (np.cos(true_pose[:, 2]), np.sin(true_pose[:, 2])) if heading_trig is None else heading_trig
-        push_x, push_y = self._pushes(true_pose, field_size, c.tolist(), s.tolist(), mates)
+        headings = true_pose[:, 2].tolist()
+        if heading_trig is None:
+            c, s = [math.cos(h) for h in headings], [math.sin(h) for h in headings]
+        else:
+            c, s = heading_trig[0].tolist(), heading_trig[1].tolist()
+        push_x, push_y = self._pushes(true_pose, field_size, c, s, mates)
         for i, b in enumerate(bearing):  # the aim's direction plus the push (the push added to it, as one sum)
             push_x[i] += math.cos(b)
             push_y[i] += math.sin(b)

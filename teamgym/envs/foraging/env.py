@@ -227,7 +227,6 @@ class Foraging(TeamEnv):
         self.world.read_states()
         self._pose = self._read_pose()
         self.odometry = Odometry(self._pose, c.rotational_certainty, c.odometry_rotation_noise, c.odometry_distance_noise)
-        self._heading_trig = (np.cos(self._pose[:, 2]), np.sin(self._pose[:, 2]))
         self._points = self.cameras.points(self.targets)
         self._geometry = self.cameras.view(self._pose, self._points)
         self._update_presence()
@@ -278,10 +277,10 @@ class Foraging(TeamEnv):
         rows, everyone = self._rows_of(agents)
         index = np.fromiter(cells.values(), dtype=np.int64, count=len(agents))
         goal = self._cell_xy[index]
-        pose, estimate, at, (c, s) = self._pose, self.odometry.estimate, self._at, self._heading_trig
+        pose, estimate, at = self._pose, self.odometry.estimate, self._at
         table = self._sightings.table
         if not everyone:
-            pose, estimate, at, c, s, table = pose[rows], estimate[rows], at[rows], c[rows], s[rows], table[rows]
+            pose, estimate, at, table = pose[rows], estimate[rows], at[rows], table[rows]
         # Homing: the detected target nearest (in cells) to the go-to cell, if within one cell of it.
         homing = None
         if self._sightings.any_target:
@@ -303,18 +302,14 @@ class Foraging(TeamEnv):
         if not everyone:
             rel, gap = rel[np.ix_(rows, rows)], gap[np.ix_(rows, rows)]
         aim = self._cell_centre[index]
-        commands = self.controller.command_pairs(estimate, pose, aim, homing, stop, self.grid_size, (c, s), (rel, gap))
+        commands = self.controller.command_pairs(estimate, pose, aim, homing, stop, self.grid_size, mates=(rel, gap))
         return dict(zip(agents, commands))
 
     def _update_state(self) -> None:
         """State phase: true poses, odometry, distance travelled, who is at which target."""
-        before, (c, s) = self._pose, self._heading_trig
+        before = self._pose
         self._pose = self._read_pose()
-        n = len(before)
-        angles = np.concatenate([self.odometry.estimate[:, 2], self._pose[:, 2]])
-        cos, sin = np.cos(angles), np.sin(angles)
-        self._heading_trig = (cos[n:], sin[n:])
-        step = self.odometry.advance(before, self._pose, self.np_random, (c, s, cos[:n], sin[:n]))
+        step = self.odometry.advance(before, self._pose, self.np_random)
         self._travelled += np.hypot(step[:, 0], step[:, 1])
         self._geometry = self.cameras.view(self._pose, self._points)
         self._update_presence()

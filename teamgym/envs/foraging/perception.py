@@ -237,35 +237,26 @@ class Odometry:
         before: np.ndarray,
         after: np.ndarray,
         rng: np.random.Generator,
-        trig: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None,
     ) -> np.ndarray:
         """Integrate one control step of the motion ``before`` → ``after`` (rows x, y, θ); returns the displacements (n, 2).
 
-        ``trig``: cos and sin of the ``before`` headings and of the estimated headings, if known already.
+        Per robot in scalar float arithmetic (the same IEEE operations, in the same order, as the
+        array form; ``math.cos``/``math.sin`` are libm's, as numpy's float64 ones), the certainty
+        factor ``Pe^{|Δθ|}`` as one numpy power over the robots (eq. 2).
         """
         step = after[:, :2] - before[:, :2]
         est = self.estimate
-        if trig is None:
-            trig = (np.cos(before[:, 2]), np.sin(before[:, 2]), np.cos(est[:, 2]), np.sin(est[:, 2]))
-        noise = rng.standard_normal((2, len(before)))
-        # Per robot, scalar float arithmetic: the same IEEE operations in the same order as the array form.
+        turn_noise, length_noise = rng.standard_normal((2, len(before))).tolist()
         two_pi, pi, distance_noise, rotation_noise = 2 * math.pi, math.pi, self.distance_noise, self.rotation_noise
-        sizes, rows = (
-            [],
-            zip(
-                *(a.tolist() for a in (after[:, 2], before[:, 2], step[:, 0], step[:, 1], est[:, 0], est[:, 1], est[:, 2])),
-                *(a.tolist() for a in trig),
-                noise[0].tolist(),
-                noise[1].tolist(),
-            ),
-        )
-        estimate = []
-        for th1, th0, dx, dy, ex, ey, eth, c, s, ce, se, turn_noise, length_noise in rows:
+        sizes, estimate = [], []
+        rows = zip(before[:, 2].tolist(), after[:, 2].tolist(), step.tolist(), est.tolist(), turn_noise, length_noise)
+        for th0, th1, (dx, dy), (ex, ey, eth), turn_noise_i, length_noise_i in rows:
+            c, s, ce, se = math.cos(th0), math.sin(th0), math.cos(eth), math.sin(eth)
             turn = (th1 - th0 + pi) % two_pi - pi
             forward, lateral = dx * c + dy * s, dy * c - dx * s  # the motion in the robot's frame at the start
-            scale = distance_noise * length_noise * (1.0 if forward != 0.0 or lateral != 0.0 else 0.0) + 1.0
+            scale = distance_noise * length_noise_i * (1.0 if forward != 0.0 or lateral != 0.0 else 0.0) + 1.0
             size = abs(turn)
-            heading = (eth + turn + rotation_noise * size * turn_noise + pi) % two_pi - pi
+            heading = (eth + turn + rotation_noise * size * turn_noise_i + pi) % two_pi - pi
             estimate.append((ex + (forward * ce - lateral * se) * scale, ey + (lateral * ce + forward * se) * scale, heading))
             sizes.append(size)
         est[:] = estimate
