@@ -317,27 +317,26 @@ class Foraging(TeamEnv):
     def _update_presence(self) -> None:
         """``_at[i]``: the live target robot i is within ``reach_radius`` of (nearest), −1 if none; ``_nearest_live``
         each robot's distance to its nearest live target."""
-        live = self._live_targets
+        live, reach, n_targets = self._live_targets, self.config.reach_radius, self.config.n_targets
+        gaps = self._geometry.distance[:, :n_targets].tolist()  # robots x targets; per robot, scalar from here on
+        at = None
         if not len(live):
             self._nearest_live = None
-            at = self._no_target
         else:
-            gap = self._geometry.distance[:, : self.config.n_targets]
-            if len(live) < self.config.n_targets:
-                gap = gap[:, live]
-            self._nearest_live = nearest = np.minimum.reduce(gap, axis=1)
-            reached = nearest <= self.config.reach_radius
-            at = np.where(reached, live[np.argmin(gap, axis=1)], -1) if np.count_nonzero(reached) else self._no_target
-        if self._persist and len(live) < self.config.n_targets:  # a consumed target still holds a robot
-            gap = self._geometry.distance[:, : self.config.n_targets]
-            nearest = np.minimum.reduce(gap, axis=1)
-            reached = nearest <= self.config.reach_radius
-            at = np.where(reached, np.argmin(gap, axis=1), -1) if np.count_nonzero(reached) else self._no_target
-        if at is self._no_target:  # no robot at a target: every timer restarts
-            self._timer = self._zero_timer
-        else:
-            self._timer = np.where((at >= 0) & (at == self._at), self._timer, 0.0)
-        self._at = at
+            columns, nearest, at = live.tolist(), [], []
+            for row in gaps:
+                j = min(columns, key=row.__getitem__)  # the first nearest live target, as np.argmin picks it
+                nearest.append(row[j])
+                at.append(j if row[j] <= reach else -1)
+            self._nearest_live = np.array(nearest)
+        if self._persist and len(live) < n_targets:  # a consumed target still holds a robot
+            at = [row.index(min(row)) if min(row) <= reach else -1 for row in gaps]
+        if at is None or max(at) < 0:  # no robot at a target: every timer restarts
+            self._timer, self._at = self._zero_timer, self._no_target
+            return
+        before, timer = self._at.tolist(), self._timer.tolist()
+        self._timer = np.array([t if j >= 0 and j == b else 0.0 for j, b, t in zip(at, before, timer)])
+        self._at = np.array(at)
 
     def _check_goals(self) -> None:
         """Goals phase: consume (a robot stayed ``consume_time``) or surround (enough robots at once)."""
@@ -415,6 +414,11 @@ class Foraging(TeamEnv):
         count = sightings.count.tolist()
         for agent, i in zip(self.live_agents, self._live_rows().tolist()):
             send(agent, sightings.packet(i), sizes[count[i]], PACKET_KIND)
+
+    def _deliver_messages(self) -> None:
+        """Communication phase: deliver this step's packets; every robot is in the world, at its true pose."""
+        if self.channel.busy:
+            self.channel.deliver(self._pose[:, :2], self.np_random, self.cycles)
 
     def _received(self, agent: str) -> tuple[np.ndarray, np.ndarray]:
         """Tuples (m, 4) and their senders' indices (m,) delivered to ``agent`` this step."""
