@@ -268,10 +268,3 @@ class Odometry:
         self.estimate[robot] = true_pose + np.asarray(error)
         self.estimate[robot, 2] = (self.estimate[robot, 2] + math.pi) % (2 * math.pi) - math.pi
         self.certainty[robot] = pv
-
-    def relocalise_rows(self, rows: np.ndarray, true_poses: np.ndarray, pv: np.ndarray, errors: np.ndarray) -> None:
-        """:meth:`relocalise` of the robots ``rows`` at once: ``true_poses`` and ``errors`` (k, 3), ``pv`` (k,)."""
-        estimate = true_poses + errors
-        estimate[:, 2] = (estimate[:, 2] + math.pi) % (2 * math.pi) - math.pi
-        self.estimate[rows] = estimate
-        self.certainty[rows] = pv

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -123,48 +123,69 @@ class Cameras:
 
         ``view``: :meth:`view` at ``pose`` over every target; ``live``: indices of the live targets.
         """
+        rows, cols, _, _, distance, bearing = self._visible(pose, view, live)
+        seen = np.zeros(distance.shape, dtype=bool)
+        seen[rows, cols] = True
+        return seen, distance, bearing
+
+    def sightings(self, pose: np.ndarray, view: View, live: np.ndarray) -> tuple[list[int], list[int], list[float], list[float]]:
+        """:meth:`seen` as lists, row-major (per robot, by point): robot rows, point columns, true distances, bearings."""
+        return self._visible(pose, view, live)[:4]
+
+    def _visible(self, pose: np.ndarray, view: View, live: np.ndarray) -> tuple[Any, ...]:
+        """Rows, columns, distances and bearings (lists) of the visible points, then the (n, P) distances and bearings."""
         n_targets = len(view.distance[0]) - self.n - len(self.landmarks)
         columns, not_self, counted = self._masks_for(tuple(live.tolist()), n_targets)
         rel, distance, bearing, seen = view
         if len(live) < n_targets:
             rel, distance, bearing, seen = rel[:, columns], distance[:, columns], bearing[:, columns], seen[:, columns]
         seen = seen & not_self
+        rows, cols = np.nonzero(seen)
         t = len(live)
         # A teammate hides a point only if it is nearer than the camera's range (the point lies within it and
         # the teammate within a radius of the sight line): skipped when every teammate is farther.
-        if (
-            self.n > 1
-            and np.count_nonzero(seen)
-            and np.count_nonzero(distance[:, t : t + self.n] + self._self_gap < self.clear_distance)
-        ):
+        hidden = self.n > 1 and len(rows) and np.count_nonzero(distance[:, t : t + self.n] + self._self_gap < self.clear_distance)
+        if hidden and len(rows) * self.n > _SCALAR_CHECKS:
+            seen &= ~occluded(pose, rel, distance, pose[:, :2], self.radius, counted)
             rows, cols = np.nonzero(seen)
-            if len(rows) * self.n > _SCALAR_CHECKS:
-                seen &= ~occluded(pose, rel, distance, pose[:, :2], self.radius, counted)
-            else:
-                self._hide_occluded(seen, rows.tolist(), cols.tolist(), pose, rel, distance, t)
-        return seen, distance, bearing
+            hidden = False
+        found = rows.tolist(), cols.tolist(), distance[rows, cols].tolist(), bearing[rows, cols].tolist()
+        if hidden:
+            keep = self._unoccluded(pose, rel[rows, cols].tolist(), *found, t)
+            found = tuple([v for v, kept in zip(values, keep) if kept] for values in found)
+        return (*found, distance, bearing)
 
-    def _hide_occluded(
-        self, seen: np.ndarray, rows: list[int], cols: list[int], pose: np.ndarray, rel: np.ndarray, distance: np.ndarray, t: int
-    ) -> None:
+    def _unoccluded(
+        self,
+        pose: np.ndarray,
+        offsets: list[list[float]],
+        rows: list[int],
+        cols: list[int],
+        lengths: list[float],
+        bearings: list[float],
+        t: int,
+    ) -> list[bool]:
         """:func:`~teamgym.envs.foraging.perception.occluded` for the few sightings ``(rows[k], cols[k])``, one by one
-        (the same float operations); clears ``seen`` where a teammate hides the point (``t``: the robots' first column)."""
+        (the same float operations): whether no teammate hides each (``t``: the robots' first column)."""
         xy = pose[:, :2].tolist()
         radius = self.radius
         reach = radius**2
-        offsets, lengths = rel[rows, cols].tolist(), distance[rows, cols].tolist()
+        keep = []
         for i, j, (rx, ry), d in zip(rows, cols, offsets, lengths):
             x, y = xy[i]
             safe = max(d, 1e-12)
             ux, uy = rx / safe, ry / safe
+            clear = True
             for k, (kx, ky) in enumerate(xy):
                 if k == i or j == t + k:  # a robot does not hide its own view, nor a teammate itself
                     continue
                 ox, oy = kx - x, ky - y
                 along = ux * ox + uy * oy
                 if along > 0 and along < d - radius and (ox * ox + oy * oy) - along * along < reach:
-                    seen[i, j] = False
+                    clear = False
                     break
+            keep.append(clear)
+        return keep
 
     def blank(self, n_slots: int) -> np.ndarray:
         """An empty :attr:`Sightings.table` (a new array): zeros, :data:`NO_CELL` in the target-cell columns."""
@@ -176,25 +197,23 @@ class Cameras:
 
 def landmark_fixes(
     certainty: list[float],
-    seen: np.ndarray,
-    distance: np.ndarray,
-    bearing: np.ndarray,
+    sighted: Sequence[tuple[int, int, float, float]],
     pv_of: Callable[[float, float], float],
-    live: np.ndarray,
+    live: list[bool],
 ) -> list[tuple[int, float, float, float]]:
-    """The ``live`` robots whose nearest landmark in view (sightings (n, L)) re-localises them (its Pv ≥ Pl).
+    """The ``live`` robots whose nearest landmark in view re-localises them (its Pv ≥ Pl).
 
+    ``sighted``: the landmark sightings ``(robot row, landmark, true distance, bearing)``, row-major.
     Returns, in robot order, each one's row and that landmark's true distance, bearing and Pv
-    (``pv_of(distance, bearing)``); empty if none.
+    (``pv_of(distance, bearing)``); empty if none. The nearest is the first of the nearest in
+    landmark order (as ``np.argmin``).
     """
-    candidates = np.logical_or.reduce(seen, axis=1)
-    candidates &= live
-    if not np.count_nonzero(candidates):
-        return []
-    nearest = np.argmin(np.where(seen, distance, np.inf), axis=1).tolist()
+    nearest: dict[int, tuple[float, float]] = {}
+    for i, _, d, b in sighted:
+        if live[i] and (i not in nearest or d < nearest[i][0]):
+            nearest[i] = (d, b)
     fixes = []
-    for i in np.flatnonzero(candidates).tolist():
-        d, b = float(distance[i, nearest[i]]), float(bearing[i, nearest[i]])
+    for i, (d, b) in nearest.items():
         pv = pv_of(d, b)
         if pv >= certainty[i]:
             fixes.append((i, d, b, pv))
@@ -277,15 +296,13 @@ def perceive(
     handled one by one in scalar float arithmetic (the same IEEE operations as an array form).
     """
     n, t = len(pose), len(live_targets)
-    seen, distance, bearing = cameras.seen(pose, view, live_targets)
-    rows, cols = np.nonzero(seen[:, : t + n])  # row-major: per robot, targets before robots
-    sighted_d, sighted_b = distance[rows, cols].tolist(), bearing[rows, cols].tolist()
+    seen = cameras.sightings(pose, view, live_targets)
+    objects = [s for s in zip(*seen) if s[1] < t + n]  # row-major: per robot, targets before robots
+    rows_list, cols_list, sighted_d, sighted_b = (list(values) for values in zip(*objects)) if objects else ([], [], [], [])
     pv_of = vision.pv_of
     sighted_pv = [pv_of(d, b) for d, b in zip(sighted_d, sighted_b)]
-    landmarks = slice(t + n, None)
-    fixes = landmark_fixes(
-        odometry.certainty.tolist(), seen[:, landmarks], distance[:, landmarks], bearing[:, landmarks], pv_of, live
-    )
+    landmarks = [s for s in zip(*seen) if s[1] >= t + n]
+    fixes = landmark_fixes(odometry.certainty.tolist(), landmarks, pv_of, live.tolist()) if landmarks else []
     (measured_d, measured_b), fixed = measure_all(vision, (sighted_d, sighted_b, sighted_pv), fixes, rng)
     if fixes:
         relocalise(odometry, pose, fixes, *fixed)
@@ -293,10 +310,9 @@ def perceive(
     size, (top_x, top_y) = grid.cell_size, (grid.nx - 1, grid.ny - 1)
     table = cameras.blank(n_slots)
     table[:, 0, :4] = [(SENDER, _cell(x, size, top_x), _cell(y, size, top_y), pl) for (x, y, _), pl in zip(est, certainty)]
-    count = np.bincount(rows, minlength=n)
+    count = np.bincount(rows_list, minlength=n)
     any_target = False
-    if len(rows):
-        rows_list, cols_list = rows.tolist(), cols.tolist()
+    if rows_list:
         headings = np.array([est[i][2] + b for i, b in zip(rows_list, measured_b)])
         values, slots, slot, previous = [], [], 0, -1
         for i, j, c, s, d, b, pv in zip(
@@ -310,5 +326,5 @@ def perceive(
             values.append((float(robot), gx, gy, pv * certainty[i], d, b, *cell))  # the class: TARGET 0, ROBOT 1
             slots.append(slot)
             any_target = any_target or not robot
-        table[rows, slots] = values
+        table[rows_list, slots] = values
     return Sightings(table, count, any_target)
