@@ -464,20 +464,36 @@ class Foraging(TeamEnv):
         if c.task == "consume":
             out[:, fields.consume_progress] = np.minimum(1.0, timer[:, None] / c.consume_time)
         out[:, fields.received_sender] = -1
-        for obs, agent, i in zip(out, self.live_agents, rows.tolist()):
-            tuples, senders = self._received(agent)
-            k = len(tuples)
-            if k:
-                obs[fields.received][: 4 * k] = tuples.reshape(-1)
-                obs[fields.received_sender][:k] = senders
-                obs[fields.received_mask][:k] = 1
-            if c.observe_world_model:
+        if c.observe_world_model:
+            for obs, agent, i in zip(out, self.live_agents, rows.tolist()):
+                self._write_received(obs, self.channel.inbox_payloads(agent, PACKET_KIND))
+                tuples, senders = self._received(agent)
                 model = self.models[agent]
                 m = int(self._sightings.count[i])
                 model.observe_own(self._sightings.detections[i, :m], self._sector(i), self.world.time)
                 for sender in np.unique(senders).tolist():
                     model.receive(sender, tuples[senders == sender], self.world.time)
                 self.layout.view(obs, "world_model")[:] = model.fused()
+            return
+        payloads = self.channel.inbox_payloads
+        for obs, agent in zip(out, self.live_agents):
+            self._write_received(obs, payloads(agent, PACKET_KIND))
+
+    def _write_received(self, obs: np.ndarray, packets: list[tuple[int, np.ndarray]]) -> None:
+        """The tuples of ``packets`` (sender index, flat payload), in order, into the ``received`` fields of flat row ``obs``
+        (the first ``n_received`` of them, as :meth:`_received` gives them)."""
+        if not packets:
+            return
+        fields, room, start = self._fields, self.n_received, 0
+        received, sender_of = obs[fields.received], obs[fields.received_sender]
+        for sender, payload in packets:
+            k = min(len(payload) // 4, room - start)
+            if k <= 0:
+                break
+            received[4 * start : 4 * (start + k)] = payload[: 4 * k]
+            sender_of[start : start + k] = sender
+            start += k
+        obs[fields.received_mask][:start] = 1
 
     def _sector(self, i: int) -> np.ndarray:
         """Cells robot i sees now by its estimate: the camera's sector minus the shadows of the robots in view."""
