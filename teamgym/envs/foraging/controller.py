@@ -17,6 +17,7 @@ on-board perception". Every control step, per robot, in its own frame:
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -75,19 +76,22 @@ class GoToController:
         estimate: np.ndarray,
         true_pose: np.ndarray,
         aim: np.ndarray,
-        homing: np.ndarray | None,
-        stop: np.ndarray | None,
+        homing: np.ndarray | Sequence[tuple[float, float]] | None,
+        stop: np.ndarray | Sequence[bool] | None,
         field_size: tuple[float, float],
         heading_trig: tuple[np.ndarray, np.ndarray] | None = None,
         mates: tuple[np.ndarray, np.ndarray] | None = None,
     ) -> list[tuple[float, float]]:
-        """:meth:`commands` as a list of ``(v, ω)`` tuples (what the robots' ``set_command`` takes)."""
+        """:meth:`commands` as a list of ``(v, ω)`` tuples (what the robots' ``set_command`` takes).
+
+        ``homing`` and ``stop`` may also be sequences (rows ``(distance, bearing)``, NaN where none; flags).
+        """
         goal = aim - estimate[:, :2]
         gx, gy = goal[:, 0], goal[:, 1]
         distance, bearing = np.hypot(gx, gy).tolist(), (np.arctan2(gy, gx) - estimate[:, 2]).tolist()
         homes = [False] * len(distance)
         if homing is not None:
-            for i, (home_d, home_b) in enumerate(homing.tolist()):
+            for i, (home_d, home_b) in enumerate(homing.tolist() if isinstance(homing, np.ndarray) else homing):
                 if home_d == home_d:  # not NaN: home on that target's measured distance and bearing
                     distance[i], bearing[i], homes[i] = home_d, home_b, True
         headings = true_pose[:, 2].tolist()
@@ -102,7 +106,7 @@ class GoToController:
         error = np.arctan2(push_y, push_x).tolist()
         top, gain, speed = self.max_turn_rate, self.turn_gain, self.max_speed
         slow, arrive = self.slow_distance, self.arrive_distance
-        stops = [False] * len(error) if stop is None else stop.tolist()
+        stops = [False] * len(error) if stop is None else stop.tolist() if isinstance(stop, np.ndarray) else list(stop)
         out = []
         for e, d, stopped, home in zip(error, distance, stops, homes):
             if stopped or (d < arrive and not home):

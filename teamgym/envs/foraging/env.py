@@ -117,6 +117,7 @@ class Foraging(TeamEnv):
         self.cameras = Cameras(n, self.landmarks, c.camera_range, c.camera_fov, self.spec.radius)
         self._cell_xy = self.grid.cell_at(np.arange(self.grid.n_cells))  # go-to cell -> (gx, gy)
         self._cell_centre = self.grid.centre_of(self._cell_xy)  # go-to cell -> its centre (m)
+        self._cell_of_index = [tuple(cell) for cell in self._cell_xy.tolist()]
         self._packet_sizes = [packet_bytes(m, self.grid) for m in range(self.n_detections + 1)]
         self._slot_index = np.arange(self.n_detections)
         self._live_mask_rows: np.ndarray | None = None
@@ -275,28 +276,33 @@ class Foraging(TeamEnv):
         """Control phase of ``goto_cell``: every acting robot's ``(v, ω)`` for its go-to cell."""
         agents = list(cells)
         rows, everyone = self._rows_of(agents)
-        index = np.fromiter(cells.values(), dtype=np.int64, count=len(agents))
-        goal = self._cell_xy[index]
-        pose, estimate, at = self._pose, self.odometry.estimate, self._at
+        index = list(cells.values())
+        goals = [self._cell_of_index[i] for i in index]  # (gx, gy) of each go-to cell
+        pose, estimate, at, timer = self._pose, self.odometry.estimate, self._at, self._timer
         table = self._sightings.table
         if not everyone:
-            pose, estimate, at, table = pose[rows], estimate[rows], at[rows], table[rows]
-        # Homing: the detected target nearest (in cells) to the go-to cell, if within one cell of it.
+            pose, estimate, at, timer, table = pose[rows], estimate[rows], at[rows], timer[rows], table[rows]
+        # Homing: the detected target nearest (in cells) to the go-to cell, if within one cell of it; its
+        # measured distance and bearing as the table holds them (float32).
         homing = None
         if self._sightings.any_target:
-            gap = np.maximum.reduce(np.abs(table[:, 1:, TARGET_CELL] - goal[:, None, :]), axis=2)
-            close = np.minimum.reduce(gap, axis=1) <= 1
-            if np.count_nonzero(close):
-                homing = table[np.arange(len(table)), 1 + np.argmin(gap, axis=1), POLAR].astype(float)
-                homing[~close] = np.nan
+            homing = []
+            for detections, (gx, gy) in zip(table[:, 1:, POLAR.start : TARGET_CELL.stop].tolist(), goals):
+                best = (math.inf, math.nan, math.nan)
+                for d, b, cx, cy in detections:
+                    gap = max(abs(cx - gx), abs(cy - gy))
+                    if gap < best[0]:
+                        best = (gap, d, b)
+                homing.append(best[1:] if best[0] <= 1 else (math.nan, math.nan))
         # Stop at a target when the go-to cell is within one cell of the robot's estimated cell
         # (persist: while the robot's own operation there is unfinished).
         stop = None
-        present = at >= 0
-        if self._persist and self.config.task == "consume":  # a robot whose own operation there is done is not held
-            present &= (self._timer if everyone else self._timer[rows]) < self.config.consume_time - 1e-9
-        if np.count_nonzero(present):  # (the own cell of the last packet is the estimated cell now)
-            stop = present & (np.maximum.reduce(np.abs(table[:, 0, 1:3] - goal), axis=1) <= 1)
+        held = self._persist and self.config.task == "consume"  # a robot whose own operation there is done is not held
+        done = self.config.consume_time - 1e-9
+        present = [j >= 0 and not (held and time >= done) for j, time in zip(at.tolist(), timer.tolist())]
+        if any(present):  # (the own cell of the last packet is the estimated cell now)
+            own = table[:, 0, 1:3].tolist()
+            stop = [p and max(abs(x - gx), abs(y - gy)) <= 1 for p, (x, y), (gx, gy) in zip(present, own, goals)]
         t, n = len(self.targets), self.config.n_robots
         rel, gap = self._geometry.rel[:, t : t + n], self._geometry.distance[:, t : t + n]  # teammates, as the cameras see them
         if not everyone:
