@@ -64,7 +64,9 @@ from teamgym.envs.foraging.actions import GoToCellAction
 from teamgym.envs.foraging.config import ForagingConfig
 from teamgym.envs.foraging.controller import GoToController
 from teamgym.envs.foraging.perception import ROBOT, SENDER, Odometry, VisionModel, landmark_positions, packet_bytes
-from teamgym.envs.foraging.sensing import POLAR, TARGET_CELL, TUPLE, Cameras, perceive
+from teamgym.envs.foraging.phases import ForagingPhases
+from teamgym.envs.foraging.sensing import POLAR, TARGET_CELL, TUPLE, Cameras, Sightings, perceive
+from teamgym.envs.foraging.state import ForagingArrays
 from teamgym.envs.infos import InfoKey, metrics, unknown
 from teamgym.envs.reset_input import scene_points
 from teamgym.envs.spaces import Field, ObservationLayout
@@ -97,6 +99,7 @@ class Foraging(TeamEnv):
     config_class = ForagingConfig
     reset_option_keys = ("targets", "starts")
     uses_channel = True
+    phases_class = ForagingPhases  # the step's phases, bound to ForagingArrays rows (a batch's shared ones)
     config: ForagingConfig
     pixels_per_metre = 160.0
 
@@ -122,6 +125,83 @@ class Foraging(TeamEnv):
         self._slot_index = np.arange(self.n_detections)
         self._live_mask_rows: np.ndarray | None = None
         self.state_space = spaces.Box(-np.inf, np.inf, shape=(3 * n + 3 * c.n_targets,), dtype=np.float32)
+        self._use_rows(ForagingArrays(n, c.n_targets, self.n_detections), 0)
+        self._target_names = [f"target_{j}" for j in range(c.n_targets)]
+        self._persist = c.consumed_targets == "persist"
+        self._all_targets = np.arange(c.n_targets)  # what the cameras see and the robots may stand at (persist)
+        self._all_targets.flags.writeable = False
+        if c.observe_world_model:
+            from teamgym.envs.foraging.world_model import ViewSector
+
+            self._view = ViewSector(self.grid, c.camera_range, c.camera_fov)
+
+    # -- per-episode state (this copy's row of ``self._arrays``, see teamgym.envs.foraging.state) ---------------
+    #: Attributes that are views of the row (written in place): env attribute -> ForagingArrays name.
+    _ROW_VIEWS = {
+        "_pose": "pose",
+        "_travelled": "travelled",
+        "_at": "at",
+        "_timer": "timer",
+        "_redundant": "redundant",
+        "_nearest": "nearest",
+        "_nearest_live": "nearest_live",
+        "targets": "targets",
+        "target_live": "target_live",
+        "target_done_at": "target_done_at",
+    }
+
+    def _use_rows(self, arrays: ForagingArrays, k: int) -> None:
+        """Keep this env's episode state in copy row ``k`` of ``arrays`` (a batch's shared ones, or its own)."""
+        self._arrays, self._copy = arrays, k
+        for attribute, name in self._ROW_VIEWS.items():
+            setattr(self, attribute, getattr(arrays, name)[k])
+        if "odometry" in self.__dict__:
+            self._bind_odometry()
+        if "_sightings" in self.__dict__:
+            self._sightings = Sightings(arrays.table[k], arrays.count[k], bool(arrays.any_target[k]))
+
+    def _bind_odometry(self) -> None:
+        """The odometry's estimate and certainty become (views of) this copy's row, keeping their values."""
+        k, odometry = self._copy, self.odometry
+        self._arrays.estimate[k], self._arrays.certainty[k] = odometry.estimate, odometry.certainty
+        odometry.estimate, odometry.certainty = self._arrays.estimate[k], self._arrays.certainty[k]
+
+    def _episode_state(self) -> dict[str, Any]:
+        """The base's, with this copy's row of ``_arrays`` in place of the arrays and their views."""
+        state = super()._episode_state()
+        for attribute in (*self._ROW_VIEWS, "_sightings"):
+            state.pop(attribute, None)
+        arrays, k = state.pop("_arrays"), state.pop("_copy")
+        state["_foraging_row"] = arrays.row(k)
+        return state
+
+    def _adopt_episode_state(self, state: dict[str, Any]) -> None:
+        row = state.pop("_foraging_row")
+        super()._adopt_episode_state(state)
+        k, arrays = self._copy, self._arrays
+        arrays.set_row(k, row)
+        self._sightings = Sightings(arrays.table[k], arrays.count[k], bool(arrays.any_target[k]))
+        self._use_rows(arrays, k)  # the snapshot's odometry held copies of the row
+
+    def _team_value(name: str, kind: type) -> property:  # noqa: N805 (a helper run in the class body)
+        def get(self: Foraging) -> Any:
+            return kind(getattr(self._arrays, name)[self._copy])
+
+        def put(self: Foraging, value: Any) -> None:
+            getattr(self._arrays, name)[self._copy] = value
+
+        return property(get, put, doc=f"This copy's ``ForagingArrays.{name}``.")
+
+    _senses = _team_value("senses", int)
+    _first_seen = _team_value("first_seen", float)
+    _success = _team_value("success", bool)
+    _finished_now = _team_value("finished_now", int)
+    del _team_value
+
+    @property
+    def _done_order(self) -> list[float]:
+        """The times (s) at which targets were finished, in order (``TT1``, ``TT2``, ...)."""
+        return sorted(time for time in self.target_done_at.tolist() if time == time)
 
     @property
     def grid_size(self) -> tuple[float, float]:
@@ -207,38 +287,25 @@ class Foraging(TeamEnv):
         self.robots = {
             a: self.world.add(DiffDriveRobot(a, (x, y), th, self.spec)) for a, (x, y, th) in zip(self.possible_agents, starts)
         }
-        self.targets = targets.copy()
-        self._target_names = [f"target_{j}" for j in range(c.n_targets)]
+        k = self._copy
+        self._arrays.start(k)
+        self.targets[:] = targets
         for name, xy in zip(self._target_names, targets):
             self.world.add(Target(name, tuple(xy), radius=0.04))
-        n, t = c.n_robots, c.n_targets
-        self.target_live = np.ones(t, dtype=bool)
-        self._live_targets = np.arange(t)
-        self._persist = c.consumed_targets == "persist"
-        self._all_targets = np.arange(t)  # what the cameras see and the robots may stand at (persist)
-        self._redundant = np.zeros(n, dtype=np.int64)
-        self._senses = 0  # sensing phases since reset (the packet schedule of packet_rate)
-        self.target_done_at = np.full(t, np.nan)
-        self._done_order: list[float] = []
-        self._first_seen = math.nan
-        self._no_target, self._zero_timer = np.full(n, -1), np.zeros(n)  # shared, never written to
-        self._timer, self._at = self._zero_timer, self._no_target
-        self._travelled = np.zeros(n)
-        self._finished_now = 0
+        self._live_targets = self._all_targets  # derived from target_live (a new array when it changes)
         self.world.read_states()
-        self._pose = self._read_pose()
+        self._pose[:] = self._read_pose()
         self.odometry = Odometry(self._pose, c.rotational_certainty, c.odometry_rotation_noise, c.odometry_distance_noise)
+        self._bind_odometry()
         self._points = self.cameras.points(self.targets)
         self._geometry = self.cameras.view(self._pose, self._points)
         self._update_presence()
-        self._nearest = self._nearest_target_distance()
-        self._success = False
+        self._nearest[:] = self._nearest_live
         self.models = {}
         if c.observe_world_model:
-            from teamgym.envs.foraging.world_model import GridWorldModel, ViewSector
+            from teamgym.envs.foraging.world_model import GridWorldModel
 
-            self._view = ViewSector(self.grid, c.camera_range, c.camera_fov)
-            self.models = {a: GridWorldModel(self.grid, n, i) for i, a in enumerate(self.possible_agents)}
+            self.models = {a: GridWorldModel(self.grid, c.n_robots, i) for i, a in enumerate(self.possible_agents)}
         self._sense()
 
     def _check_reset_options(self, options: dict) -> dict:
@@ -313,8 +380,8 @@ class Foraging(TeamEnv):
 
     def _update_state(self) -> None:
         """State phase: true poses, odometry, distance travelled, who is at which target."""
-        before = self._pose
-        self._pose = self._read_pose()
+        before = self._pose.copy()
+        self._pose[:] = self._read_pose()
         step = self.odometry.advance(before, self._pose, self.np_random)
         self._travelled += np.hypot(step[:, 0], step[:, 1])
         self._geometry = self.cameras.view(self._pose, self._points)
@@ -327,22 +394,22 @@ class Foraging(TeamEnv):
         gaps = self._geometry.distance[:, :n_targets].tolist()  # robots x targets; per robot, scalar from here on
         at = None
         if not len(live):
-            self._nearest_live = None
+            self._nearest_live[:] = 0.0
         else:
             columns, nearest, at = live.tolist(), [], []
             for row in gaps:
                 j = min(columns, key=row.__getitem__)  # the first nearest live target, as np.argmin picks it
                 nearest.append(row[j])
                 at.append(j if row[j] <= reach else -1)
-            self._nearest_live = np.array(nearest)
+            self._nearest_live[:] = nearest
         if self._persist and len(live) < n_targets:  # a consumed target still holds a robot
             at = [row.index(min(row)) if min(row) <= reach else -1 for row in gaps]
         if at is None or max(at) < 0:  # no robot at a target: every timer restarts
-            self._timer, self._at = self._zero_timer, self._no_target
+            self._timer[:], self._at[:] = 0.0, -1
             return
         before, timer = self._at.tolist(), self._timer.tolist()
-        self._timer = np.array([t if j >= 0 and j == b else 0.0 for j, b, t in zip(at, before, timer)])
-        self._at = np.array(at)
+        self._timer[:] = [t if j >= 0 and j == b else 0.0 for j, b, t in zip(at, before, timer)]
+        self._at[:] = at
 
     def _check_goals(self) -> None:
         """Goals phase: consume (a robot stayed ``consume_time``) or surround (enough robots at once)."""
@@ -372,17 +439,14 @@ class Foraging(TeamEnv):
         self.target_live[j] = False
         self._live_targets = np.flatnonzero(self.target_live)
         self.target_done_at[j] = now
-        self._done_order.append(now)
         self._finished_now += 1
         if not self._persist:
             self.world.remove(self._target_names[j])
 
-    def _nearest_target_distance(self) -> np.ndarray:
-        return np.zeros(len(self._pose)) if self._nearest_live is None else self._nearest_live
-
     def _accumulate_rewards(self, total: np.ndarray) -> None:
         c = self.config
-        before, self._nearest = self._nearest, self._nearest_target_distance()
+        before = self._nearest.copy()
+        self._nearest[:] = self._nearest_live
         progress = 0.0 if self._finished_now else before - self._nearest
         gain = c.consume_reward * self._finished_now + c.progress_reward * progress - c.time_penalty
         self._live_mask()
@@ -394,7 +458,7 @@ class Foraging(TeamEnv):
 
     def _sense(self) -> None:
         """Sensing phase: camera (targets, robots, landmarks), re-localisation, tuples; packets go on the radio."""
-        self._sightings = perceive(
+        sightings = perceive(
             self.cameras,
             self.grid,
             self.vision,
@@ -406,7 +470,10 @@ class Foraging(TeamEnv):
             self.n_detections,
             self.np_random,
         )
-        if self._sightings.any_target and not math.isfinite(self._first_seen):
+        k, arrays = self._copy, self._arrays
+        arrays.table[k], arrays.count[k], arrays.any_target[k] = sightings
+        self._sightings = Sightings(arrays.table[k], arrays.count[k], sightings.any_target)
+        if sightings.any_target and not math.isfinite(self._first_seen):
             self._first_seen = self.world.time
         self._send_packets()
 
