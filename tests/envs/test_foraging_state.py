@@ -144,3 +144,13 @@ def test_foraging_arrays_grow_shrink_rows_and_start():
     assert arrays.n_copies == 1 and arrays.at.shape == (1, 2)
     with pytest.raises(ValueError, match="n_robots=0"):
         ForagingArrays(0, 3, 4)
+
+
+def test_packets_in_flight_hold_their_own_payloads():
+    """A packet is a copy of its tuples: the sightings table (the copy's row) is rewritten at every sensing phase."""
+    env = teamgym.make("Foraging-v0", n_robots=3, comm_latency=2)
+    env.reset(seed=1)
+    for _ in range(3):
+        env.step({a: 0 for a in env.agents})
+    in_flight = [copy[3][3] for copies in env.channel._in_flight.values() for copy in copies]
+    assert in_flight and not any(np.shares_memory(payload, env._arrays.table) for payload in in_flight)

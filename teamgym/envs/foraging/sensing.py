@@ -57,8 +57,9 @@ class Sightings(NamedTuple):
         return self.table[:, 1:, POLAR]
 
     def packet(self, i: int) -> np.ndarray:
-        """Robot i's packet payload: its own tuple and its detections, flat float32 (a new array)."""
-        return self.table[i, : 1 + self.count[i], TUPLE].reshape(-1)
+        """Robot i's packet payload: its own tuple and its detections, flat float32 (a new array, never a view of the
+        table: the table is the copy's row, rewritten at the next sensing phase, and packets may stay in flight)."""
+        return np.array(self.table[i, : 1 + self.count[i], TUPLE]).reshape(-1)
 
 
 class View(NamedTuple):
