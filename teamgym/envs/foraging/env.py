@@ -469,10 +469,11 @@ class Foraging(TeamEnv):
             self._live_mask(),
             self.n_detections,
             self.np_random,
+            self._arrays.table[self._copy],
         )
         k, arrays = self._copy, self._arrays
-        arrays.table[k], arrays.count[k], arrays.any_target[k] = sightings
-        self._sightings = Sightings(arrays.table[k], arrays.count[k], sightings.any_target)
+        arrays.count[k], arrays.any_target[k] = sightings.count, sightings.any_target
+        self._sightings = Sightings(sightings.table, arrays.count[k], sightings.any_target)
         if sightings.any_target and not math.isfinite(self._first_seen):
             self._first_seen = self.world.time
         self._send_packets()

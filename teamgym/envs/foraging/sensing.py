@@ -29,6 +29,8 @@ __all__ = ["NO_CELL", "Cameras", "Sightings", "View", "cells_of", "landmark_fixe
 NO_CELL = 1.0e6
 #: Above this many (sighting, teammate) pairs :meth:`Cameras.seen` checks occlusion in one numpy pass, below it one by one.
 _SCALAR_CHECKS = 64
+#: Up to this many (robot, point) pairs :meth:`Cameras.sightings` reads distances and bearings from lists.
+_LIST_GATHER = 512
 #: Columns of :attr:`Sightings.table`: the tuple, the measured polar position, the target cell.
 TUPLE, POLAR, TARGET_CELL = slice(0, 4), slice(4, 6), slice(6, 8)
 
@@ -150,9 +152,14 @@ class Cameras:
             seen &= ~occluded(pose, rel, distance, pose[:, :2], self.radius, counted)
             rows, cols = np.nonzero(seen)
             hidden = False
-        found = rows.tolist(), cols.tolist(), distance[rows, cols].tolist(), bearing[rows, cols].tolist()
+        rows, cols = rows.tolist(), cols.tolist()
+        if distance.size <= _LIST_GATHER:  # a few values: read them from lists (the same floats) instead of fancy indexing
+            d, b = distance.tolist(), bearing.tolist()
+            found = rows, cols, [d[i][j] for i, j in zip(rows, cols)], [b[i][j] for i, j in zip(rows, cols)]
+        else:
+            found = rows, cols, distance[rows, cols].tolist(), bearing[rows, cols].tolist()
         if hidden:
-            keep = self._unoccluded(pose, rel[rows, cols].tolist(), *found, t)
+            keep = self._unoccluded(pose, [rel[i, j].tolist() for i, j in zip(rows, cols)], *found, t)
             found = tuple([v for v, kept in zip(values, keep) if kept] for values in found)
         return (*found, distance, bearing)
 
@@ -188,12 +195,15 @@ class Cameras:
             keep.append(clear)
         return keep
 
-    def blank(self, n_slots: int) -> np.ndarray:
-        """An empty :attr:`Sightings.table` (a new array): zeros, :data:`NO_CELL` in the target-cell columns."""
+    def blank(self, n_slots: int, out: np.ndarray | None = None) -> np.ndarray:
+        """An empty :attr:`Sightings.table`: zeros, :data:`NO_CELL` in the target-cell columns (a new array, or ``out`` reset)."""
         if self._blank is None or self._blank.shape[1] != 1 + n_slots:
             self._blank = np.zeros((self.n, 1 + n_slots, 8), dtype=np.float32)
             self._blank[:, :, TARGET_CELL] = NO_CELL
-        return self._blank.copy()
+        if out is None:
+            return self._blank.copy()
+        out[...] = self._blank
+        return out
 
 
 def landmark_fixes(
@@ -284,6 +294,7 @@ def perceive(
     live: np.ndarray,
     n_slots: int,
     rng: np.random.Generator,
+    out: np.ndarray | None = None,
 ) -> Sightings:
     """One sensing phase: the sightings of every robot (see the module docstring).
 
@@ -291,7 +302,8 @@ def perceive(
     ``live`` (n,) bool: robots in the episode (only they re-localise). Random draws, in order:
     the measurement errors of every target and teammate sighting (row-major: per robot,
     targets before robots), then the re-localisations' (:func:`measure_all`). A tuple's
-    position and Pc use the odometry after the re-localisation.
+    position and Pc use the odometry after the re-localisation. ``out``: the table to write
+    (n, 1 + ``n_slots``, 8) float32, a new one if None.
 
     Visibility is one numpy pass over every robot and point; the few sightings that follow are
     handled one by one in scalar float arithmetic (the same IEEE operations as an array form).
@@ -309,23 +321,20 @@ def perceive(
         relocalise(odometry, pose, fixes, *fixed)
     est, certainty = odometry.estimate.tolist(), odometry.certainty.tolist()
     size, (top_x, top_y) = grid.cell_size, (grid.nx - 1, grid.ny - 1)
-    table = cameras.blank(n_slots)
+    table = cameras.blank(n_slots, out)
     table[:, 0, :4] = [(SENDER, _cell(x, size, top_x), _cell(y, size, top_y), pl) for (x, y, _), pl in zip(est, certainty)]
     count = np.bincount(rows_list, minlength=n)
     any_target = False
     if rows_list:
-        headings = np.array([est[i][2] + b for i, b in zip(rows_list, measured_b)])
-        values, slots, slot, previous = [], [], 0, -1
-        for i, j, c, s, d, b, pv in zip(
-            rows_list, cols_list, np.cos(headings).tolist(), np.sin(headings).tolist(), measured_d, measured_b, sighted_pv
-        ):
+        slot, previous = 0, -1
+        for i, j, d, b, pv in zip(rows_list, cols_list, measured_d, measured_b, sighted_pv):
             slot = slot + 1 if i == previous else 1
             previous = i
-            gx, gy = _cell(c * d + est[i][0], size, top_x), _cell(s * d + est[i][1], size, top_y)
+            x, y, theta = est[i]
+            heading = theta + b
+            gx, gy = _cell(math.cos(heading) * d + x, size, top_x), _cell(math.sin(heading) * d + y, size, top_y)
             robot = j >= t
             cell = (NO_CELL, NO_CELL) if robot else (gx, gy)
-            values.append((float(robot), gx, gy, pv * certainty[i], d, b, *cell))  # the class: TARGET 0, ROBOT 1
-            slots.append(slot)
+            table[i, slot] = (float(robot), gx, gy, pv * certainty[i], d, b, *cell)  # the class: TARGET 0, ROBOT 1
             any_target = any_target or not robot
-        table[rows_list, slots] = values
     return Sightings(table, count, any_target)
