@@ -26,6 +26,7 @@ class ForagingPhases(CopyPhases):
     """The phases of :class:`~teamgym.envs.step_loop.CopyPhases` for Foraging copies, bound to one ``ForagingArrays``."""
 
     copies: list[Foraging]
+    reuse_states = True  # nothing moves a copy's bodies between its steps: its last read is the next start
 
     def __init__(self, copies: list[Foraging]) -> None:
         super().__init__(copies)
