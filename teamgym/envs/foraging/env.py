@@ -176,7 +176,9 @@ class Foraging(TeamEnv):
         return state
 
     def _adopt_episode_state(self, state: dict[str, Any]) -> None:
-        row = state.pop("_foraging_row")
+        row = state.pop("_foraging_row", None)
+        if row is None:  # a snapshot of a release that kept the episode in attributes
+            row = _row_of_attributes(state)
         super()._adopt_episode_state(state)
         k, arrays = self._copy, self._arrays
         arrays.set_row(k, row)
@@ -635,6 +637,36 @@ class Foraging(TeamEnv):
             edge = [(x + c.camera_range * math.cos(theta + a), y + c.camera_range * math.sin(theta + a)) for a in arc]
             overlay.paths.append(([(x, y), *edge, (x, y)], (170, 170, 220)))
         return overlay
+
+
+def _row_of_attributes(state: dict[str, Any]) -> dict[str, Any]:
+    """The ``ForagingArrays`` row of a snapshot whose episode was kept in attributes (popped from ``state``)."""
+    odometry, sightings = state["odometry"], state.pop("_sightings")
+    nearest_live = state.pop("_nearest_live")
+    row = {
+        "pose": state.pop("_pose"),
+        "estimate": odometry.estimate,
+        "certainty": odometry.certainty,
+        "travelled": state.pop("_travelled"),
+        "at": state.pop("_at"),
+        "timer": state.pop("_timer"),
+        "redundant": state.pop("_redundant"),
+        "nearest": state.pop("_nearest"),
+        "nearest_live": 0.0 if nearest_live is None else nearest_live,
+        "table": sightings.table,
+        "count": sightings.count,
+        "targets": state.pop("targets"),
+        "target_live": state.pop("target_live"),
+        "target_done_at": state.pop("target_done_at"),
+        "senses": state.pop("_senses"),
+        "first_seen": state.pop("_first_seen"),
+        "success": state.pop("_success"),
+        "finished_now": state.pop("_finished_now"),
+        "any_target": sightings.any_target,
+    }
+    for name in ("_done_order", "_heading_trig", "_no_target", "_zero_timer"):  # derived now, or gone
+        state.pop(name, None)
+    return row
 
 
 def parallel_env(render_mode: str | None = None, **config: Any) -> Foraging:
