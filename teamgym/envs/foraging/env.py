@@ -593,16 +593,17 @@ class Foraging(TeamEnv):
 
     def _metrics_of(self, agents: list[str]) -> dict[str, dict[str, Any]]:
         team: dict[str, Any] = {}
-        if math.isfinite(self._first_seen):
-            team["TL"] = self._first_seen
-        for k, time in enumerate(self._done_order, start=1):
+        first_seen, order = self._first_seen, self._done_order
+        if math.isfinite(first_seen):
+            team["TL"] = first_seen
+        for k, time in enumerate(order, start=1):
             team[f"TT{k}"] = time
         if self._success:
-            team["TG"] = self._done_order[-1]
+            team["TG"] = order[-1]
         offset = self.odometry.estimate[:, :2] - self._pose[:, :2]
         errors = np.hypot(offset[:, 0], offset[:, 1]).tolist()
         travelled, certainty = self._travelled.tolist(), self.odometry.certainty.tolist()
-        done, out = len(self._done_order), {}
+        done, out = len(order), {}
         for agent in agents:
             i = self._row[agent]
             out[agent] = {

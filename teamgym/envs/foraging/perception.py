@@ -134,9 +134,13 @@ def in_view(
     they lie in the camera's sector (n, m) bool, occlusion aside (see :func:`visibility`)."""
     rel = points[None, :, :] - poses[:, None, :2]
     distance = np.hypot(rel[..., 0], rel[..., 1])
-    bearing = np.arctan2(rel[..., 1], rel[..., 0]) - poses[:, None, 2]
-    bearing = (bearing + math.pi) % (2 * math.pi) - math.pi
-    seen = (distance <= camera_range) & (np.abs(bearing) <= 0.5 * camera_fov)
+    bearing = np.arctan2(rel[..., 1], rel[..., 0])
+    bearing -= poses[:, None, 2]
+    bearing += math.pi
+    bearing %= 2 * math.pi
+    bearing -= math.pi
+    seen = distance <= camera_range
+    seen &= np.abs(bearing) <= 0.5 * camera_fov
     return rel, distance, bearing, seen
 
 
