@@ -75,3 +75,20 @@ def test_preset_trains_end_to_end_and_its_messages_go_through_the_channel(tmp_pa
         summaries[throughput] = json.loads((where / "summary.json").read_text())
     assert summaries["0.5"]["mean_bytes_sent"] > 0 and summaries["0.5"]["mean_messages_delivered"] > 0
     assert summaries["0"]["mean_messages_delivered"] == 0  # the channel cut: nothing arrives
+
+
+def test_shipped_agent_plays_the_aims_task_with_its_messages_and_with_the_channel_cut():
+    from baselines.episode import run_episode
+    from baselines.registry import make_policy
+    from baselines.rl.sb3_policy import read_sidecar, resolve_model, shipped_agents
+
+    assert NAME in shipped_agents()
+    sidecar = read_sidecar(resolve_model(NAME))
+    assert sidecar["preset"] == NAME and sidecar["critic"] == "central"
+    assert sidecar["message_actions"]["levels"] == 9
+    for throughput in (0.5, 0.0):
+        env = teamgym.make("Rendezvous-v0", **{**sidecar["config"], "max_cycles": 300, "comm_throughput": throughput})
+        result = run_episode(env, make_policy(f"sb3:{NAME}", env), 31000, record_trajectories=False)
+        assert set(result.returns) == set(env.possible_agents) and result.length >= 1
+        delivered = sum(m["messages_delivered"] for m in result.metrics.values())
+        assert (delivered > 0) == (throughput > 0)
