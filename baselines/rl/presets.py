@@ -12,7 +12,9 @@ for ``sbs``), and optional DAgger rounds
 ``dagger_rounds``, ``dagger_steps``, ``dagger_epochs``), ``eval`` (optional held-out evaluation while training: ``every``,
 ``episodes``, ``seed``), ``init`` (optional: a saved model or shipped agent whose policy
 weights the new run starts from, as ``--init``), ``critic`` (optional: ``local`` or ``central``,
-as ``--critic``), ``changes`` (each config key and hyper-parameter the preset sets, with
+as ``--critic``), ``agent_id`` (optional: ``true`` as ``--agent-id``), ``message_actions``
+(optional: how a motion ⊕ message action is flattened, ``levels``, ``tokens``, ``vocab``, as
+``--message-levels/--message-tokens/--message-vocab``), ``changes`` (each config key and hyper-parameter the preset sets, with
 why) and ``measured`` (what the preset reached, with the command). docs/training.md lists them.
 """
 
@@ -40,6 +42,8 @@ _KEYS = {
     "description",
     "init",
     "critic",
+    "agent_id",
+    "message_actions",
 }
 
 
@@ -61,6 +65,8 @@ class Preset:
     description: str = ""
     init: str | None = None
     critic: str | None = None
+    agent_id: bool | None = None
+    message_actions: dict[str, int] | None = None
 
 
 def presets() -> list[str]:
@@ -80,4 +86,7 @@ def load_preset(name: str) -> Preset:
     missing = [key for key in ("env", "algo") if key not in data]
     if missing:
         raise ValueError(f"preset {name!r} lacks {missing}")
+    message = data.get("message_actions")
+    if message is not None and (not isinstance(message, dict) or set(message) - {"levels", "tokens", "vocab"}):
+        raise ValueError(f"preset {name!r}: message_actions must be an object of levels, tokens, vocab; got {message!r}")
     return Preset(name=name, **data)

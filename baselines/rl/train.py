@@ -1048,6 +1048,8 @@ def _preset_settings(name: str, env_id: str | None) -> dict[str, Any]:
         "eval": preset.eval,
         "init": preset.init,
         "critic": preset.critic,
+        "agent_id": preset.agent_id,
+        "message_actions": preset.message_actions,
     }
 
 
@@ -1159,7 +1161,8 @@ def _plan(args: argparse.Namespace) -> tuple[dict[str, Any], list[int] | None]:
         given = [f"--{k.replace('_', '-')}" for k in (*_BC_KNOBS, *_BC_DAGGER_KNOBS) if getattr(args, k) is not None]
         if given:
             raise ValueError(f"{', '.join(given)} need --bc-expert (or a preset with behaviour cloning)")
-    message = saved.get("message_actions") if args.resume and isinstance(saved.get("message_actions"), dict) else {}
+    from_saved = args.resume or args.preset is not None
+    message = saved.get("message_actions") if from_saved and isinstance(saved.get("message_actions"), dict) else {}
     for key in ("levels", "tokens", "vocab"):
         value = _pick(getattr(args, f"message_{key}"), message.get(key), None)
         if value is not None:

@@ -242,3 +242,23 @@ def test_nearest_place_is_the_argmin_of_the_norms_within_half_a_corridor():
         k = int(np.argmin(d))
         env._arrays.nearest_seen[env._copy][0] = ()
         assert env._nearest_place(0, (x, y, 0.0)) == (k if d[k] <= half else int(env._place[0]))
+
+
+def test_neighbour_offsets_are_each_slots_place_minus_the_robot():
+    env = parallel_env(map="square4", start_places=("A", "C"), neighbour_offsets=True)
+    obs, _ = env.reset(seed=0)
+    plain = parallel_env(map="square4", start_places=("A", "C"))
+    plain_obs, _ = plain.reset(seed=0)
+    for agent in env.possible_agents:
+        fields = env.decode(obs[agent])
+        x, y = fields["pose"][:2]
+        for k, place in enumerate(fields["neighbours"].astype(int).tolist()):
+            expected = env.places_xy[place] - (x, y) if place >= 0 else (0.0, 0.0)
+            np.testing.assert_allclose(fields["neighbour_xy"][k], expected, atol=1e-6)
+        # the other fields are those of the env without the option
+        np.testing.assert_array_equal(obs[agent][: plain_obs[agent].size], plain_obs[agent])
+    b = slot(env, "robot_0", "B")
+    obs, *_ = env.step({"robot_0": b, "robot_1": env.max_degree})
+    fields = env.decode(obs["robot_0"])
+    assert env.place_id(int(fields["place"][0])) == "B"
+    np.testing.assert_allclose(fields["neighbour_xy"][slot(env, "robot_0", "A")], (-2.0 * env.config.scale, 0.0), atol=0.02)

@@ -23,6 +23,8 @@ class RendezvousConfig(EnvConfig):
     """Configuration of ``Rendezvous-v0`` (SI units; place ids are the map's).
 
     Map coordinates and way lengths are multiplied by ``scale`` (m per map unit) in the world.
+    ``neighbour_offsets=True`` (for learned policies) appends the world offset (m) of each
+    neighbour slot's place from the robot to its observation.
     ``READING_LIMITS`` (the proximity ring): ``sensor_range`` and ``sensor_noise`` in [0, 10] m,
     and ``sensor_noise`` at most ``sensor_range`` (a larger std saturates every ray).
     """
@@ -51,6 +53,7 @@ class RendezvousConfig(EnvConfig):
     stage_end: Literal["any", "all"] = "any"
     protocol_messages: bool = False
     message_len: int = 128
+    neighbour_offsets: bool = False
     sensor_range: float = 0.1
     sensor_noise: float = 0.0
     meet_bonus: float = 10.0

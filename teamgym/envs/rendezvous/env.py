@@ -33,6 +33,8 @@ field              shape        meaning
 ``neighbours``     (D,)         indices of the place's neighbours in map order, −1 padding
 ``blocked``        (D,)         1 where the robot has detected that way blocked
 ``proximity``      (8,)         Khepera ring distances (m)
+``neighbour_xy``   (D, 2)       world offset (m) of each neighbour's place from the robot, 0
+                                padding (``neighbour_offsets=True``, for learned policies)
 ``messages``       (N−1, L)     protocol messages received this step (``protocol_messages``)
 ``message_sender`` (N−1,)       sender index, −1 padding
 ``message_mask``   (N−1,)       1 for a message, 0 for padding
@@ -176,6 +178,9 @@ class Rendezvous(TeamEnv):
             Field("blocked", (d,), 0, 1, np.int8),
             Field("proximity", (len(KHEPERA_RING),), 0.0, c.sensor_range),
         ]
+        if c.neighbour_offsets:
+            reach = float(max(self._world_size()))
+            fields.append(Field("neighbour_xy", (d, 2), -reach, reach))
         if c.protocol_messages:
             k = c.n_robots - 1
             fields += [
@@ -519,6 +524,7 @@ class Rendezvous(TeamEnv):
         place_at, target_at, progress_at = fields["place"], fields["target"], fields["progress"]
         neighbours_at, blocked_at, proximity_at = fields["neighbours"], fields["blocked"], fields["proximity"]
         places, targets, known, proximity = state.place[k].tolist(), state.target[k].tolist(), state.known[k], state.proximity[k]
+        offsets_at = fields.get("neighbour_xy")
         for row, agent in enumerate(self.live_agents):
             i, buffer = self._row[agent], out[row]
             x, y, theta = poses[i]
@@ -530,11 +536,21 @@ class Rendezvous(TeamEnv):
             buffer[neighbours_at] = self.neighbour_table[place]
             buffer[blocked_at] = [way >= 0 and bool(known[i, way]) for way in self.slot_ways[place]]
             buffer[proximity_at] = proximity[i]
+            if offsets_at is not None:
+                buffer[offsets_at] = self._neighbour_offsets(place, x, y)
             if self.config.protocol_messages:
                 packed = self.channel.inbox_array(agent, self.config.message_len, self.config.n_robots - 1, kind="protocol")
                 layout.view(buffer, "messages")[:] = packed.payload
                 layout.view(buffer, "message_sender")[:] = packed.sender
                 layout.view(buffer, "message_mask")[:] = packed.mask
+
+    def _neighbour_offsets(self, place: int, x: float, y: float) -> np.ndarray:
+        """``(D · 2,)``: per neighbour slot of ``place``, its place's ``(x, y)`` minus the robot's (m); 0 padding."""
+        row = self.neighbour_table[place]
+        offsets = np.zeros((len(row), 2))
+        used = row >= 0
+        offsets[used] = self.places_xy[row[used]] - (x, y)
+        return offsets.ravel()
 
     def _progress(self, i: int) -> float:
         state, k = self._arrays, self._copy
