@@ -78,7 +78,14 @@ def test_training_in_worker_processes_records_workers_and_padding(tmp_path):
 
 
 @pytest.mark.parametrize(
-    "name", ["navigation-ppo", "navigation-dagger-ppo", "navigation-forces-dagger-ppo", "exploration-maskable-ppo"]
+    "name",
+    [
+        "navigation-ppo",
+        "navigation-dagger-ppo",
+        "navigation-forces-dagger-ppo",
+        "exploration-maskable-ppo",
+        "exploration-nash-dagger-ppo",
+    ],
 )
 def test_shipped_agent_plays_its_env_from_its_sidecar(name):
     import teamgym
