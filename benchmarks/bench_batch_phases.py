@@ -6,9 +6,11 @@ Wraps the batch's phases (:class:`teamgym.envs.step_loop.CopyPhases`: ``control`
 ``--inner MODULE:NAME`` also times a function called inside a phase (shown indented, part of
 its phase), e.g. ``teamgym.envs.box_pushing.phases:read_sensors``. Actions as in
 ``bench_batch_every_env.py`` (uniform in a Box, the first admissible discrete action).
-Process CPU time; best of ``--rounds``.
+Process CPU time; best of ``--rounds``. ``--lone`` also steps one lone env (``step(dict)``, the
+same action rule, ``--steps`` steps from a reset, resets when its episode ends) in each round and
+prints both rates in agent-steps/s and their ratio (issue 24's aim: 64 copies ≥ 3× one lone env).
 
-    python benchmarks/bench_batch_phases.py --env BoxPushing-v0 --copies 64 [--steps 64] [--rounds 3] [--inner ...]
+    python benchmarks/bench_batch_phases.py --env BoxPushing-v0 --copies 64 [--steps 64] [--rounds 3] [--inner ...] [--lone]
 """
 
 from __future__ import annotations
@@ -34,8 +36,28 @@ def _actions(batch, rng: np.random.Generator) -> np.ndarray:
     return rng.uniform(space.low, space.high, size=(*shape, *space.shape)).astype(space.dtype)
 
 
-def profile(env_id: str, copies: int, steps: int, inner: list[str]) -> tuple[float, dict[str, float]]:
-    """Seconds per copy-step in all and per phase (``inner`` functions too)."""
+def lone_rate(env_id: str, steps: int) -> float:
+    """Agent-steps/s of one lone env through ``step(dict)``, with the actions of :func:`_actions` (process CPU time)."""
+    env = teamgym.make(env_id)
+    env.reset(seed=0)
+    space = env.action_space(env.possible_agents[0])
+    rng = np.random.default_rng(0)
+    agent_steps, start = 0, time.process_time()
+    for _ in range(steps):
+        if not env.agents:
+            env.reset()
+        if isinstance(space, spaces.Discrete):
+            masks = env.action_masks()
+            actions = {a: int(np.argmax(masks[a])) if masks.get(a) is not None else 0 for a in env.agents}
+        else:
+            actions = {a: rng.uniform(space.low, space.high).astype(space.dtype) for a in env.agents}
+        agent_steps += len(actions)
+        env.step(actions)
+    return agent_steps / (time.process_time() - start)
+
+
+def profile(env_id: str, copies: int, steps: int, inner: list[str]) -> tuple[float, dict[str, float], float]:
+    """Seconds per copy-step in all and per phase (``inner`` functions too), and the batch's agent-steps/s."""
     clock = time.process_time
     spent: dict[str, float] = {}
 
@@ -65,9 +87,10 @@ def profile(env_id: str, copies: int, steps: int, inner: list[str]) -> tuple[flo
         for _ in range(3):
             batch.step(_actions(batch, rng))
         spent.clear()
-        copy_steps, start = 0, clock()
+        copy_steps, agent_steps, start = 0, 0, clock()
         for _ in range(steps):
             copy_steps += int(batch.active.any(axis=1).sum())
+            agent_steps += int(batch.active.sum())
             batch.step(_actions(batch, rng))
         total = clock() - start
     finally:
@@ -75,7 +98,7 @@ def profile(env_id: str, copies: int, steps: int, inner: list[str]) -> tuple[flo
             setattr(module, name, function)
     per = {name: value / copy_steps for name, value in spent.items()}
     per["batch"] = (total - sum(v for k, v in spent.items() if not k.startswith(" "))) / copy_steps
-    return total / copy_steps, per
+    return total / copy_steps, per, agent_steps / total
 
 
 def main() -> None:
@@ -85,16 +108,23 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=64)
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--inner", nargs="*", default=[], help="MODULE:NAME functions to time inside the phases")
+    parser.add_argument("--lone", action="store_true", help="also time one lone env and print agent-steps/s of both")
     args = parser.parse_args()
     if args.env not in teamgym.envs() or min(args.copies, args.steps, args.rounds) < 1:
         parser.error(f"unknown env id {args.env!r}" if args.env not in teamgym.envs() else "--copies, --steps, --rounds >= 1")
     if any(target.count(":") != 1 for target in args.inner):
         parser.error("--inner takes MODULE:NAME")
-    best = min((profile(args.env, args.copies, args.steps, args.inner) for _ in range(args.rounds)), key=lambda r: r[0])
-    total, per = best
+    rounds, lone = [], 0.0
+    for _ in range(args.rounds):  # a lone env's round beside each batch round, on the same machine load
+        rounds.append(profile(args.env, args.copies, args.steps, args.inner))
+        if args.lone:
+            lone = max(lone, lone_rate(args.env, args.steps))
+    total, per, rate = min(rounds, key=lambda r: r[0])
     print(f"{args.env} K={args.copies}: {1e6 * total:.1f} us per copy-step (best of {args.rounds} rounds)")
     for name, value in per.items():
         print(f"  {name:24s} {1e6 * value:7.1f} us  {100 * value / total:5.1f} %")
+    if args.lone:
+        print(f"agent-steps/s: batch of {args.copies} {rate:.0f}, lone env {lone:.0f}, batch/lone {rate / lone:.2f}x")
 
 
 if __name__ == "__main__":

@@ -3,7 +3,7 @@
 Command line::
 
     python -m baselines.rl.rllib [--env Navigation-v0] [--iterations 10] [--set key=value ...]
-        [--hp key=value ...] [--defaults] [--seed 0] [--out DIR] [--env-runners 0]
+        [--hp key=value ...] [--defaults] [--seed 0] [--out DIR] [--env-runners 0] [--envs-per-runner 1]
         [--num-cpus N | --ray-address HOST:PORT] [--threads 1] [--eval-episodes K] [--eval-seed 10000]
         [--evaluate CHECKPOINT]
 
@@ -66,6 +66,7 @@ __all__ = [
     "RLlibPolicy",
     "TeamMultiAgentEnv",
     "build_parser",
+    "episode_flags",
     "evaluate_checkpoint",
     "main",
     "module_path",
@@ -73,6 +74,7 @@ __all__ = [
     "read_sidecar",
     "require_rllib",
     "train",
+    "with_masks",
 ]
 
 #: The id of the one RLModule every agent maps to.
@@ -124,6 +126,28 @@ def _make_env(env_id: str, config: Mapping[str, Any] | None) -> Any:
     import teamgym
 
     return teamgym.make(env_id, **dict(config or {}))
+
+
+def with_masks(observations: Mapping[str, Any], masks: Mapping[str, Any], n_actions: int) -> dict[str, Any]:
+    """``{"observations": obs, "action_mask": float32 0/1 row}`` per agent (all ones for an agent without a mask)."""
+    ones = np.ones(int(n_actions), dtype=np.float32)
+    return {
+        a: {"observations": obs, "action_mask": np.asarray(masks[a], dtype=np.float32) if a in masks else ones}
+        for a, obs in observations.items()
+    }
+
+
+def episode_flags(terminations: Mapping[str, bool], truncations: Mapping[str, bool], over: bool) -> tuple[dict, dict]:
+    """RLlib's per-agent flags of one step plus ``"__all__"`` (see :class:`TeamMultiAgentEnv`'s docstring).
+
+    ``over``: no live agent is left. The episode then ends terminated if no agent was truncated on
+    this step, else truncated, and the per-agent truncations are cleared (RLlib infers them from ``"__all__"``).
+    """
+    truncated = any(truncations.values())
+    terminations = {**terminations, "__all__": over and not truncated}
+    if over:
+        truncations = dict.fromkeys(truncations, False)
+    return terminations, {**truncations, "__all__": over and truncated}
 
 
 class TeamMultiAgentEnv(_MultiAgentEnv):
@@ -182,13 +206,7 @@ class TeamMultiAgentEnv(_MultiAgentEnv):
         """The observations RLlib sees: the env's, with each live agent's action mask added for masked action types."""
         if not self.masked:
             return observations
-        masks = self.env.action_masks()
-        n = self.action_spaces[self.possible_agents[0]].n
-        ones = np.ones(n, dtype=np.float32)
-        return {
-            a: {"observations": obs, "action_mask": np.asarray(masks[a], dtype=np.float32) if a in masks else ones}
-            for a, obs in observations.items()
-        }
+        return with_masks(observations, self.env.action_masks(), self.action_spaces[self.possible_agents[0]].n)
 
     def reset(self, *, seed: int | None = None, options: dict | None = None) -> tuple[dict, dict]:
         observations, infos = self.env.reset(seed=seed, options=options)
@@ -198,12 +216,7 @@ class TeamMultiAgentEnv(_MultiAgentEnv):
     def step(self, action_dict: dict[str, Any]) -> tuple[dict, dict, dict, dict, dict]:
         observations, rewards, terminations, truncations, infos = self.env.step(action_dict)
         self.agents = list(self.env.agents)
-        over = not self.env.agents
-        truncated = any(truncations.values())
-        terminations = {**terminations, "__all__": over and not truncated}
-        if over:  # see the class docstring: RLlib infers each agent's truncation from __all__
-            truncations = dict.fromkeys(truncations, False)
-        truncations = {**truncations, "__all__": over and truncated}
+        terminations, truncations = episode_flags(terminations, truncations, not self.env.agents)
         return self.observe(observations), rewards, terminations, truncations, infos
 
     def render(self) -> Any:
@@ -271,13 +284,18 @@ def ppo_config(
     model: Mapping[str, Any] | None = None,
     num_env_runners: int = 0,
     rllib_defaults: bool = False,
+    envs_per_runner: int = 1,
 ) -> Any:
     """A ``PPOConfig`` that trains one module (:data:`MODULE_ID`) shared by every robot of ``env_id``.
 
     ``training`` and ``model`` update :data:`TESTED_SETTINGS` and :data:`MODEL_SETTINGS` (or RLlib's
     defaults with ``rllib_defaults``). ``num_env_runners=0`` samples in the driver process. The env
     is built once here, so a bad id, config or space fails before Ray starts anything.
+    ``envs_per_runner > 1``: each env runner steps that many copies as one ``teamgym.make_batch``
+    batch (:class:`baselines.rl.rllib_batch.TeamBatchEnvRunner`) instead of RLlib's loop over copies.
     """
+    if not isinstance(envs_per_runner, int) or isinstance(envs_per_runner, bool) or envs_per_runner < 1:
+        raise ValueError(f"envs_per_runner must be an integer >= 1, got {envs_per_runner!r}")
     require_rllib()
     from ray.rllib.algorithms.ppo import PPOConfig
     from ray.rllib.core.rl_module.default_model_config import DefaultModelConfig
@@ -288,6 +306,11 @@ def ppo_config(
     masked, continuous = probe.masked, isinstance(probe.action_spaces[probe.possible_agents[0]], spaces.Box)
     probe.close()
     settings, model_settings = _settings(training, model, rllib_defaults, continuous)
+    runner: dict[str, Any] = {}
+    if envs_per_runner > 1:
+        from baselines.rl.rllib_batch import TeamBatchEnvRunner
+
+        runner["env_runner_cls"] = TeamBatchEnvRunner
     spec = RLModuleSpec(
         module_class=MaskedPPOTorchRLModule if masked else None, model_config=DefaultModelConfig(**model_settings)
     )
@@ -296,7 +319,7 @@ def ppo_config(
         # RLlib's env checker steps random actions, which a masked env rejects.
         .environment(TeamMultiAgentEnv, env_config={"env_id": env_id, "config": dict(config or {})}, disable_env_checking=masked)
         .framework("torch")
-        .env_runners(num_env_runners=num_env_runners, num_envs_per_env_runner=1)
+        .env_runners(num_env_runners=num_env_runners, num_envs_per_env_runner=envs_per_runner, **runner)
         .multi_agent(policies={MODULE_ID}, policy_mapping_fn=_policy_mapping)
         .rl_module(rl_module_spec=MultiRLModuleSpec(rl_module_specs={MODULE_ID: spec}))
         .training(**settings)
@@ -475,13 +498,15 @@ def train(
     ray_address: str | None = None,
     rllib_defaults: bool = False,
     on_iteration: Callable[[dict[str, Any]], None] | None = None,
+    envs_per_runner: int = 1,
 ) -> Path:
     """Train PPO with one shared module for ``iterations`` iterations; save the checkpoint to ``out``.
 
     Unless a Ray session is running, starts a local one with ``num_cpus`` CPUs or connects to the
     cluster at ``ray_address`` (``HOST:PORT`` of its head; not with ``num_cpus``), and ends it
     after. The ``num_env_runners`` env runners (one CPU each) go wherever the cluster has room; the
-    learner runs in this process. ``out`` (default ``results/rllib/<env>_ppo``) gets RLlib's
+    learner runs in this process. Each env runner (or this process) steps ``envs_per_runner``
+    copies, as one batch when more than one (see :func:`ppo_config`). ``out`` (default ``results/rllib/<env>_ppo``) gets RLlib's
     checkpoint and ``teamgym.json``: env id, config, settings, the Ray node of each env runner
     (``env_runner_nodes``) and one row per iteration (see :func:`_iteration_row`);
     ``on_iteration(row)`` is called after each. Returns ``out``.
@@ -511,6 +536,7 @@ def train(
         model=model,
         num_env_runners=num_env_runners,
         rllib_defaults=rllib_defaults,
+        envs_per_runner=envs_per_runner,
     )
     started = _init_ray(num_cpus, ray_address)
     try:
@@ -549,6 +575,7 @@ def train(
         "training": training_settings,
         "model": model_settings,
         "num_env_runners": num_env_runners,
+        "envs_per_runner": envs_per_runner,
         "env_runner_nodes": nodes,
         "history": rows,
     }
@@ -604,6 +631,13 @@ def build_parser() -> argparse.ArgumentParser:
         "--out", type=nonblank("a directory"), default=None, help="checkpoint directory (default: results/rllib/<env>_ppo)"
     )
     parser.add_argument("--env-runners", type=natural, default=0, help="remote env runners; 0 samples in this process (default)")
+    parser.add_argument(
+        "--envs-per-runner",
+        type=count,
+        default=1,
+        metavar="K",
+        help="env copies per env runner, stepped as one teamgym.make_batch batch when K > 1 (default: 1)",
+    )
     cluster = parser.add_mutually_exclusive_group()
     cluster.add_argument("--num-cpus", type=count, default=None, help="CPUs of the local Ray cluster (default: all)")
     cluster.add_argument(
@@ -712,6 +746,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                     ray_address=args.ray_address,
                     rllib_defaults=args.defaults,
                     on_iteration=show,
+                    envs_per_runner=args.envs_per_runner,
                 )
                 print(f"saved {checkpoint} (settings and per-iteration results in {checkpoint / 'teamgym.json'})")
                 episodes = args.eval_episodes

@@ -627,6 +627,6 @@ def test_sectors_places_and_door_sightings_follow_the_array_rules(search_all):
         assert np.array_equal(env._sector, sector) and np.array_equal(env._place, place)
         assert np.array_equal(env.model.door_open, beliefs)
         assert env._all_explored() == bool(np.all(env.visited[env.goal]))
-        assert env._explored_goals == int(np.count_nonzero(env.visited & env.goal))
+        assert env._arrays.explored_goals[env._copy] == int(np.count_nonzero(env.visited & env.goal))
         at_doors += int((place >= env.n_sectors).sum())
     assert at_doors > 50  # the door rule was exercised

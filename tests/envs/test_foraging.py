@@ -456,10 +456,49 @@ def test_one_draw_measures_sightings_then_fixes_as_separate_draws_did():
 
     vision = VisionModel(1.0, 1.28, 2.0)
     sightings = (np.array([0.2, 0.9, 0.5]), np.array([0.1, -0.6, 3.1]), np.array([0.95, 0.5, 0.8]))
-    fixes = (np.array([0, 2]), np.array([0.7, 0.3]), np.array([-0.2, 0.4]), np.array([0.65, 0.9]))
+    fixes = [(0, 0.7, -0.2, 0.65), (2, 0.3, 0.4, 0.9)]  # (robot row, true distance, bearing, Pv)
     (d, b), (fd, fb) = measure_all(vision, sightings, fixes, np.random.default_rng(3))
     rng = np.random.default_rng(3)
     assert np.array_equal(np.stack([d, b]), np.stack(vision.measure(*sightings[:2], sightings[2], rng)))
-    for k in range(2):  # then one robot's (distance, bearing) error after the other's
-        one = vision.measure(fixes[1][k : k + 1], fixes[2][k : k + 1], fixes[3][k : k + 1], rng)
+    for k, (_, true_d, true_b, pv) in enumerate(fixes):  # then one robot's (distance, bearing) error after the other's
+        one = vision.measure(np.array([true_d]), np.array([true_b]), np.array([pv]), rng)
         assert (fd[k], fb[k]) == (one[0][0], one[1][0])
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 10**6), n=st.integers(2, 9), spread=st.sampled_from([0.3, 1.0]))
+def test_occlusion_one_by_one_equals_the_numpy_pass(seed, n, spread):
+    """Cameras.seen gives the same bits whether it checks occlusion sighting by sighting or in one numpy pass."""
+    from teamgym.envs.foraging import sensing
+
+    rng = np.random.default_rng(seed)
+    cameras = sensing.Cameras(n, landmark_positions(3.0, 2.4, 0.6), 1.0, 1.28, 0.09)
+    pose = np.column_stack([1.5 + spread * rng.uniform(-0.5, 0.5, (n, 2)), rng.uniform(-math.pi, math.pi, n)])
+    view = cameras.view(pose, cameras.points(rng.uniform(0, (3.0, 2.4), (3, 2))))
+    live = np.arange(3)
+    saved = sensing._SCALAR_CHECKS
+    try:
+        sensing._SCALAR_CHECKS = 10**9
+        one_by_one = cameras.seen(pose, view, live)[0]
+        sensing._SCALAR_CHECKS = -1
+        vectorised = cameras.seen(pose, view, live)[0]
+    finally:
+        sensing._SCALAR_CHECKS = saved
+    assert np.array_equal(one_by_one, vectorised)
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 10**6), noise=st.sampled_from([0.5, 1.0, 3.0]))
+def test_scalar_pv_and_measurement_equal_the_array_forms(seed, noise):
+    """VisionModel.pv_of / measure_one (one object) give the bits of pv / measure_with (arrays)."""
+    from teamgym.envs.foraging.perception import VisionModel
+
+    rng = np.random.default_rng(seed)
+    vision = VisionModel(1.0, 1.28, noise)
+    d, b = rng.uniform(0, 1.0, 30), rng.uniform(-0.64, 0.64, 30)
+    pv = vision.pv(d, b)
+    assert pv.tolist() == [vision.pv_of(x, y) for x, y in zip(d.tolist(), b.tolist())]
+    nd, nb = rng.standard_normal(30) * 3, rng.standard_normal(30) * 3
+    md, mb = vision.measure_with(d, b, pv, nd, nb)
+    one = [vision.measure_one(*v) for v in zip(d.tolist(), b.tolist(), pv.tolist(), nd.tolist(), nb.tolist())]
+    assert (md.tolist(), mb.tolist()) == ([v[0] for v in one], [v[1] for v in one])

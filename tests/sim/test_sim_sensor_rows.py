@@ -68,6 +68,27 @@ def test_every_sensor_follows_the_protocol():
     assert Camera(kinds=(Category.BOX, Category.ROBOT), slots=2).width == 12
 
 
+@pytest.mark.parametrize("max_range", [0.1, 0.3])
+def test_ring_reads_of_many_worlds_at_once_equal_each_worlds_rows(crowd, max_range):
+    """``read_many`` over robots of two worlds (the same scene, one moved on) gives each world's ``read_values``."""
+    world, robots = crowd
+    other = World((1.5, 1.0))
+    other.add_boundary()
+    moved = [other.add(DiffDriveRobot(f"q{i}", (0.1 + 0.3 * i, 0.08 + 0.2 * i), 0.7 * i)) for i in range(4)]
+    other.read_states()
+    ring = ProximityRing(max_range=max_range)
+    expected = []
+    for w, rs in ((world, robots), (other, moved)):
+        rows = np.zeros((len(rs), ring.width), dtype=np.float32)
+        ring.read_values(w, rs, w.robot_states, rows, None)
+        expected.append(rows)
+    out = np.full((len(robots) + len(moved), ring.width), np.nan, dtype=np.float32)
+    poses = np.concatenate([world.robot_states, other.robot_states])
+    ring.read_many([world.space] * len(robots) + [other.space] * len(moved), [*robots, *moved], poses, out)
+    np.testing.assert_array_equal(out, np.concatenate(expected))
+    assert np.any(out < max_range) and np.any(out == np.float32(max_range))
+
+
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_ring_rows_equal_reads_one_robot_after_the_other(crowd, seed):
     world, robots = crowd

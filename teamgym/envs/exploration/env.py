@@ -55,20 +55,23 @@ Metrics in ``infos``: ``explored``, ``explored_fraction``, ``explored_all``, ``e
 from __future__ import annotations
 
 import math
-from functools import partial
 from typing import Any
 
 import numpy as np
 from gymnasium import spaces
 
 from teamgym.control.poses import PoseRows
-from teamgym.control.watcher import TASK_REASONS, TaskWatcher, WatcherState
+from teamgym.control.watcher import TASK_REASONS, WatcherState
 from teamgym.envs.actions import ActionType, VelocityAction
 from teamgym.envs.base import EpisodeOverError, TeamEnv
 from teamgym.envs.bounds import region, speed_limits
 from teamgym.envs.config import ConfigError
 from teamgym.envs.exploration.config import ExplorationConfig, cached_map
-from teamgym.envs.exploration.operators import OperatorAction, OperatorSet, TaskFactory
+from teamgym.envs.exploration.operators import OperatorAction, OperatorSet
+from teamgym.envs.exploration.operators import _door_is_open as _door_is_open  # pickles of earlier releases name them here
+from teamgym.envs.exploration.operators import _door_known_closed as _door_known_closed
+from teamgym.envs.exploration.phases import ExplorationPhases
+from teamgym.envs.exploration.state import ExplorationArrays
 from teamgym.envs.infos import InfoKey, categorical, metrics, unknown
 from teamgym.envs.spaces import Field, ObservationLayout
 from teamgym.maps.build import map_entities
@@ -95,6 +98,7 @@ class Exploration(TeamEnv):
     config_class = ExplorationConfig
     config: ExplorationConfig
     pixels_per_metre = 400.0
+    phases_class = ExplorationPhases  # the step's phases over ExplorationArrays rows (one pass for a batch's copies)
 
     def _setup(self) -> None:
         self.operator_set = OperatorSet(self.map)
@@ -118,6 +122,10 @@ class Exploration(TeamEnv):
             for b in bounds[k + 1 :]
         )
         self._door_discs = [(x, y, r) for (x, y), r in zip(self._door_centres.tolist(), self._door_radii.tolist())]
+        #: The same as arrays for the phases over copies: ``(S, 4)`` shrunk sectors, ``(D, 3)`` door discs.
+        self._bounds_array = np.array(self._sector_bounds, dtype=float).reshape(-1, 4)
+        self._discs_array = np.array(self._door_discs, dtype=float).reshape(-1, 3)
+        self._door_row = {d: j for j, d in enumerate(office.door_ids)}
         # Walls, doors and furniture, built once and placed in every episode's world first (teamgym.sim.scene).
         entities = map_entities(office, furniture=c.furniture, join_walls=True)
         self._scene = StaticScene(entities)
@@ -137,6 +145,12 @@ class Exploration(TeamEnv):
         self._index = {a: i for i, a in enumerate(self.possible_agents)}
         self._others = np.array([[j for j in range(n) if j != i] for i in range(n)], dtype=int).reshape(n, n - 1)
         self._n_places = v
+        #: The team's model (eq. 1) and the clutter re-estimate (eq. 2): static graphs over views of the
+        #: episode's rows (``_use_rows`` binds them), built once.
+        self.model = TopologicalModel(office)
+        self.clutter_estimate = ClutterEstimate(self.model.clutter, c.clutter_prior_weight)
+        self._pose_rows = PoseRows()
+        self._use_rows(ExplorationArrays(n, self.ring.width, c.sensor_range, self.model.clutter, self.model.door_open, 1), 0)
         try:
             self._sample_starts(np.random.default_rng(0))
         except RuntimeError as error:
@@ -154,7 +168,7 @@ class Exploration(TeamEnv):
     def _make_action_type(self) -> ActionType:
         if self.config.action_type == "velocity":
             return VelocityAction(self.spec_robot)
-        return OperatorAction(self.operator_set)
+        return OperatorAction(self.operator_set, self.config, self.spec_robot.radius)
 
     def _make_layout(self) -> ObservationLayout:
         """The fields of the module docstring; the map's walls keep robots in its workspace."""
@@ -191,39 +205,74 @@ class Exploration(TeamEnv):
         for agent, start, heading in zip(self.possible_agents, starts, headings):
             self.robots[agent] = self.world.add(DiffDriveRobot(agent, start, heading, self.spec_robot))
         self.robot_list = list(self.robots.values())
-        n = c.n_robots
-        self.model = TopologicalModel(office)
-        self.clutter_estimate = ClutterEstimate(self.model.clutter, c.clutter_prior_weight)
-        self.visited = np.zeros(self.n_sectors, dtype=bool)
-        self._explored_all = bool(np.all(self.visited[self.goal]))
-        self._explored_goals = 0  # goal sectors in visited
-        self._pose_rows = PoseRows()
-        self._any_hits = False
-        self._sector = np.zeros(n, dtype=int)
-        self._place = np.zeros(n, dtype=int)
-        self._collisions = np.zeros(n, dtype=int)
-        self._collided = np.zeros(n, dtype=bool)
-        self._explore_time = math.nan
-        self._stages = 0
-        self._completed = np.zeros(n, dtype=int)
-        self._failed = np.zeros(n, dtype=int)
-        self._proximity = np.full((n, self.ring.n_rays), c.sensor_range, dtype=np.float32)
-        self._watchers = [TaskWatcher(c.stall_time, c.task_timeout, c.fail_on_collision) for _ in range(n)]
-        self._task_sector = np.zeros(n, dtype=int)
-        door_index = {d: j for j, d in enumerate(office.door_ids)}
-        self._tasks = TaskFactory(
-            office,
-            partial(_door_is_open, self),
-            partial(_door_known_closed, self, door_index),
-            self.spec_robot.radius,
-            c.max_speed,
-        )
-        self._hits = np.zeros(n, dtype=np.int64)
-        self._newly_explored = 0
+        self._arrays.start(self._copy, [self.doors[d].is_open for d in office.door_ids])
+        self._arrays.explored_all[self._copy] = not self.goal.any()
+        operators = self._operators
+        if operators is not None:
+            operators.begin(self)
         self.world.read_states()
         self._update_state()
         self._check_goals()
         self._sense()
+
+    # -- per-episode state (this copy's rows of ``self._arrays``) ---------------------------
+    def _use_rows(self, team: ExplorationArrays, k: int) -> None:
+        """Keep this env's episode state in copy row ``k`` of ``team`` (a batch's; see :class:`ExplorationArrays`).
+
+        The model's clutter and door beliefs and the clutter estimate's sums become views of that row.
+        """
+        self._arrays, self._copy = team, k
+        self.model.clutter, self.model.door_open = team.clutter[k], team.door_belief[k]
+        self.clutter_estimate.ratio_sum, self.clutter_estimate.count = team.clutter_sum[k], team.clutter_count[k]
+
+    def _episode_state(self) -> dict[str, Any]:
+        """The base's, with this copy's rows of ``_arrays`` in place of the arrays (a batch's hold every copy).
+
+        The model and the clutter estimate are left out: they are fixed objects over views of the rows.
+        """
+        state = super()._episode_state()
+        team, k = state.pop("_arrays"), state.pop("_copy")
+        del state["model"], state["clutter_estimate"]
+        state["_episode_rows"] = team.row(k)
+        return state
+
+    def _adopt_episode_state(self, state: dict[str, Any]) -> None:
+        rows = state.pop("_episode_rows", None)
+        if rows is None:  # a snapshot of a release that kept the episode in attributes
+            rows = _rows_of_attributes(self, state)
+        super()._adopt_episode_state(state)
+        self._arrays.set_row(self._copy, rows)
+
+    @property
+    def _operators(self) -> OperatorAction | None:
+        """The operator action type (inside a learned message's wrapper), or ``None`` with velocities."""
+        action_type = getattr(self.action_type, "motion", self.action_type)
+        return action_type if isinstance(action_type, OperatorAction) else None
+
+    @property
+    def visited(self) -> np.ndarray:
+        """M_V: the explored sectors (a view of this copy's row)."""
+        return self._arrays.visited[self._copy]
+
+    @property
+    def _sector(self) -> np.ndarray:
+        """Each robot's sector index (a view of this copy's row)."""
+        return self._arrays.sector[self._copy]
+
+    @property
+    def _place(self) -> np.ndarray:
+        """Each robot's place x_i, a vertex index (a view of this copy's row)."""
+        return self._arrays.place[self._copy]
+
+    @property
+    def _watchers(self) -> list:
+        """Each robot row's task watcher (owned by the operator action type; empty with velocities)."""
+        operators = self._operators
+        return [] if operators is None else operators.watchers
+
+    def _poses(self) -> list[tuple[float, float, float]]:
+        """``(x, y, θ)`` of every robot row as floats (converted once per state read)."""
+        return self._pose_rows(self.world.robot_states)
 
     def _sample_doors(self, rng: np.random.Generator) -> dict[str, bool]:
         """Door states for an episode: o_j draws unless ``door_states="open"`` or forced by the config."""
@@ -306,11 +355,15 @@ class Exploration(TeamEnv):
         return done
 
     def _apply_door(self, door_id: str, is_open: bool) -> bool:
+        """Open or close the door entity; ``door_is_open`` follows its state (a close may be refused)."""
         door = self.doors[door_id]
         if is_open:
             door.open()
-            return True
-        return door.close()
+            done = True
+        else:
+            done = door.close()
+        self._arrays.door_is_open[self._copy, self._door_row[door_id]] = door.is_open
+        return done
 
     def _before_physics(self) -> None:
         c = self.config
@@ -319,86 +372,19 @@ class Exploration(TeamEnv):
             for door_id, is_open in self._sample_doors(self.np_random).items():
                 self._apply_door(door_id, is_open)
 
-    # -- operators as macro actions (OperatorAction calls these) --------------------------
-    def start_stage(self, actions: dict) -> None:
-        """Begin a planning stage (Fig. 5): start the operators; one a robot still executes continues."""
-        if not self._all_explored():
-            self._stages += 1
-        time, states = self.world.time, self.world.robot_states
-        for agent, op in actions.items():
-            i = self._index[agent]
-            watcher = self._watchers[i]
-            if watcher.executing and watcher.task is not None and watcher.task.key == op:
-                continue
-            watcher.acknowledge()
-            sector = self.map.sector_ids[self._sector[i]]
-            watcher.assign(self._tasks.make(self.operators[op], sector), time, states[i, :2], self.robot_list[i].odometer)
-            self._task_sector[i] = self._sector[i]
-        self._stage_robots = [self._index[a] for a in self.live_agents]
-        self._stage_start = self.cycles
-        self._stage_ended = False
-
-    def operator_command(self, agent: str) -> tuple[float, float]:
-        """The behaviour-based controller's command for ``agent``'s current task."""
-        i = self._index[agent]
-        pose = self._pose_rows(self.world.robot_states)[i]
-        return self._watchers[i].control(pose, self._proximity[i], bool(self._collided[i]))
-
-    def stage_over(self) -> bool:
-        """After a control step: watch the tasks; the stage ends as ``stage_end`` says."""
-        c, robots = self.config, self._stage_robots
-        for i in robots:
-            if self._watch(i):
-                self._stage_ended = True
-        if self._all_explored():
-            return True
-        if self.cycles >= c.max_cycles:
-            return True
-        busy = any(self._watchers[i].executing and not self._watchers[i].task.is_wait for i in robots)
-        waited = self.cycles - self._stage_start >= c.wait_steps
-        if c.stage_end == "any":
-            return self._stage_ended or (not busy and waited)
-        return not busy and (self._stage_ended or waited)
-
-    def operator_mask(self, agent: str) -> np.ndarray:
-        """Preconditions of section 3.1 at the robot's place; the operator it executes stays allowed."""
-        i = self._index[agent]
-        mask = self.operator_set.admissible(int(self._place[i]), self.model.cost)
-        watcher = self._watchers[i]
-        if watcher.executing and watcher.task is not None:
-            mask[watcher.task.key] = 1
-        return mask
-
-    def _watch(self, i: int) -> bool:
-        """Update robot i's watcher after a control step; True if its task just ended."""
-        watcher = self._watchers[i]
-        if not watcher.executing:
-            return False
-        position = self._pose_rows(self.world.robot_states)[i][:2]
-        state = watcher.after_step(self.world.time, position, self.robot_list[i].odometer, bool(self._collided[i]))
-        if state == WatcherState.COMPLETED:
-            self._completed[i] += 1
-            report = watcher.report
-            if self.operators[watcher.task.key].kind == "find_door":
-                self.clutter_estimate.observe(int(self._task_sector[i]), report.straight, report.travelled)
-                self.model.clutter[:] = self.clutter_estimate.values
-            return True
-        if state == WatcherState.FAILED:
-            self._failed[i] += 1
-            self.robot_list[i].set_command(0.0, 0.0)
-            return True
-        return False
-
     def _update_state(self) -> None:
         """After a control step: sectors, places, door sightings, the explored set and contacts.
 
         A robot is in the first sector whose rectangle, shrunk by 1 mm, holds its centre (else it
         keeps its sector); it sees the doors whose disc holds its centre (their belief becomes
         their state) and is at the nearest of those it believes open, else at its sector.
-        Distances are ``sqrt(dx² + dy²)``, as ``np.linalg.norm`` computes them.
+        Distances are ``sqrt(dx² + dy²)``, as ``np.linalg.norm`` computes them. A batch's copies
+        do the same in one pass (:meth:`ExplorationArrays.update_places`).
         """
-        poses = self._pose_rows(self.world.robot_states)
-        sectors, bounds = self._sector.tolist(), self._sector_bounds
+        state, k = self._arrays, self._copy
+        poses = self._poses()
+        row = state.sector[k]
+        sectors, bounds = row.tolist(), self._sector_bounds
         for i, (x, y, _) in enumerate(poses):
             left, right, bottom, top = bounds[sectors[i]]
             if self._sectors_disjoint and left < x < right and bottom < y < top:
@@ -407,13 +393,13 @@ class Exploration(TeamEnv):
                 if x > x0 and x < x1 and y > y0 and y < y1:
                     sectors[i] = s
                     break
-        self._sector[:] = sectors
+        row[:] = sectors
         places = sectors
         if self.n_doors:
             near = [self._doors_near(x, y) for x, y, _ in poses]
-            beliefs = self.model.door_open
+            beliefs, truth = state.door_belief[k], state.door_is_open[k]
             for j in sorted({j for seen in near for j, _ in seen}):
-                beliefs[j] = 1.0 if self.doors[self.map.doors[j].id].is_open else 0.0
+                beliefs[j] = 1.0 if truth[j] else 0.0
             places = list(sectors)
             for i, seen in enumerate(near):
                 best, door = math.inf, -1
@@ -422,22 +408,33 @@ class Exploration(TeamEnv):
                         best, door = d, j
                 if door >= 0:
                     places[i] = self.n_sectors + door
-        self._place = np.array(places, dtype=self._sector.dtype)
-        fresh = [p for p in sorted(set(places)) if p < self.n_sectors and not self.visited[p]]  # newly explored sectors
+        state.place[k] = places
+        visited = state.visited[k]
+        fresh = [p for p in sorted(set(places)) if p < self.n_sectors and not visited[p]]  # newly explored sectors
         if fresh:
-            self.visited[fresh] = True
-            self._explored_all = bool(np.all(self.visited[self.goal]))
-        self._newly_explored = sum(self._goal_list[p] for p in fresh)
-        self._explored_goals += self._newly_explored
+            visited[fresh] = True
+            state.explored_all[k] = bool(np.all(visited[self.goal]))
+        if fresh:
+            newly = sum(self._goal_list[p] for p in fresh)
+            state.newly_explored[k] = newly
+            state.explored_goals[k] += newly
+        else:
+            state.newly_explored[k] = 0
+        self._count_contacts()
+
+    def _count_contacts(self) -> None:
+        """This control step's contacts per robot (``hits``), their running counts and ``collided``."""
+        state, k = self._arrays, self._copy
         if self.world.contacts:
-            self._hits = self.world.contacts_per(self.possible_agents)
-            self._collisions += self._hits
-            self._collided[:] = self._hits > 0
-            self._any_hits = True
-        elif self._any_hits:  # no contact this step: every count 0
-            self._hits = np.zeros_like(self._hits)
-            self._collided[:] = False
-            self._any_hits = False
+            hits = self.world.contacts_per(self.possible_agents)
+            state.hits[k] = hits
+            state.collisions[k] += hits
+            state.collided[k] = hits > 0
+            state.any_hits[k] = True
+        elif state.any_hits.item(k):  # no contact this step: every count 0
+            state.hits[k] = 0
+            state.collided[k] = False
+            state.any_hits[k] = False
 
     def _doors_near(self, x: float, y: float) -> list[tuple[int, float]]:
         """``(door index, distance)`` of the doors whose disc holds ``(x, y)``, in door order.
@@ -455,60 +452,86 @@ class Exploration(TeamEnv):
         return near
 
     def _check_goals(self) -> None:
-        if self._newly_explored and self._all_explored() and math.isnan(self._explore_time):
-            self._explore_time = self.cycles * self.config.dt
+        state, k = self._arrays, self._copy
+        if state.newly_explored.item(k) and state.explored_all.item(k) and math.isnan(state.explore_time.item(k)):
+            state.explore_time[k] = self.cycles * self.config.dt
 
     def _accumulate_rewards(self, total: np.ndarray) -> None:
         """``explore_reward`` per newly explored goal sector − ``time_penalty``, shared; − ``collision_penalty`` per contact."""
-        c = self.config
-        total += c.explore_reward * self._newly_explored - c.time_penalty
-        if not self._any_hits:
+        c, state, k = self.config, self._arrays, self._copy
+        total += c.explore_reward * state.newly_explored.item(k) - c.time_penalty
+        self._contact_penalties(total)
+
+    def _contact_penalties(self, total: np.ndarray) -> None:
+        """``collision_penalty`` off ``total[i]`` once per contact of robot ``i`` this control step (a running sum)."""
+        state, k = self._arrays, self._copy
+        if not state.any_hits.item(k):
             return
-        for i in np.flatnonzero(self._hits).tolist():
-            for _ in range(int(self._hits[i])):  # once per contact, as a running sum
-                total[i] -= c.collision_penalty
+        penalty, hits = self.config.collision_penalty, state.hits[k]
+        for i in np.flatnonzero(hits).tolist():
+            for _ in range(int(hits[i])):
+                total[i] -= penalty
 
     def _sense(self) -> None:
         """Proximity rings of every robot (the behaviour-based controller reads them)."""
-        self.ring.read_rows(self.world, self.robot_list, self.world.robot_states, self.np_random, self._proximity)
+        out = self._arrays.proximity[self._copy]
+        self.ring.read_rows(self.world, self.robot_list, self.world.robot_states, self.np_random, out)
 
     def _all_explored(self) -> bool:
         """Every goal sector explored (kept up to date by :meth:`_update_state`)."""
-        return self._explored_all
+        return self._arrays.explored_all.item(self._copy)
 
     def _terminations(self) -> dict[str, bool]:
         return dict.fromkeys(self.live_agents, self._all_explored())
 
     # -- observations, metrics -------------------------------------------------------
     def _observe(self, out: np.ndarray) -> None:
-        fields = self.layout.slices
-        at = {name: fields[name].start for name in ("velocity", "sector", "place", "mates_sector", "mates_place")}
-        at.update(task_status=fields["task_status"].start, task=fields["task"].start)
+        """Rows of the live agents (module docstring); fields every robot observes alike written once for all rows."""
+        at = self.__dict__.get("_field_starts")
+        if at is None:
+            names = ("velocity", "sector", "place", "mates_sector", "mates_place", "task_status", "task")
+            at = self._field_starts = {name: self.layout.slices[name].start for name in names}
         s, v = self.n_sectors, self.n_sectors + self.n_doors
-        shared = [(fields[name], value) for name, value in self._shared_fields()]
-        sectors, places = self._sector.tolist(), self._place.tolist()
+        team, k = self._arrays, self._copy
+        sectors, places = team.sector[k].tolist(), team.place[k].tolist()
+        index, states, others = self._index, self.world.robot_states, self._others
         for row, agent in enumerate(self.live_agents):
-            i = self._index[agent]
+            i = index[agent]
             buffer = out[row]
-            x, y, theta, vx, vy, omega = self.world.robot_states[i].tolist()
+            x, y, theta, vx, vy, omega = states[i].tolist()
             buffer[0:3] = (x, y, math.remainder(theta, 2 * math.pi))
             buffer[at["velocity"] : at["velocity"] + 2] = (vx * math.cos(theta) + vy * math.sin(theta), omega)
             buffer[at["sector"] + sectors[i]] = 1.0
             buffer[at["place"] + places[i]] = 1.0
-            buffer[fields["proximity"]] = self._proximity[i]
-            for row_m, j in enumerate(self._others[i].tolist()):
+            for row_m, j in enumerate(others[i].tolist()):
                 buffer[at["mates_sector"] + row_m * s + sectors[j]] = 1.0
                 buffer[at["mates_place"] + row_m * v + places[j]] = 1.0
-            for where, value in shared:
-                buffer[where] = value
-            watcher = self._watchers[i]
-            buffer[at["task_status"] + int(watcher.state)] = 1.0
-            buffer[at["task"]] = watcher.task.key if watcher.task is not None else -1
+        fields, rows = self.layout.slices, self._live_rows()
+        out[:, fields["proximity"]] = team.proximity[k] if len(rows) == len(sectors) else team.proximity[k, rows]
+        for name, value in self._shared_fields():
+            out[:, fields[name]] = value
+        operators = self._operators if self.action_type.is_macro else None
+        if operators is None:
+            out[:, at["task_status"] + int(WatcherState.WAITING)] = 1.0
+            out[:, at["task"]] = -1.0
+            return
+        status, tasks = operators.task_rows()
+        for row, i in enumerate(rows.tolist()):
+            out[row, at["task_status"] + status[i]] = 1.0
+            out[row, at["task"]] = tasks[i]
+
+    def _task_rows(self) -> tuple[list[int], list[int]]:
+        """Per robot row: watcher state and current operator (−1); waiting and none without operators."""
+        operators = self._operators
+        if operators is None:
+            n = len(self.possible_agents)
+            return [int(WatcherState.WAITING)] * n, [-1] * n
+        return operators.task_rows()
 
     def _shared_fields(self) -> list[tuple[str, np.ndarray]]:
         """The fields every robot observes alike: explored sectors, goals, door beliefs, clutter."""
         return [
-            ("visited", self.visited),
+            ("visited", self._arrays.visited[self._copy]),
             ("goal", self.goal),
             ("door_belief", self.model.door_open),
             ("clutter", self.model.clutter),
@@ -532,15 +555,17 @@ class Exploration(TeamEnv):
 
     def _metrics_of(self, agents: list[str]) -> dict[str, dict[str, Any]]:
         """Per-robot metrics; the team-wide ones (explored set, team path, explore time) computed once."""
-        explored = self._explored_goals  # np.count_nonzero(self.visited & self.goal), kept by _update_state
+        state, k = self._arrays, self._copy
+        explored = state.explored_goals.item(k)  # np.count_nonzero(self.visited & self.goal), kept by _update_state
         team: dict[str, Any] = {
             "explored": explored,
             "explored_fraction": explored / self._n_goals,
-            "explored_all": self._all_explored(),
+            "explored_all": state.explored_all.item(k),
         }
         team_path = float(sum(r.odometer for r in self.robot_list))
-        collisions, sectors, places = self._collisions.tolist(), self._sector.tolist(), self._place.tolist()
-        macro = self.action_type.is_macro  # task bookkeeping exists only when operators run as tasks
+        collisions, sectors, places = state.collisions[k].tolist(), state.sector[k].tolist(), state.place[k].tolist()
+        operators = self._operators if self.action_type.is_macro else None  # task bookkeeping: operators only
+        explore_time = state.explore_time.item(k)
         out = {}
         for agent in agents:
             i = self._index[agent]
@@ -548,21 +573,18 @@ class Exploration(TeamEnv):
                 **team,
                 "path_length": float(self.robot_list[i].odometer),
                 "team_path_length": team_path,
-                "collisions": int(collisions[i]),
-                "sector": int(sectors[i]),
-                "place": int(places[i]),
+                "collisions": collisions[i],
+                "sector": sectors[i],
+                "place": places[i],
             }
-            if not math.isnan(self._explore_time):
-                metrics["explore_time"] = float(self._explore_time)
-            if macro:
-                watcher = self._watchers[i]
+            if not math.isnan(explore_time):
+                metrics["explore_time"] = explore_time
+            if operators is not None:
                 metrics.update(
-                    stages=int(self._stages),
-                    tasks_completed=int(self._completed[i]),
-                    tasks_failed=int(self._failed[i]),
-                    task=watcher.task.key if watcher.task is not None else -1,
-                    task_status=int(watcher.state),
-                    task_reason=TASK_REASONS.index(watcher.report.reason) if watcher.report is not None else 0,
+                    stages=int(state.stages[k]),
+                    tasks_completed=int(state.completed[k, i]),
+                    tasks_failed=int(state.failed[k, i]),
+                    **operators.task_metrics(i),
                 )
             out[agent] = metrics
         return out
@@ -592,9 +614,10 @@ class Exploration(TeamEnv):
         if self.world is None:
             raise RuntimeError("state() called before reset()")
         states = self.world.robot_states
-        robots = np.column_stack([states[:, :3], self._place]).ravel()
+        team, k = self._arrays, self._copy
+        robots = np.column_stack([states[:, :3], team.place[k]]).ravel()
         doors = np.array([self.doors[d].is_open for d in self.map.door_ids], dtype=float)
-        parts = [robots, self.visited.astype(float), self.model.clutter, doors, self.model.door_open]
+        parts = [robots, team.visited[k].astype(float), team.clutter[k], doors, team.door_belief[k]]
         return np.concatenate(parts).astype(np.float32)
 
     def _overlay(self) -> Overlay:
@@ -603,14 +626,28 @@ class Exploration(TeamEnv):
         )
 
 
-def _door_is_open(env: Exploration, door: str) -> bool:
-    """A door's true state (the tasks' ``door_open``; a module function so that tasks pickle)."""
-    return env.doors[door].is_open
+def _rows_of_attributes(env: Exploration, state: dict[str, Any]) -> dict[str, np.ndarray]:
+    """The episode rows of a snapshot that earlier releases wrote (the state in ``_*`` attributes); ``state`` loses them.
 
-
-def _door_known_closed(env: Exploration, door_index: dict[str, int], door: str) -> bool:
-    """Whether the team's model knows the door is closed (the tasks' ``door_known_closed``)."""
-    return env.model.door_open[door_index[door]] <= 0.0
+    Their watchers and task factory move to the operator action type, as this release keeps them.
+    """
+    old = {key: state.pop(key) for key in [*state] if key.startswith("_") and key not in env.__dict__}
+    visited, model, estimate = state.pop("visited"), state.pop("model"), state.pop("clutter_estimate")
+    rows = env._arrays.row(env._copy)
+    for name in ("sector", "place", "collisions", "collided", "hits", "completed", "failed", "task_sector", "proximity"):
+        rows[name][...] = old[f"_{name}"]
+    rows["in_stage"][old.get("_stage_robots", [])] = True
+    rows["visited"][:], rows["clutter"][:], rows["door_belief"][:] = visited, model.clutter, model.door_open
+    rows["clutter_sum"][:], rows["clutter_count"][:] = estimate.ratio_sum, estimate.count
+    rows["door_is_open"][:] = [state["doors"][d].is_open for d in env.map.door_ids]
+    for name in ("explored_all", "explored_goals", "newly_explored", "any_hits", "explore_time", "stages"):
+        rows[name] = old[f"_{name}"]
+    rows["stage_start"], rows["stage_ended"] = old.get("_stage_start", 0), old.get("_stage_ended", False)
+    action_type = getattr(state.get("action_type"), "motion", state.get("action_type"))
+    if isinstance(action_type, OperatorAction):
+        action_type.config, action_type.robot_radius = env.config, env.spec_robot.radius
+        action_type.watchers, action_type.tasks = old["_watchers"], old["_tasks"]
+    return rows
 
 
 def parallel_env(render_mode: str | None = None, **config: Any) -> Exploration:

@@ -21,15 +21,24 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 from functools import partial
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
 from teamgym.control.behaviour import DEFAULT_PRIORITIES, NARROW_PASSAGE, BehaviourParameters
-from teamgym.control.watcher import Task
+from teamgym.control.watcher import TASK_REASONS, Task, TaskWatcher, WatcherState
 from teamgym.envs.actions import ActionType
 from teamgym.envs.spaces import MaskedDiscrete
 from teamgym.maps.geometry import door_opening, shared_edge
 from teamgym.maps.model import OfficeMap, Point
+
+if TYPE_CHECKING:
+    from teamgym.envs.exploration.config import ExplorationConfig
+    from teamgym.envs.exploration.state import ExplorationArrays
+    from teamgym.maps.topology import ClutterEstimate, TopologicalModel
+    from teamgym.sim.objects import Door
+    from teamgym.sim.robot import DiffDriveRobot
+    from teamgym.sim.world import World
 
 OPERATOR_KINDS = ("wait", "find_door", "traverse_door", "goto")
 
@@ -126,38 +135,178 @@ class OperatorSpace(MaskedDiscrete):
     """``Discrete`` over operator indices; ``sample()`` draws an admissible operator."""
 
 
+class OperatorTask(Protocol):
+    """What :class:`OperatorAction` reads of its task (Exploration implements it).
+
+    ``_arrays`` holds the episode state of the copies (:class:`~teamgym.envs.exploration.state.ExplorationArrays`:
+    sectors, places, contacts, readings, stage clocks, task counters), ``_copy`` is this task's row;
+    ``model`` is the team's topological model (eq. 1; costs by eq. 3, beliefs o_j) and
+    ``clutter_estimate`` the re-estimate of eq. (2), both over views of that row; ``doors`` are
+    the door entities (their true states); ``_poses()`` gives ``(x, y, θ)`` of every robot row.
+    """
+
+    _arrays: ExplorationArrays
+    _copy: int
+    _row: dict[str, int]
+    config: ExplorationConfig
+    map: OfficeMap
+    model: TopologicalModel
+    clutter_estimate: ClutterEstimate
+    doors: dict[str, Door]
+    world: World
+    robot_list: list[DiffDriveRobot]
+    live_agents: list[str]
+    cycles: int
+
+    def _poses(self) -> list[tuple[float, float, float]]: ...
+
+
 class OperatorAction(ActionType):
     """The paper's operators as macro actions: one ``step`` is one planning stage (Fig. 5).
 
-    The env executes them: ``start_stage(actions)`` assigns the tasks, ``operator_command(agent)``
-    is the behaviour-based controller's command, ``stage_over()`` watches the tasks and
-    ``operator_mask(agent)`` gives the preconditions of section 3.1 as a mask.
+    The action type owns each robot's task-execution watcher (:class:`~teamgym.control.watcher.TaskWatcher`,
+    section 2.2, Fig. 4; with it the behaviour-based controller that executes go-to, find-door and
+    traverse-door tasks) and the :class:`TaskFactory` that turns operators into tasks, made per
+    episode by :meth:`begin`; it reads its task only through :class:`OperatorTask`.
+    :meth:`start` assigns the tasks of a stage, :meth:`act` is the controller's command,
+    :meth:`stage_over` watches the tasks and :meth:`mask` gives the preconditions of section 3.1.
+    ``config`` gives the watcher's limits (``stall_time``, ``task_timeout``, ``fail_on_collision``),
+    ``max_speed`` and the stage rules (``stage_end``, ``wait_steps``, ``max_cycles``).
     """
 
     name = "operator"
     is_macro = True
     has_masks = True
 
-    def __init__(self, operators: OperatorSet) -> None:
+    def __init__(self, operators: OperatorSet, config: ExplorationConfig | None = None, robot_radius: float = 0.0) -> None:
         self.operators = operators
+        self.config = config
+        self.robot_radius = robot_radius
+        #: Each robot row's watcher in the current episode (:meth:`begin`).
+        self.watchers: list[TaskWatcher] = []
+        self.tasks: TaskFactory | None = None
 
     def space(self) -> OperatorSpace:
         return OperatorSpace(len(self.operators))
 
-    def start(self, env, actions: dict) -> None:
-        env.start_stage(actions)
+    def begin(self, env: OperatorTask) -> None:
+        """A new episode: a fresh watcher per robot row, tasks that read ``env``'s doors and beliefs."""
+        c = self.config
+        if c is None:
+            raise ValueError("OperatorAction.begin: the action type was made without a config")
+        self.watchers = [TaskWatcher(c.stall_time, c.task_timeout, c.fail_on_collision) for _ in env._row]
+        door_index = {d: j for j, d in enumerate(env.map.door_ids)}
+        self.tasks = TaskFactory(
+            env.map,
+            partial(_door_is_open, env),
+            partial(_door_known_closed, env, door_index),
+            self.robot_radius,
+            c.max_speed,
+        )
 
-    def act(self, env, agent: str, action) -> tuple[float, float]:
-        return env.operator_command(agent)
+    def start(self, env: OperatorTask, actions: dict) -> None:
+        """Begin a planning stage (Fig. 5): start the operators; one a robot still executes continues."""
+        state, k = env._arrays, env._copy
+        if not state.explored_all[k]:
+            state.stages[k] += 1
+        time, states, row = env.world.time, env.world.robot_states, env._row
+        sectors, ids, operators = state.sector[k], env.map.sector_ids, self.operators.operators
+        for agent, op in actions.items():
+            i = row[agent]
+            watcher = self.watchers[i]
+            if watcher.executing and watcher.task is not None and watcher.task.key == op:
+                continue
+            watcher.acknowledge()
+            task = self.tasks.make(operators[op], ids[sectors[i]])
+            watcher.assign(task, time, states[i, :2], env.robot_list[i].odometer)
+            state.task_sector[k, i] = sectors[i]
+        in_stage = state.in_stage[k]
+        in_stage[:] = False
+        in_stage[[row[a] for a in env.live_agents]] = True
+        state.stage_start[k] = env.cycles
+        state.stage_ended[k] = False
 
-    def stage_over(self, env) -> bool:
-        return env.stage_over()
+    def act(self, env: OperatorTask, agent: str, action) -> tuple[float, float]:
+        """The behaviour-based controller's command for ``agent``'s current task."""
+        i, state, k = env._row[agent], env._arrays, env._copy
+        return self.watchers[i].control(env._poses()[i], state.proximity[k, i], bool(state.collided[k, i]))
 
-    def mask(self, env, agent: str) -> np.ndarray:
-        return env.operator_mask(agent)
+    def stage_over(self, env: OperatorTask) -> bool:
+        """After a control step: watch the tasks; the stage ends as ``stage_end`` says."""
+        c, state, k = self.config, env._arrays, env._copy
+        robots = np.flatnonzero(state.in_stage[k]).tolist()
+        for i in robots:
+            if self.watch(env, i):
+                state.stage_ended[k] = True
+        if state.explored_all[k] or env.cycles >= c.max_cycles:
+            return True
+        watchers = self.watchers
+        busy = any(watchers[i].executing and not watchers[i].task.is_wait for i in robots)
+        waited = env.cycles - int(state.stage_start[k]) >= c.wait_steps
+        ended = bool(state.stage_ended[k])
+        if c.stage_end == "any":
+            return ended or (not busy and waited)
+        return not busy and (ended or waited)
+
+    def watch(self, env: OperatorTask, i: int) -> bool:
+        """Update robot row ``i``'s watcher after a control step; True if its task just ended.
+
+        A completed FindDoor re-estimates its sector's clutter (eq. 2); a failed task stops the robot.
+        """
+        watcher = self.watchers[i]
+        if not watcher.executing:
+            return False
+        state, k = env._arrays, env._copy
+        position = env._poses()[i][:2]
+        outcome = watcher.after_step(env.world.time, position, env.robot_list[i].odometer, bool(state.collided[k, i]))
+        if outcome == WatcherState.COMPLETED:
+            state.completed[k, i] += 1
+            report = watcher.report
+            if self.operators.operators[watcher.task.key].kind == "find_door":
+                env.clutter_estimate.observe(int(state.task_sector[k, i]), report.straight, report.travelled)
+                env.model.clutter[:] = env.clutter_estimate.values
+            return True
+        if outcome == WatcherState.FAILED:
+            state.failed[k, i] += 1
+            env.robot_list[i].set_command(0.0, 0.0)
+            return True
+        return False
+
+    def mask(self, env: OperatorTask, agent: str) -> np.ndarray:
+        """Preconditions of section 3.1 at the robot's place; the operator it executes stays allowed."""
+        i = env._row[agent]
+        mask = self.operators.admissible(int(env._arrays.place[env._copy, i]), env.model.cost)
+        watcher = self.watchers[i]
+        if watcher.executing and watcher.task is not None:
+            mask[watcher.task.key] = 1
+        return mask
+
+    def task_rows(self) -> tuple[list[int], list[int]]:
+        """Per robot row: the watcher state (``WatcherState``) and the current operator's index (−1: none)."""
+        watchers = self.watchers
+        return [int(w.state) for w in watchers], [w.task.key if w.task is not None else -1 for w in watchers]
+
+    def task_metrics(self, i: int) -> dict[str, int]:
+        """Robot row ``i``'s task infos: ``task``, ``task_status`` and ``task_reason`` (indices)."""
+        watcher = self.watchers[i]
+        return {
+            "task": watcher.task.key if watcher.task is not None else -1,
+            "task_status": int(watcher.state),
+            "task_reason": TASK_REASONS.index(watcher.report.reason) if watcher.report is not None else 0,
+        }
 
     def describe(self, action) -> str:
         return self.operators.operators[int(action)].name
+
+
+def _door_is_open(env: OperatorTask, door: str) -> bool:
+    """A door's true state (the tasks' ``door_open``; a module function so that tasks pickle)."""
+    return env.doors[door].is_open
+
+
+def _door_known_closed(env: OperatorTask, door_index: dict[str, int], door: str) -> bool:
+    """Whether the team's model knows the door is closed (the tasks' ``door_known_closed``)."""
+    return env.model.door_open[door_index[door]] <= 0.0
 
 
 class TaskFactory:

@@ -64,7 +64,9 @@ from teamgym.envs.foraging.actions import GoToCellAction
 from teamgym.envs.foraging.config import ForagingConfig
 from teamgym.envs.foraging.controller import GoToController
 from teamgym.envs.foraging.perception import ROBOT, SENDER, Odometry, VisionModel, landmark_positions, packet_bytes
-from teamgym.envs.foraging.sensing import POLAR, TARGET_CELL, TUPLE, Cameras, perceive
+from teamgym.envs.foraging.phases import ForagingPhases
+from teamgym.envs.foraging.sensing import POLAR, TARGET_CELL, TUPLE, Cameras, Sightings, perceive
+from teamgym.envs.foraging.state import ForagingArrays
 from teamgym.envs.infos import InfoKey, metrics, unknown
 from teamgym.envs.reset_input import scene_points
 from teamgym.envs.spaces import Field, ObservationLayout
@@ -97,6 +99,7 @@ class Foraging(TeamEnv):
     config_class = ForagingConfig
     reset_option_keys = ("targets", "starts")
     uses_channel = True
+    phases_class = ForagingPhases  # the step's phases, bound to ForagingArrays rows (a batch's shared ones)
     config: ForagingConfig
     pixels_per_metre = 160.0
 
@@ -117,10 +120,90 @@ class Foraging(TeamEnv):
         self.cameras = Cameras(n, self.landmarks, c.camera_range, c.camera_fov, self.spec.radius)
         self._cell_xy = self.grid.cell_at(np.arange(self.grid.n_cells))  # go-to cell -> (gx, gy)
         self._cell_centre = self.grid.centre_of(self._cell_xy)  # go-to cell -> its centre (m)
+        self._cell_of_index = [tuple(cell) for cell in self._cell_xy.tolist()]
         self._packet_sizes = [packet_bytes(m, self.grid) for m in range(self.n_detections + 1)]
         self._slot_index = np.arange(self.n_detections)
         self._live_mask_rows: np.ndarray | None = None
         self.state_space = spaces.Box(-np.inf, np.inf, shape=(3 * n + 3 * c.n_targets,), dtype=np.float32)
+        self._use_rows(ForagingArrays(n, c.n_targets, self.n_detections), 0)
+        self._target_names = [f"target_{j}" for j in range(c.n_targets)]
+        self._persist = c.consumed_targets == "persist"
+        self._all_targets = np.arange(c.n_targets)  # what the cameras see and the robots may stand at (persist)
+        self._all_targets.flags.writeable = False
+        if c.observe_world_model:
+            from teamgym.envs.foraging.world_model import ViewSector
+
+            self._view = ViewSector(self.grid, c.camera_range, c.camera_fov)
+
+    # -- per-episode state (this copy's row of ``self._arrays``, see teamgym.envs.foraging.state) ---------------
+    #: Attributes that are views of the row (written in place): env attribute -> ForagingArrays name.
+    _ROW_VIEWS = {
+        "_pose": "pose",
+        "_travelled": "travelled",
+        "_at": "at",
+        "_timer": "timer",
+        "_redundant": "redundant",
+        "_nearest": "nearest",
+        "_nearest_live": "nearest_live",
+        "targets": "targets",
+        "target_live": "target_live",
+        "target_done_at": "target_done_at",
+    }
+
+    def _use_rows(self, arrays: ForagingArrays, k: int) -> None:
+        """Keep this env's episode state in copy row ``k`` of ``arrays`` (a batch's shared ones, or its own)."""
+        self._arrays, self._copy = arrays, k
+        for attribute, name in self._ROW_VIEWS.items():
+            setattr(self, attribute, getattr(arrays, name)[k])
+        if "odometry" in self.__dict__:
+            self._bind_odometry()
+        if "_sightings" in self.__dict__:
+            self._sightings = Sightings(arrays.table[k], arrays.count[k], bool(arrays.any_target[k]))
+
+    def _bind_odometry(self) -> None:
+        """The odometry's estimate and certainty become (views of) this copy's row, keeping their values."""
+        k, odometry = self._copy, self.odometry
+        self._arrays.estimate[k], self._arrays.certainty[k] = odometry.estimate, odometry.certainty
+        odometry.estimate, odometry.certainty = self._arrays.estimate[k], self._arrays.certainty[k]
+
+    def _episode_state(self) -> dict[str, Any]:
+        """The base's, with this copy's row of ``_arrays`` in place of the arrays and their views."""
+        state = super()._episode_state()
+        for attribute in (*self._ROW_VIEWS, "_sightings"):
+            state.pop(attribute, None)
+        arrays, k = state.pop("_arrays"), state.pop("_copy")
+        state["_foraging_row"] = arrays.row(k)
+        return state
+
+    def _adopt_episode_state(self, state: dict[str, Any]) -> None:
+        row = state.pop("_foraging_row", None)
+        if row is None:  # a snapshot of a release that kept the episode in attributes
+            row = _row_of_attributes(state)
+        super()._adopt_episode_state(state)
+        k, arrays = self._copy, self._arrays
+        arrays.set_row(k, row)
+        self._sightings = Sightings(arrays.table[k], arrays.count[k], bool(arrays.any_target[k]))
+        self._use_rows(arrays, k)  # the snapshot's odometry held copies of the row
+
+    def _team_value(name: str, kind: type) -> property:  # noqa: N805 (a helper run in the class body)
+        def get(self: Foraging) -> Any:
+            return kind(getattr(self._arrays, name)[self._copy])
+
+        def put(self: Foraging, value: Any) -> None:
+            getattr(self._arrays, name)[self._copy] = value
+
+        return property(get, put, doc=f"This copy's ``ForagingArrays.{name}``.")
+
+    _senses = _team_value("senses", int)
+    _first_seen = _team_value("first_seen", float)
+    _success = _team_value("success", bool)
+    _finished_now = _team_value("finished_now", int)
+    del _team_value
+
+    @property
+    def _done_order(self) -> list[float]:
+        """The times (s) at which targets were finished, in order (``TT1``, ``TT2``, ...)."""
+        return sorted(time for time in self.target_done_at.tolist() if time == time)
 
     @property
     def grid_size(self) -> tuple[float, float]:
@@ -206,39 +289,25 @@ class Foraging(TeamEnv):
         self.robots = {
             a: self.world.add(DiffDriveRobot(a, (x, y), th, self.spec)) for a, (x, y, th) in zip(self.possible_agents, starts)
         }
-        self.targets = targets.copy()
-        self._target_names = [f"target_{j}" for j in range(c.n_targets)]
+        k = self._copy
+        self._arrays.start(k)
+        self.targets[:] = targets
         for name, xy in zip(self._target_names, targets):
             self.world.add(Target(name, tuple(xy), radius=0.04))
-        n, t = c.n_robots, c.n_targets
-        self.target_live = np.ones(t, dtype=bool)
-        self._live_targets = np.arange(t)
-        self._persist = c.consumed_targets == "persist"
-        self._all_targets = np.arange(t)  # what the cameras see and the robots may stand at (persist)
-        self._redundant = np.zeros(n, dtype=np.int64)
-        self._senses = 0  # sensing phases since reset (the packet schedule of packet_rate)
-        self.target_done_at = np.full(t, np.nan)
-        self._done_order: list[float] = []
-        self._first_seen = math.nan
-        self._no_target, self._zero_timer = np.full(n, -1), np.zeros(n)  # shared, never written to
-        self._timer, self._at = self._zero_timer, self._no_target
-        self._travelled = np.zeros(n)
-        self._finished_now = 0
+        self._live_targets = self._all_targets  # derived from target_live (a new array when it changes)
         self.world.read_states()
-        self._pose = self._read_pose()
+        self._pose[:] = self._read_pose()
         self.odometry = Odometry(self._pose, c.rotational_certainty, c.odometry_rotation_noise, c.odometry_distance_noise)
-        self._heading_trig = (np.cos(self._pose[:, 2]), np.sin(self._pose[:, 2]))
+        self._bind_odometry()
         self._points = self.cameras.points(self.targets)
         self._geometry = self.cameras.view(self._pose, self._points)
         self._update_presence()
-        self._nearest = self._nearest_target_distance()
-        self._success = False
+        self._nearest[:] = self._nearest_live
         self.models = {}
         if c.observe_world_model:
-            from teamgym.envs.foraging.world_model import GridWorldModel, ViewSector
+            from teamgym.envs.foraging.world_model import GridWorldModel
 
-            self._view = ViewSector(self.grid, c.camera_range, c.camera_fov)
-            self.models = {a: GridWorldModel(self.grid, n, i) for i, a in enumerate(self.possible_agents)}
+            self.models = {a: GridWorldModel(self.grid, c.n_robots, i) for i, a in enumerate(self.possible_agents)}
         self._sense()
 
     def _check_reset_options(self, options: dict) -> dict:
@@ -276,40 +345,46 @@ class Foraging(TeamEnv):
         """Control phase of ``goto_cell``: every acting robot's ``(v, ω)`` for its go-to cell."""
         agents = list(cells)
         rows, everyone = self._rows_of(agents)
-        index = np.fromiter(cells.values(), dtype=np.int64, count=len(agents))
-        goal = self._cell_xy[index]
-        pose, estimate, at, (c, s) = self._pose, self.odometry.estimate, self._at, self._heading_trig
+        index = list(cells.values())
+        goals = [self._cell_of_index[i] for i in index]  # (gx, gy) of each go-to cell
+        pose, estimate, at, timer = self._pose, self.odometry.estimate, self._at, self._timer
         table = self._sightings.table
         if not everyone:
-            pose, estimate, at, c, s, table = pose[rows], estimate[rows], at[rows], c[rows], s[rows], table[rows]
-        # Homing: the detected target nearest (in cells) to the go-to cell, if within one cell of it.
+            pose, estimate, at, timer, table = pose[rows], estimate[rows], at[rows], timer[rows], table[rows]
+        # Homing: the detected target nearest (in cells) to the go-to cell, if within one cell of it; its
+        # measured distance and bearing as the table holds them (float32).
         homing = None
         if self._sightings.any_target:
-            gap = np.maximum.reduce(np.abs(table[:, 1:, TARGET_CELL] - goal[:, None, :]), axis=2)
-            close = np.minimum.reduce(gap, axis=1) <= 1
-            if np.count_nonzero(close):
-                homing = table[np.arange(len(table)), 1 + np.argmin(gap, axis=1), POLAR].astype(float)
-                homing[~close] = np.nan
+            homing = []
+            for detections, (gx, gy) in zip(table[:, 1:, POLAR.start : TARGET_CELL.stop].tolist(), goals):
+                best = (math.inf, math.nan, math.nan)
+                for d, b, cx, cy in detections:
+                    gap = max(abs(cx - gx), abs(cy - gy))
+                    if gap < best[0]:
+                        best = (gap, d, b)
+                homing.append(best[1:] if best[0] <= 1 else (math.nan, math.nan))
         # Stop at a target when the go-to cell is within one cell of the robot's estimated cell
         # (persist: while the robot's own operation there is unfinished).
         stop = None
-        present = at >= 0
-        if self._persist and self.config.task == "consume":  # a robot whose own operation there is done is not held
-            present &= (self._timer if everyone else self._timer[rows]) < self.config.consume_time - 1e-9
-        if np.count_nonzero(present):  # (the own cell of the last packet is the estimated cell now)
-            stop = present & (np.maximum.reduce(np.abs(table[:, 0, 1:3] - goal), axis=1) <= 1)
-        commands = self.controller.commands(estimate, pose, self._cell_centre[index], homing, stop, self.grid_size, (c, s))
-        return dict(zip(agents, map(tuple, commands.tolist())))
+        held = self._persist and self.config.task == "consume"  # a robot whose own operation there is done is not held
+        done = self.config.consume_time - 1e-9
+        present = [j >= 0 and not (held and time >= done) for j, time in zip(at.tolist(), timer.tolist())]
+        if any(present):  # (the own cell of the last packet is the estimated cell now)
+            own = table[:, 0, 1:3].tolist()
+            stop = [p and max(abs(x - gx), abs(y - gy)) <= 1 for p, (x, y), (gx, gy) in zip(present, own, goals)]
+        t, n = len(self.targets), self.config.n_robots
+        rel, gap = self._geometry.rel[:, t : t + n], self._geometry.distance[:, t : t + n]  # teammates, as the cameras see them
+        if not everyone:
+            rel, gap = rel[np.ix_(rows, rows)], gap[np.ix_(rows, rows)]
+        aim = self._cell_centre[index]
+        commands = self.controller.command_pairs(estimate, pose, aim, homing, stop, self.grid_size, mates=(rel, gap))
+        return dict(zip(agents, commands))
 
     def _update_state(self) -> None:
         """State phase: true poses, odometry, distance travelled, who is at which target."""
-        before, (c, s) = self._pose, self._heading_trig
-        self._pose = self._read_pose()
-        n = len(before)
-        angles = np.concatenate([self.odometry.estimate[:, 2], self._pose[:, 2]])
-        cos, sin = np.cos(angles), np.sin(angles)
-        self._heading_trig = (cos[n:], sin[n:])
-        step = self.odometry.advance(before, self._pose, self.np_random, (c, s, cos[:n], sin[:n]))
+        before = self._pose.copy()
+        self._pose[:] = self._read_pose()
+        step = self.odometry.advance(before, self._pose, self.np_random)
         self._travelled += np.hypot(step[:, 0], step[:, 1])
         self._geometry = self.cameras.view(self._pose, self._points)
         self._update_presence()
@@ -317,27 +392,26 @@ class Foraging(TeamEnv):
     def _update_presence(self) -> None:
         """``_at[i]``: the live target robot i is within ``reach_radius`` of (nearest), −1 if none; ``_nearest_live``
         each robot's distance to its nearest live target."""
-        live = self._live_targets
+        live, reach, n_targets = self._live_targets, self.config.reach_radius, self.config.n_targets
+        gaps = self._geometry.distance[:, :n_targets].tolist()  # robots x targets; per robot, scalar from here on
+        at = None
         if not len(live):
-            self._nearest_live = None
-            at = self._no_target
+            self._nearest_live[:] = 0.0
         else:
-            gap = self._geometry.distance[:, : self.config.n_targets]
-            if len(live) < self.config.n_targets:
-                gap = gap[:, live]
-            self._nearest_live = nearest = np.minimum.reduce(gap, axis=1)
-            reached = nearest <= self.config.reach_radius
-            at = np.where(reached, live[np.argmin(gap, axis=1)], -1) if np.count_nonzero(reached) else self._no_target
-        if self._persist and len(live) < self.config.n_targets:  # a consumed target still holds a robot
-            gap = self._geometry.distance[:, : self.config.n_targets]
-            nearest = np.minimum.reduce(gap, axis=1)
-            reached = nearest <= self.config.reach_radius
-            at = np.where(reached, np.argmin(gap, axis=1), -1) if np.count_nonzero(reached) else self._no_target
-        if at is self._no_target:  # no robot at a target: every timer restarts
-            self._timer = self._zero_timer
-        else:
-            self._timer = np.where((at >= 0) & (at == self._at), self._timer, 0.0)
-        self._at = at
+            columns, nearest, at = live.tolist(), [], []
+            for row in gaps:
+                j = min(columns, key=row.__getitem__)  # the first nearest live target, as np.argmin picks it
+                nearest.append(row[j])
+                at.append(j if row[j] <= reach else -1)
+            self._nearest_live[:] = nearest
+        if self._persist and len(live) < n_targets:  # a consumed target still holds a robot
+            at = [row.index(min(row)) if min(row) <= reach else -1 for row in gaps]
+        if at is None or max(at) < 0:  # no robot at a target: every timer restarts
+            self._timer[:], self._at[:] = 0.0, -1
+            return
+        before, timer = self._at.tolist(), self._timer.tolist()
+        self._timer[:] = [t if j >= 0 and j == b else 0.0 for j, b, t in zip(at, before, timer)]
+        self._at[:] = at
 
     def _check_goals(self) -> None:
         """Goals phase: consume (a robot stayed ``consume_time``) or surround (enough robots at once)."""
@@ -367,17 +441,14 @@ class Foraging(TeamEnv):
         self.target_live[j] = False
         self._live_targets = np.flatnonzero(self.target_live)
         self.target_done_at[j] = now
-        self._done_order.append(now)
         self._finished_now += 1
         if not self._persist:
             self.world.remove(self._target_names[j])
 
-    def _nearest_target_distance(self) -> np.ndarray:
-        return np.zeros(len(self._pose)) if self._nearest_live is None else self._nearest_live
-
     def _accumulate_rewards(self, total: np.ndarray) -> None:
         c = self.config
-        before, self._nearest = self._nearest, self._nearest_target_distance()
+        before = self._nearest.copy()
+        self._nearest[:] = self._nearest_live
         progress = 0.0 if self._finished_now else before - self._nearest
         gain = c.consume_reward * self._finished_now + c.progress_reward * progress - c.time_penalty
         self._live_mask()
@@ -389,7 +460,7 @@ class Foraging(TeamEnv):
 
     def _sense(self) -> None:
         """Sensing phase: camera (targets, robots, landmarks), re-localisation, tuples; packets go on the radio."""
-        self._sightings = perceive(
+        sightings = perceive(
             self.cameras,
             self.grid,
             self.vision,
@@ -400,8 +471,12 @@ class Foraging(TeamEnv):
             self._live_mask(),
             self.n_detections,
             self.np_random,
+            self._arrays.table[self._copy],
         )
-        if self._sightings.any_target and not math.isfinite(self._first_seen):
+        k, arrays = self._copy, self._arrays
+        arrays.count[k], arrays.any_target[k] = sightings.count, sightings.any_target
+        self._sightings = Sightings(sightings.table, arrays.count[k], sightings.any_target)
+        if sightings.any_target and not math.isfinite(self._first_seen):
             self._first_seen = self.world.time
         self._send_packets()
 
@@ -415,6 +490,11 @@ class Foraging(TeamEnv):
         count = sightings.count.tolist()
         for agent, i in zip(self.live_agents, self._live_rows().tolist()):
             send(agent, sightings.packet(i), sizes[count[i]], PACKET_KIND)
+
+    def _deliver_messages(self) -> None:
+        """Communication phase: deliver this step's packets; every robot is in the world, at its true pose."""
+        if self.channel.busy:
+            self.channel.deliver(self._pose[:, :2], self.np_random, self.cycles)
 
     def _received(self, agent: str) -> tuple[np.ndarray, np.ndarray]:
         """Tuples (m, 4) and their senders' indices (m,) delivered to ``agent`` this step."""
@@ -460,20 +540,36 @@ class Foraging(TeamEnv):
         if c.task == "consume":
             out[:, fields.consume_progress] = np.minimum(1.0, timer[:, None] / c.consume_time)
         out[:, fields.received_sender] = -1
-        for obs, agent, i in zip(out, self.live_agents, rows.tolist()):
-            tuples, senders = self._received(agent)
-            k = len(tuples)
-            if k:
-                obs[fields.received][: 4 * k] = tuples.reshape(-1)
-                obs[fields.received_sender][:k] = senders
-                obs[fields.received_mask][:k] = 1
-            if c.observe_world_model:
+        if c.observe_world_model:
+            for obs, agent, i in zip(out, self.live_agents, rows.tolist()):
+                self._write_received(obs, self.channel.inbox_payloads(agent, PACKET_KIND))
+                tuples, senders = self._received(agent)
                 model = self.models[agent]
                 m = int(self._sightings.count[i])
                 model.observe_own(self._sightings.detections[i, :m], self._sector(i), self.world.time)
                 for sender in np.unique(senders).tolist():
                     model.receive(sender, tuples[senders == sender], self.world.time)
                 self.layout.view(obs, "world_model")[:] = model.fused()
+            return
+        payloads = self.channel.inbox_payloads
+        for obs, agent in zip(out, self.live_agents):
+            self._write_received(obs, payloads(agent, PACKET_KIND))
+
+    def _write_received(self, obs: np.ndarray, packets: list[tuple[int, np.ndarray]]) -> None:
+        """The tuples of ``packets`` (sender index, flat payload), in order, into the ``received`` fields of flat row ``obs``
+        (the first ``n_received`` of them, as :meth:`_received` gives them)."""
+        if not packets:
+            return
+        fields, room, start = self._fields, self.n_received, 0
+        received, sender_of = obs[fields.received], obs[fields.received_sender]
+        for sender, payload in packets:
+            k = min(len(payload) // 4, room - start)
+            if k <= 0:
+                break
+            received[4 * start : 4 * (start + k)] = payload[: 4 * k]
+            sender_of[start : start + k] = sender
+            start += k
+        obs[fields.received_mask][:start] = 1
 
     def _sector(self, i: int) -> np.ndarray:
         """Cells robot i sees now by its estimate: the camera's sector minus the shadows of the robots in view."""
@@ -497,16 +593,17 @@ class Foraging(TeamEnv):
 
     def _metrics_of(self, agents: list[str]) -> dict[str, dict[str, Any]]:
         team: dict[str, Any] = {}
-        if math.isfinite(self._first_seen):
-            team["TL"] = self._first_seen
-        for k, time in enumerate(self._done_order, start=1):
+        first_seen, order = self._first_seen, self._done_order
+        if math.isfinite(first_seen):
+            team["TL"] = first_seen
+        for k, time in enumerate(order, start=1):
             team[f"TT{k}"] = time
         if self._success:
-            team["TG"] = self._done_order[-1]
+            team["TG"] = order[-1]
         offset = self.odometry.estimate[:, :2] - self._pose[:, :2]
         errors = np.hypot(offset[:, 0], offset[:, 1]).tolist()
         travelled, certainty = self._travelled.tolist(), self.odometry.certainty.tolist()
-        done, out = len(self._done_order), {}
+        done, out = len(order), {}
         for agent in agents:
             i = self._row[agent]
             out[agent] = {
@@ -541,6 +638,36 @@ class Foraging(TeamEnv):
             edge = [(x + c.camera_range * math.cos(theta + a), y + c.camera_range * math.sin(theta + a)) for a in arc]
             overlay.paths.append(([(x, y), *edge, (x, y)], (170, 170, 220)))
         return overlay
+
+
+def _row_of_attributes(state: dict[str, Any]) -> dict[str, Any]:
+    """The ``ForagingArrays`` row of a snapshot whose episode was kept in attributes (popped from ``state``)."""
+    odometry, sightings = state["odometry"], state.pop("_sightings")
+    nearest_live = state.pop("_nearest_live")
+    row = {
+        "pose": state.pop("_pose"),
+        "estimate": odometry.estimate,
+        "certainty": odometry.certainty,
+        "travelled": state.pop("_travelled"),
+        "at": state.pop("_at"),
+        "timer": state.pop("_timer"),
+        "redundant": state.pop("_redundant"),
+        "nearest": state.pop("_nearest"),
+        "nearest_live": 0.0 if nearest_live is None else nearest_live,
+        "table": sightings.table,
+        "count": sightings.count,
+        "targets": state.pop("targets"),
+        "target_live": state.pop("target_live"),
+        "target_done_at": state.pop("target_done_at"),
+        "senses": state.pop("_senses"),
+        "first_seen": state.pop("_first_seen"),
+        "success": state.pop("_success"),
+        "finished_now": state.pop("_finished_now"),
+        "any_target": sightings.any_target,
+    }
+    for name in ("_done_order", "_heading_trig", "_no_target", "_zero_timer"):  # derived now, or gone
+        state.pop(name, None)
+    return row
 
 
 def parallel_env(render_mode: str | None = None, **config: Any) -> Foraging:

@@ -38,7 +38,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from teamgym.envs.foraging.frames import to_field, to_robot
 from teamgym.envs.foraging.grid import GridSpec
 
 __all__ = [
@@ -68,6 +67,7 @@ PV_TABLE = np.array(
         [0.65, 0.60, 0.50],
     ]
 )
+_PV_ROWS = PV_TABLE.tolist()
 #: Measurement errors per unit of (1 − Pv) at ``vision_noise`` = 1: metres and radians.
 DISTANCE_ERROR, BEARING_ERROR = 0.3, 0.2
 #: How far beyond ``camera_range`` a measured distance can read (m): the camera saturates there.
@@ -134,9 +134,13 @@ def in_view(
     they lie in the camera's sector (n, m) bool, occlusion aside (see :func:`visibility`)."""
     rel = points[None, :, :] - poses[:, None, :2]
     distance = np.hypot(rel[..., 0], rel[..., 1])
-    bearing = np.arctan2(rel[..., 1], rel[..., 0]) - poses[:, None, 2]
-    bearing = (bearing + math.pi) % (2 * math.pi) - math.pi
-    seen = (distance <= camera_range) & (np.abs(bearing) <= 0.5 * camera_fov)
+    bearing = np.arctan2(rel[..., 1], rel[..., 0])
+    bearing -= poses[:, None, 2]
+    bearing += math.pi
+    bearing %= 2 * math.pi
+    bearing -= math.pi
+    seen = distance <= camera_range
+    seen &= np.abs(bearing) <= 0.5 * camera_fov
     return rel, distance, bearing, seen
 
 
@@ -174,6 +178,12 @@ class VisionModel:
         cols = np.minimum((np.abs(bearing) / (0.5 * self.camera_fov) * 3).astype(np.int64), 2)
         return PV_TABLE[rows, cols]
 
+    def pv_of(self, distance: float, bearing: float) -> float:
+        """:meth:`pv` of one object (the same float operations)."""
+        row = min(int(distance / self.camera_range * 4), 3)
+        col = min(int(abs(bearing) / (0.5 * self.camera_fov) * 3), 2)
+        return _PV_ROWS[row][col]
+
     @property
     def max_distance(self) -> float:
         """The largest measured distance (m): ``camera_range + MEASURED_RANGE_MARGIN``."""
@@ -191,6 +201,17 @@ class VisionModel:
             return np.asarray(distance, dtype=float), np.asarray(bearing, dtype=float)
         noise = rng.standard_normal((2, *np.shape(distance)))
         return self.measure_with(distance, bearing, pv, noise[0], noise[1])
+
+    def measure_one(
+        self, distance: float, bearing: float, pv: float, distance_noise: float, bearing_noise: float
+    ) -> tuple[float, float]:
+        """:meth:`measure_with` of one object (``noise`` > 0; the same float operations)."""
+        spread = self.noise * (1.0 - pv)
+        measured = min(max(0.0, distance + DISTANCE_ERROR * spread * distance_noise), self.max_distance)
+        turned = bearing + BEARING_ERROR * spread * bearing_noise
+        if abs(turned) > math.pi:
+            turned = (turned + math.pi) % (2 * math.pi) - math.pi
+        return measured, turned
 
     def measure_with(
         self, distance: np.ndarray, bearing: np.ndarray, pv: np.ndarray, distance_noise: np.ndarray, bearing_noise: np.ndarray
@@ -220,38 +241,30 @@ class Odometry:
         before: np.ndarray,
         after: np.ndarray,
         rng: np.random.Generator,
-        trig: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None,
     ) -> np.ndarray:
         """Integrate one control step of the motion ``before`` → ``after`` (rows x, y, θ); returns the displacements (n, 2).
 
-        ``trig``: cos and sin of the ``before`` headings and of the estimated headings, if known already.
+        Per robot in scalar float arithmetic (the same IEEE operations, in the same order, as the
+        array form; ``math.cos``/``math.sin`` are libm's, as numpy's float64 ones), the certainty
+        factor ``Pe^{|Δθ|}`` as one numpy power over the robots (eq. 2).
         """
-        turn = after[:, 2] - before[:, 2]
-        turn += math.pi
-        turn %= 2 * math.pi
-        turn -= math.pi
         step = after[:, :2] - before[:, :2]
         est = self.estimate
-        if trig is None:
-            trig = (np.cos(before[:, 2]), np.sin(before[:, 2]), np.cos(est[:, 2]), np.sin(est[:, 2]))
-        c, s, ce, se = trig
-        travel = to_robot(step, c, s)  # (forward, lateral) in the robot's frame at the start
-        length = np.hypot(travel[:, 0], travel[:, 1])
-        noise = rng.standard_normal((2, len(before)))
-        scale = self.distance_noise * noise[1]
-        scale *= length > 0
-        scale += 1.0
-        moved = to_field(travel, ce, se)
-        moved *= scale[:, None]
-        est[:, :2] += moved
-        size = np.abs(turn)
-        heading = est[:, 2] + turn
-        heading += self.rotation_noise * size * noise[0]
-        heading += math.pi
-        heading %= 2 * math.pi
-        heading -= math.pi
-        est[:, 2] = heading
-        self.certainty *= self.pe**size
+        turn_noise, length_noise = rng.standard_normal((2, len(before))).tolist()
+        two_pi, pi, distance_noise, rotation_noise = 2 * math.pi, math.pi, self.distance_noise, self.rotation_noise
+        sizes, estimate = [], []
+        rows = zip(before[:, 2].tolist(), after[:, 2].tolist(), step.tolist(), est.tolist(), turn_noise, length_noise)
+        for th0, th1, (dx, dy), (ex, ey, eth), turn_noise_i, length_noise_i in rows:
+            c, s, ce, se = math.cos(th0), math.sin(th0), math.cos(eth), math.sin(eth)
+            turn = (th1 - th0 + pi) % two_pi - pi
+            forward, lateral = dx * c + dy * s, dy * c - dx * s  # the motion in the robot's frame at the start
+            scale = distance_noise * length_noise_i * (1.0 if forward != 0.0 or lateral != 0.0 else 0.0) + 1.0
+            size = abs(turn)
+            heading = (eth + turn + rotation_noise * size * turn_noise_i + pi) % two_pi - pi
+            estimate.append((ex + (forward * ce - lateral * se) * scale, ey + (lateral * ce + forward * se) * scale, heading))
+            sizes.append(size)
+        est[:] = estimate
+        self.certainty *= self.pe ** np.array(sizes)
         return step
 
     def relocalise(self, robot: int, true_pose: np.ndarray, pv: float, error: tuple[float, float, float]) -> None:
@@ -259,10 +272,3 @@ class Odometry:
         self.estimate[robot] = true_pose + np.asarray(error)
         self.estimate[robot, 2] = (self.estimate[robot, 2] + math.pi) % (2 * math.pi) - math.pi
         self.certainty[robot] = pv
-
-    def relocalise_rows(self, rows: np.ndarray, true_poses: np.ndarray, pv: np.ndarray, errors: np.ndarray) -> None:
-        """:meth:`relocalise` of the robots ``rows`` at once: ``true_poses`` and ``errors`` (k, 3), ``pv`` (k,)."""
-        estimate = true_poses + errors
-        estimate[:, 2] = (estimate[:, 2] + math.pi) % (2 * math.pi) - math.pi
-        self.estimate[rows] = estimate
-        self.certainty[rows] = pv

@@ -13,7 +13,8 @@ landmarks (:func:`relocalise`) and the perception tuples of section 2.1 (eq. 1) 
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from collections.abc import Callable, Sequence
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -26,6 +27,10 @@ __all__ = ["NO_CELL", "Cameras", "Sightings", "View", "cells_of", "landmark_fixe
 
 #: Cell coordinate of the rows of :attr:`Sightings.table` that are not target detections (far from every cell).
 NO_CELL = 1.0e6
+#: Above this many (sighting, teammate) pairs :meth:`Cameras.seen` checks occlusion in one numpy pass, below it one by one.
+_SCALAR_CHECKS = 64
+#: Up to this many (robot, point) pairs :meth:`Cameras.sightings` reads distances and bearings from lists.
+_LIST_GATHER = 512
 #: Columns of :attr:`Sightings.table`: the tuple, the measured polar position, the target cell.
 TUPLE, POLAR, TARGET_CELL = slice(0, 4), slice(4, 6), slice(6, 8)
 
@@ -54,8 +59,9 @@ class Sightings(NamedTuple):
         return self.table[:, 1:, POLAR]
 
     def packet(self, i: int) -> np.ndarray:
-        """Robot i's packet payload: its own tuple and its detections, flat float32 (a new array)."""
-        return self.table[i, : 1 + self.count[i], TUPLE].reshape(-1)
+        """Robot i's packet payload: its own tuple and its detections, flat float32 (a new array, never a view of the
+        table: the table is the copy's row, rewritten at the next sensing phase, and packets may stay in flight)."""
+        return np.array(self.table[i, : 1 + self.count[i], TUPLE]).reshape(-1)
 
 
 class View(NamedTuple):
@@ -120,98 +126,161 @@ class Cameras:
 
         ``view``: :meth:`view` at ``pose`` over every target; ``live``: indices of the live targets.
         """
+        rows, cols, _, _, distance, bearing = self._visible(pose, view, live)
+        seen = np.zeros(distance.shape, dtype=bool)
+        seen[rows, cols] = True
+        return seen, distance, bearing
+
+    def sightings(self, pose: np.ndarray, view: View, live: np.ndarray) -> tuple[list[int], list[int], list[float], list[float]]:
+        """:meth:`seen` as lists, row-major (per robot, by point): robot rows, point columns, true distances, bearings."""
+        return self._visible(pose, view, live)[:4]
+
+    def _visible(self, pose: np.ndarray, view: View, live: np.ndarray) -> tuple[Any, ...]:
+        """Rows, columns, distances and bearings (lists) of the visible points, then the (n, P) distances and bearings."""
         n_targets = len(view.distance[0]) - self.n - len(self.landmarks)
         columns, not_self, counted = self._masks_for(tuple(live.tolist()), n_targets)
         rel, distance, bearing, seen = view
         if len(live) < n_targets:
             rel, distance, bearing, seen = rel[:, columns], distance[:, columns], bearing[:, columns], seen[:, columns]
         seen = seen & not_self
+        rows, cols = np.nonzero(seen)
         t = len(live)
         # A teammate hides a point only if it is nearer than the camera's range (the point lies within it and
         # the teammate within a radius of the sight line): skipped when every teammate is farther.
-        if (
-            self.n > 1
-            and np.count_nonzero(seen)
-            and np.count_nonzero(distance[:, t : t + self.n] + self._self_gap < self.clear_distance)
-        ):
+        hidden = self.n > 1 and len(rows) and np.count_nonzero(distance[:, t : t + self.n] + self._self_gap < self.clear_distance)
+        if hidden and len(rows) * self.n > _SCALAR_CHECKS:
             seen &= ~occluded(pose, rel, distance, pose[:, :2], self.radius, counted)
-        return seen, distance, bearing
+            rows, cols = np.nonzero(seen)
+            hidden = False
+        rows, cols = rows.tolist(), cols.tolist()
+        if distance.size <= _LIST_GATHER:  # a few values: read them from lists (the same floats) instead of fancy indexing
+            d, b = distance.tolist(), bearing.tolist()
+            found = rows, cols, [d[i][j] for i, j in zip(rows, cols)], [b[i][j] for i, j in zip(rows, cols)]
+        else:
+            found = rows, cols, distance[rows, cols].tolist(), bearing[rows, cols].tolist()
+        if hidden:
+            keep = self._unoccluded(pose, [rel[i, j].tolist() for i, j in zip(rows, cols)], *found, t)
+            found = tuple([v for v, kept in zip(values, keep) if kept] for values in found)
+        return (*found, distance, bearing)
 
-    def blank(self, n_slots: int) -> np.ndarray:
-        """An empty :attr:`Sightings.table` (a new array): zeros, :data:`NO_CELL` in the target-cell columns."""
+    def _unoccluded(
+        self,
+        pose: np.ndarray,
+        offsets: list[list[float]],
+        rows: list[int],
+        cols: list[int],
+        lengths: list[float],
+        bearings: list[float],
+        t: int,
+    ) -> list[bool]:
+        """:func:`~teamgym.envs.foraging.perception.occluded` for the few sightings ``(rows[k], cols[k])``, one by one
+        (the same float operations): whether no teammate hides each (``t``: the robots' first column)."""
+        xy = pose[:, :2].tolist()
+        radius = self.radius
+        reach = radius**2
+        keep = []
+        for i, j, (rx, ry), d in zip(rows, cols, offsets, lengths):
+            x, y = xy[i]
+            safe = max(d, 1e-12)
+            ux, uy = rx / safe, ry / safe
+            clear = True
+            for k, (kx, ky) in enumerate(xy):
+                if k == i or j == t + k:  # a robot does not hide its own view, nor a teammate itself
+                    continue
+                ox, oy = kx - x, ky - y
+                along = ux * ox + uy * oy
+                if along > 0 and along < d - radius and (ox * ox + oy * oy) - along * along < reach:
+                    clear = False
+                    break
+            keep.append(clear)
+        return keep
+
+    def blank(self, n_slots: int, out: np.ndarray | None = None) -> np.ndarray:
+        """An empty :attr:`Sightings.table`: zeros, :data:`NO_CELL` in the target-cell columns (a new array, or ``out`` reset)."""
         if self._blank is None or self._blank.shape[1] != 1 + n_slots:
             self._blank = np.zeros((self.n, 1 + n_slots, 8), dtype=np.float32)
             self._blank[:, :, TARGET_CELL] = NO_CELL
-        return self._blank.copy()
+        if out is None:
+            return self._blank.copy()
+        out[...] = self._blank
+        return out
 
 
 def landmark_fixes(
-    certainty: np.ndarray, seen: np.ndarray, distance: np.ndarray, bearing: np.ndarray, pv: np.ndarray, live: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
-    """The ``live`` robots whose nearest landmark in view (sightings (n, L) with their Pv) re-localises them (Pv ≥ Pl).
+    certainty: list[float],
+    sighted: Sequence[tuple[int, int, float, float]],
+    pv_of: Callable[[float, float], float],
+    live: list[bool],
+) -> list[tuple[int, float, float, float]]:
+    """The ``live`` robots whose nearest landmark in view re-localises them (its Pv ≥ Pl).
 
-    Returns their rows (in index order) and that landmark's true distance, bearing and Pv, or None.
+    ``sighted``: the landmark sightings ``(robot row, landmark, true distance, bearing)``, row-major.
+    Returns, in robot order, each one's row and that landmark's true distance, bearing and Pv
+    (``pv_of(distance, bearing)``); empty if none. The nearest is the first of the nearest in
+    landmark order (as ``np.argmin``).
     """
-    candidates = np.logical_or.reduce(seen, axis=1)
-    candidates &= live
-    if not np.count_nonzero(candidates):
-        return None
-    robots = np.arange(len(seen))
-    nearest = np.argmin(np.where(seen, distance, np.inf), axis=1)
-    sighted = pv[robots, nearest]
-    candidates &= sighted >= certainty
-    count = np.count_nonzero(candidates)
-    if not count:
-        return None
-    if count < len(robots):
-        robots = np.flatnonzero(candidates)
-        nearest, sighted = nearest[robots], sighted[robots]
-    return robots, distance[robots, nearest], bearing[robots, nearest], sighted
+    nearest: dict[int, tuple[float, float]] = {}
+    for i, _, d, b in sighted:
+        if live[i] and (i not in nearest or d < nearest[i][0]):
+            nearest[i] = (d, b)
+    fixes = []
+    for i, (d, b) in nearest.items():
+        pv = pv_of(d, b)
+        if pv >= certainty[i]:
+            fixes.append((i, d, b, pv))
+    return fixes
 
 
 def relocalise(
-    odometry: Odometry, pose: np.ndarray, fixes: tuple[np.ndarray, ...], measured_d: np.ndarray, measured_b: np.ndarray
+    odometry: Odometry,
+    pose: np.ndarray,
+    fixes: list[tuple[int, float, float, float]],
+    measured_d: list[float],
+    measured_b: list[float],
 ) -> None:
-    """Re-localise the robots of :func:`landmark_fixes` from their landmark's measured distance and bearing."""
-    rows, d, b, pv = fixes
-    # The pose implied by the measured landmark differs from the truth by the measurement error.
-    errors = np.empty((len(rows), 3))
-    for k, (i, true_d, true_b, m_d, m_b) in enumerate(
-        zip(rows.tolist(), d.tolist(), b.tolist(), measured_d.tolist(), measured_b.tolist())
-    ):
-        theta = float(pose[i, 2])
+    """Re-localise the robots of :func:`landmark_fixes` from their landmark's measured distance and bearing.
+
+    The estimate becomes the truth plus the measurement error (the pose implied by the measured
+    landmark) and Pl that sighting's Pv (:meth:`Odometry.relocalise`).
+    """
+    estimate, certainty, pi, two_pi = odometry.estimate, odometry.certainty, math.pi, 2 * math.pi
+    for (i, true_d, true_b, pv), m_d, m_b in zip(fixes, measured_d, measured_b):
+        x, y, theta = pose[i].tolist()
         ray, measured_ray = theta + true_b, theta + m_b
-        errors[k] = (
-            true_d * math.cos(ray) - m_d * math.cos(measured_ray),
-            true_d * math.sin(ray) - m_d * math.sin(measured_ray),
-            true_b - m_b,
+        estimate[i] = (
+            x + (true_d * math.cos(ray) - m_d * math.cos(measured_ray)),
+            y + (true_d * math.sin(ray) - m_d * math.sin(measured_ray)),
+            (theta + (true_b - m_b) + pi) % two_pi - pi,
         )
-    odometry.relocalise_rows(rows, pose[rows], pv, errors)
+        certainty[i] = pv
 
 
 def measure_all(
-    vision: VisionModel, sightings: tuple[np.ndarray, ...], fixes: tuple[np.ndarray, ...] | None, rng: np.random.Generator
-) -> tuple[tuple[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]:
-    """Measured (distance, bearing) of the object sightings (true distance, bearing, Pv) and of the landmark fixes.
+    vision: VisionModel,
+    sightings: tuple[Sequence[float], Sequence[float], Sequence[float]],
+    fixes: list[tuple[int, float, float, float]],
+    rng: np.random.Generator,
+) -> tuple[tuple[list[float], list[float]], tuple[list[float], list[float]]]:
+    """Measured (distance, bearing) of the object sightings (true distances, bearings, Pv) and of the landmark fixes.
 
     One draw serves both, in the order of the paper's model run robot by robot: the distance
     errors of every object sighting, then their bearing errors, then each re-localising
-    robot's distance and bearing error.
+    robot's distance and bearing error (:meth:`VisionModel.measure_one` per value).
     """
-    d, b, pv = sightings
-    m = len(d)
-    r = 0 if fixes is None else len(fixes[0])
+    d, b, pv = (list(values) for values in sightings)
+    m, r = len(d), len(fixes)
     if vision.noise == 0.0 or not m + r:
-        return (d, b), ((fixes[1], fixes[2]) if r else (d[:0], b[:0]))
-    noise = rng.standard_normal(2 * (m + r))
-    if r:
-        d, b, pv = np.concatenate([d, fixes[1]]), np.concatenate([b, fixes[2]]), np.concatenate([pv, fixes[3]])
-        distance_noise = np.concatenate([noise[:m], noise[2 * m :: 2]])
-        bearing_noise = np.concatenate([noise[m : 2 * m], noise[2 * m + 1 :: 2]])
-    else:
-        distance_noise, bearing_noise = noise[:m], noise[m:]
-    measured_d, measured_b = vision.measure_with(d, b, pv, distance_noise, bearing_noise)
-    return (measured_d[:m], measured_b[:m]), (measured_d[m:], measured_b[m:])
+        return (d, b), ([f[1] for f in fixes], [f[2] for f in fixes])
+    noise = rng.standard_normal(2 * (m + r)).tolist()
+    measure = vision.measure_one
+    objects = [measure(*values) for values in zip(d, b, pv, noise[:m], noise[m : 2 * m])]
+    fixed = [measure(f[1], f[2], f[3], noise[2 * m + 2 * k], noise[2 * m + 2 * k + 1]) for k, f in enumerate(fixes)]
+    return ([v[0] for v in objects], [v[1] for v in objects]), ([v[0] for v in fixed], [v[1] for v in fixed])
+
+
+def _cell(value: float, cell_size: float, top: int) -> float:
+    """:func:`cells_of` of one coordinate (the same float operations)."""
+    return float(min(max(math.floor(value / cell_size + 1e-9), 0), top))
 
 
 def perceive(
@@ -225,6 +294,7 @@ def perceive(
     live: np.ndarray,
     n_slots: int,
     rng: np.random.Generator,
+    out: np.ndarray | None = None,
 ) -> Sightings:
     """One sensing phase: the sightings of every robot (see the module docstring).
 
@@ -232,47 +302,39 @@ def perceive(
     ``live`` (n,) bool: robots in the episode (only they re-localise). Random draws, in order:
     the measurement errors of every target and teammate sighting (row-major: per robot,
     targets before robots), then the re-localisations' (:func:`measure_all`). A tuple's
-    position and Pc use the odometry after the re-localisation.
+    position and Pc use the odometry after the re-localisation. ``out``: the table to write
+    (n, 1 + ``n_slots``, 8) float32, a new one if None.
+
+    Visibility is one numpy pass over every robot and point; the few sightings that follow are
+    handled one by one in scalar float arithmetic (the same IEEE operations as an array form).
     """
     n, t = len(pose), len(live_targets)
-    seen, distance, bearing = cameras.seen(pose, view, live_targets)
-    pv = vision.pv(distance, bearing)
-    objects = seen[:, : t + n]
-    rows, cols = np.nonzero(objects)  # row-major: per robot, targets before robots
-    sighted = distance[:, : t + n][objects], bearing[:, : t + n][objects], pv[:, : t + n][objects]
-    landmarks = slice(t + n, None)
-    fixes = landmark_fixes(
-        odometry.certainty, seen[:, landmarks], distance[:, landmarks], bearing[:, landmarks], pv[:, landmarks], live
-    )
-    (measured_d, measured_b), fixed = measure_all(vision, sighted, fixes, rng)
-    if fixes is not None:
+    seen = cameras.sightings(pose, view, live_targets)
+    objects = [s for s in zip(*seen) if s[1] < t + n]  # row-major: per robot, targets before robots
+    rows_list, cols_list, sighted_d, sighted_b = (list(values) for values in zip(*objects)) if objects else ([], [], [], [])
+    pv_of = vision.pv_of
+    sighted_pv = [pv_of(d, b) for d, b in zip(sighted_d, sighted_b)]
+    landmarks = [s for s in zip(*seen) if s[1] >= t + n]
+    fixes = landmark_fixes(odometry.certainty.tolist(), landmarks, pv_of, live.tolist()) if landmarks else []
+    (measured_d, measured_b), fixed = measure_all(vision, (sighted_d, sighted_b, sighted_pv), fixes, rng)
+    if fixes:
         relocalise(odometry, pose, fixes, *fixed)
-    pv_seen = sighted[2]
-    est, certainty = odometry.estimate, odometry.certainty
-    table = cameras.blank(n_slots)
-    own = table[:, 0]
-    own[:, 0] = SENDER
-    own[:, 1:3] = cells_of(grid, est[:, :2])
-    own[:, 3] = certainty
-    count = np.bincount(rows, minlength=n)
+    est, certainty = odometry.estimate.tolist(), odometry.certainty.tolist()
+    size, (top_x, top_y) = grid.cell_size, (grid.nx - 1, grid.ny - 1)
+    table = cameras.blank(n_slots, out)
+    table[:, 0, :4] = [(SENDER, _cell(x, size, top_x), _cell(y, size, top_y), pl) for (x, y, _), pl in zip(est, certainty)]
+    count = np.bincount(rows_list, minlength=n)
     any_target = False
-    if len(rows):
-        values = np.empty((len(rows), 8))
-        seer = est[rows]
-        heading = seer[:, 2] + measured_b
-        position = values[:, 1:3]
-        np.cos(heading, out=values[:, 1])
-        np.sin(heading, out=values[:, 2])
-        position *= measured_d[:, None]
-        position += seer[:, :2]
-        position[:] = cells_of(grid, position)
-        robot = cols >= t
-        values[:, 0] = robot  # the class: TARGET 0, ROBOT 1
-        np.multiply(pv_seen, certainty[rows], out=values[:, 3])
-        values[:, 4] = measured_d
-        values[:, 5] = measured_b
-        values[:, 6:8] = position
-        values[robot, 6:8] = NO_CELL
-        table[rows, 1 + np.arange(len(rows)) - np.searchsorted(rows, rows)] = values
-        any_target = len(rows) > np.count_nonzero(robot)
+    if rows_list:
+        slot, previous = 0, -1
+        for i, j, d, b, pv in zip(rows_list, cols_list, measured_d, measured_b, sighted_pv):
+            slot = slot + 1 if i == previous else 1
+            previous = i
+            x, y, theta = est[i]
+            heading = theta + b
+            gx, gy = _cell(math.cos(heading) * d + x, size, top_x), _cell(math.sin(heading) * d + y, size, top_y)
+            robot = j >= t
+            cell = (NO_CELL, NO_CELL) if robot else (gx, gy)
+            table[i, slot] = (float(robot), gx, gy, pv * certainty[i], d, b, *cell)  # the class: TARGET 0, ROBOT 1
+            any_target = any_target or not robot
     return Sightings(table, count, any_target)

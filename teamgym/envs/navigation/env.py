@@ -289,16 +289,14 @@ class Navigation(TeamEnv):
         state = super()._episode_state()
         team, k = state.pop("_arrays"), state.pop("_copy")
         del state["_copy_rows"]
-        rows = {name: getattr(team, name)[k].copy() for name in team._allocate(0)}
-        state["_team_rows"] = (rows, list(team.obstacle_shapes[k]))  # the key earlier releases' snapshots hold
+        rows = team.row(k)
+        state["_team_rows"] = (rows, rows.pop("obstacle_shapes"))  # the key earlier releases' snapshots hold
         return state
 
     def _adopt_episode_state(self, state: dict[str, Any]) -> None:
         rows, shapes = state.pop("_team_rows")
         super()._adopt_episode_state(state)
-        for name, row in rows.items():
-            getattr(self._arrays, name)[self._copy] = row
-        self._arrays.obstacle_shapes[self._copy] = shapes
+        self._arrays.set_row(self._copy, {**rows, "obstacle_shapes": shapes})
 
     def _live_mask(self) -> np.ndarray:
         """``(1, N)``: which robots are in ``agents`` (shared and read-only, rebuilt when ``agents`` changes)."""

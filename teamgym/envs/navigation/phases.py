@@ -43,13 +43,10 @@ class NavigationPhases(CopyPhases):
         team = self._shared
         team.shrink(len(copies))
         team.grow(len(copies))
-        names = list(team._allocate(0))
         for k, env in enumerate(copies):
             if env._arrays is team and env._copy == k:
                 continue
-            for name in names:
-                getattr(team, name)[k] = getattr(env._arrays, name)[env._copy]
-            team.obstacle_shapes[k] = list(env._arrays.obstacle_shapes[env._copy])
+            team.set_row(k, env._arrays.row(env._copy))
             env._use_rows(team, k)
 
     def _rows(self, group: list[int]) -> tuple[NavigationArrays, slice]:

@@ -13,7 +13,7 @@ are unchanged by the batch form).
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -112,6 +112,20 @@ class NavigationArrays:
             setattr(self, name, getattr(self, name)[:n_copies].copy())
         del self.obstacle_shapes[n_copies:]
         self.n_copies = n_copies
+
+    def row(self, k: int) -> dict[str, Any]:
+        """Copy ``k``'s values of every array (copies) and its obstacle shapes, as :meth:`set_row` takes them."""
+        values: dict[str, Any] = {name: getattr(self, name)[k].copy() for name in self._allocate(0)}
+        values["obstacle_shapes"] = list(self.obstacle_shapes[k])
+        return values
+
+    def set_row(self, k: int, values: dict[str, Any]) -> None:
+        """Write :meth:`row`'s values into copy ``k``."""
+        for name, value in values.items():
+            if name == "obstacle_shapes":
+                self.obstacle_shapes[k] = list(value)
+            else:
+                getattr(self, name)[k] = value
 
     def start(self, k: int, goals: np.ndarray, obstacle_radii: np.ndarray, obstacle_shapes: list) -> None:
         """A new episode in copy ``k``: its goals and obstacles, counters and minima cleared."""
