@@ -18,7 +18,8 @@ design and measurements in ``docs/training.md``):
    ``steps`` agent transitions: observation, expert action and the agent's discounted
    Monte-Carlo return from there (``gamma`` of the algorithm; whole episodes are played so
    the returns are complete).
-2. :func:`behaviour_clone` fits an SB3 ``ActorCriticPolicy`` (PPO, A2C) with Adam for
+2. :func:`behaviour_clone` fits an SB3 ``ActorCriticPolicy`` (PPO, A2C) or sb3-contrib's
+   ``MaskableActorCriticPolicy`` (MaskablePPO; cross-entropy of the masked logits) with Adam for
    ``epochs`` passes: Box actions by the squared error of the Gaussian's mean, each
    dimension divided by the expert actions' standard deviation; Discrete ones by
    cross-entropy with label smoothing (no action gets probability 1); the value head by the
@@ -186,6 +187,8 @@ class ExpertData:
     episodes: int
     success_rate: float
     mean_return: float
+    #: The action mask (bool, one row per transition) the env gave at each observation; None without masks.
+    masks: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.observations)
@@ -199,6 +202,7 @@ class ExpertData:
             episodes=self.episodes + other.episodes,
             success_rate=other.success_rate,
             mean_return=other.mean_return,
+            masks=None if self.masks is None or other.masks is None else np.concatenate([self.masks, other.masks]),
         )
 
 
@@ -215,15 +219,18 @@ def collect_expert_data(
 
     The first episode is reset with ``seed``, later ones continue the env's random stream.
     ``noise > 0`` executes perturbed actions (Box: Gaussian with std ``noise`` · half range;
-    Discrete: a random action with probability ``noise``; from a generator seeded with
-    ``seed``) while the labels stay the expert's, so the data cover states next to the
-    expert's path. ``returns`` are each agent's discounted rewards from that step on.
+    Discrete: a random action with probability ``noise``, an admissible one where the env
+    gives action masks; from a generator seeded with ``seed``) while the labels stay the
+    expert's, so the data cover states next to the expert's path. ``returns`` are each agent's
+    discounted rewards from that step on.
     """
     rng = np.random.default_rng(seed)
     wrapped = ExpertActions(env, expert, **policy_kwargs)
 
-    def perturbed(observations: Mapping[str, Any], labels: Mapping[str, Any]) -> dict[str, Any]:
-        return {a: _perturb(wrapped.action_space(a), label, noise, rng) for a, label in labels.items()}
+    def perturbed(
+        observations: Mapping[str, Any], labels: Mapping[str, Any], masks: Mapping[str, np.ndarray | None]
+    ) -> dict[str, Any]:
+        return {a: _perturb(wrapped.action_space(a), label, noise, rng, masks.get(a)) for a, label in labels.items()}
 
     return _labelled_rollouts(wrapped, steps, seed, gamma, perturbed)
 
@@ -240,13 +247,21 @@ def collect_learner_data(
     """``steps`` agent transitions in which ``model`` (deterministic) drives and expert ``expert`` labels (DAgger's data).
 
     As :func:`collect_expert_data`, but the executed actions are the learner's, so the data
-    cover the states the learner reaches, with the expert's action in each as the label.
+    cover the states the learner reaches, with the expert's action in each as the label. A
+    maskable model (sb3-contrib's ``MaskablePPO``) gets the env's action masks, as in training.
     """
     wrapped = ExpertActions(env, expert, **policy_kwargs)
+    maskable = _is_maskable(model.policy)
 
-    def learner(observations: Mapping[str, Any], labels: Mapping[str, Any]) -> dict[str, Any]:
+    def learner(
+        observations: Mapping[str, Any], labels: Mapping[str, Any], masks: Mapping[str, np.ndarray | None]
+    ) -> dict[str, Any]:
         live = list(labels)
-        actions, _ = model.predict(np.stack([observations[a] for a in live]), deterministic=True)
+        batch = np.stack([observations[a] for a in live])
+        if maskable and all(masks.get(a) is not None for a in live):
+            actions, _ = model.predict(batch, deterministic=True, action_masks=np.stack([masks[a] for a in live]))
+        else:
+            actions, _ = model.predict(batch, deterministic=True)
         return {a: learner_action(wrapped.action_space(a), action) for a, action in zip(live, actions)}
 
     return _labelled_rollouts(wrapped, steps, seed, gamma, learner)
@@ -257,41 +272,50 @@ def _labelled_rollouts(
     steps: int,
     seed: int,
     gamma: float,
-    choose: Callable[[Mapping[str, Any], Mapping[str, Any]], dict[str, Any]],
+    choose: Callable[[Mapping[str, Any], Mapping[str, Any], Mapping[str, np.ndarray | None]], dict[str, Any]],
 ) -> ExpertData:
-    """Whole episodes until ``steps`` agent transitions: ``choose(observations, labels)`` acts, the expert labels."""
+    """Whole episodes until ``steps`` agent transitions: ``choose(observations, labels, masks)`` acts, the expert labels.
+
+    ``masks`` are the agents' ``infos[agent]["action_mask"]`` (None where the env gives none);
+    they are kept per transition when every transition has one.
+    """
     if steps < 1:
         raise ValueError(f"steps must be >= 1, got {steps}")
     observations: list[np.ndarray] = []
     actions: list[Any] = []
     returns: list[float] = []
+    masks: list[np.ndarray | None] = []
     episodes = successes = 0
     totals: list[float] = []
     while len(observations) < steps:
         obs, infos = wrapped.reset(seed=seed if episodes == 0 else None)
-        tracks: dict[str, list[tuple[np.ndarray, Any, float]]] = {}
+        tracks: dict[str, list[tuple[np.ndarray, Any, float, np.ndarray | None]]] = {}
         done_infos = infos
         while wrapped.agents:
             live = list(wrapped.agents)
             labels = {a: infos[a]["expert_action"] for a in live}
-            executed = choose(obs, labels)
+            allowed = {a: _mask_of(infos[a]) for a in live}
+            executed = choose(obs, labels, allowed)
             next_obs, rewards, _, _, infos = wrapped.step(executed)
             for a in live:
-                tracks.setdefault(a, []).append((np.asarray(obs[a], dtype=np.float32), labels[a], float(rewards.get(a, 0.0))))
+                observation = np.asarray(obs[a], dtype=np.float32)
+                tracks.setdefault(a, []).append((observation, labels[a], float(rewards.get(a, 0.0)), allowed[a]))
             obs, done_infos = next_obs, infos
         episodes += 1
         successes += success_of(done_infos)
         for track in tracks.values():
-            totals.append(sum(r for _, _, r in track))
+            totals.append(sum(r for _, _, r, _ in track))
             to_go = 0.0
             tail = []
-            for _, _, reward in reversed(track):
+            for _, _, reward, _ in reversed(track):
                 to_go = reward + gamma * to_go
                 tail.append(to_go)
-            for (o, a, _), g in zip(track, reversed(tail)):
+            for (o, a, _, m), g in zip(track, reversed(tail)):
                 observations.append(o)
                 actions.append(a)
                 returns.append(g)
+                masks.append(m)
+    kept = masks[:steps]
     return ExpertData(
         observations=np.stack(observations[:steps]),
         actions=np.stack([np.asarray(a) for a in actions[:steps]]),
@@ -299,16 +323,34 @@ def _labelled_rollouts(
         episodes=episodes,
         success_rate=successes / episodes,
         mean_return=float(np.mean(totals)),
+        masks=np.stack(kept) if all(m is not None for m in kept) else None,
     )
 
 
-def _perturb(space: spaces.Space, action: Any, noise: float, rng: np.random.Generator) -> Any:
+def _mask_of(info: Mapping[str, Any]) -> np.ndarray | None:
+    """The agent's ``action_mask`` from its info as a flat bool array, or None."""
+    mask = info.get("action_mask")
+    return None if mask is None else np.asarray(mask, dtype=bool).reshape(-1)
+
+
+def _is_maskable(policy: Any) -> bool:
+    """Whether ``policy`` is sb3-contrib's ``MaskableActorCriticPolicy`` (imported only if sb3-contrib is installed)."""
+    try:
+        from sb3_contrib.common.maskable.policies import MaskableActorCriticPolicy
+    except ImportError:
+        return False
+    return isinstance(policy, MaskableActorCriticPolicy)
+
+
+def _perturb(space: spaces.Space, action: Any, noise: float, rng: np.random.Generator, mask: np.ndarray | None = None) -> Any:
     if noise <= 0:
         return action
     if isinstance(space, spaces.Box):
         half = (space.high - space.low) / 2
         return learner_action(space, action + rng.normal(0.0, noise, size=space.shape) * half)
     if isinstance(space, spaces.Discrete) and rng.random() < noise:
+        if mask is not None and mask.any():  # a random admissible action: a masked one would be refused
+            return int(space.start + rng.choice(np.flatnonzero(mask)))
         return int(space.start + rng.integers(space.n))
     return action
 
@@ -336,13 +378,18 @@ def behaviour_clone(
     from stable_baselines3.common.policies import ActorCriticPolicy
 
     policy = model.policy
-    if not isinstance(policy, ActorCriticPolicy):
-        raise ValueError(f"behaviour cloning needs an actor-critic policy (PPO, A2C), not {type(policy).__name__}")
+    maskable = _is_maskable(policy)
+    if not isinstance(policy, ActorCriticPolicy) and not maskable:
+        raise ValueError(f"behaviour cloning needs an actor-critic policy (PPO, A2C, MaskablePPO), not {type(policy).__name__}")
     space = policy.action_space
-    if not isinstance(space, (spaces.Box, spaces.Discrete)):
-        raise ValueError(f"behaviour cloning supports Box and Discrete actions, not {space}")
+    if not isinstance(space, (spaces.Box, spaces.Discrete)) or (maskable and not isinstance(space, spaces.Discrete)):
+        kinds = "Discrete" if maskable else "Box and Discrete"
+        raise ValueError(f"behaviour cloning of a {type(policy).__name__} supports {kinds} actions, not {space}")
     if epochs < 1:
         raise ValueError(f"epochs must be >= 1, got {epochs}")
+    masks = data.masks if maskable else None
+    if masks is not None and masks.shape != (len(data), int(space.n)):
+        raise ValueError(f"data.masks must have shape {(len(data), int(space.n))}, got {masks.shape}")
     device = policy.device
     obs = torch.as_tensor(data.observations, dtype=torch.float32, device=device)
     returns = torch.as_tensor(data.returns, dtype=torch.float32, device=device)
@@ -353,6 +400,9 @@ def behaviour_clone(
         scale = torch.maximum(target.std(dim=0, keepdim=True), 1e-3 * half) if len(obs) > 1 else half
     else:
         target = torch.as_tensor(data.actions, dtype=torch.long, device=device).reshape(-1) - int(space.start)
+    allowed = None if masks is None else torch.as_tensor(masks, dtype=torch.bool, device=device)
+    if allowed is not None and not bool(allowed[torch.arange(len(obs), device=device), target].all()):
+        raise ValueError("an expert label is an action its own action mask forbids; the data are inconsistent")
     vf_coef = float(getattr(model, "vf_coef", 0.5))
     parameters = [p for name, p in policy.named_parameters() if name != "log_std"]
     optimizer = torch.optim.Adam(parameters, lr=learning_rate)
@@ -364,10 +414,13 @@ def behaviour_clone(
         sums = [0.0, 0.0]
         for start in range(0, len(obs), batch_size):
             index = order[start : start + batch_size]
-            distribution = policy.get_distribution(obs[index]).distribution
-            if box:
-                loss_pi = (((distribution.mean - target[index]) / scale) ** 2).mean()
+            if allowed is not None:
+                log_p = policy.get_distribution(obs[index], action_masks=allowed[index]).distribution.logits
+                loss_pi = _masked_cross_entropy(log_p, target[index], allowed[index], label_smoothing)
+            elif box:
+                loss_pi = (((policy.get_distribution(obs[index]).distribution.mean - target[index]) / scale) ** 2).mean()
             else:
+                distribution = policy.get_distribution(obs[index]).distribution
                 loss_pi = F.cross_entropy(distribution.logits, target[index], label_smoothing=label_smoothing)
             loss = loss_pi
             loss_v = torch.zeros(())
@@ -390,6 +443,23 @@ def behaviour_clone(
             policy.log_std.copy_(torch.log(std).reshape(policy.log_std.shape))
         stats["action_std"] = [float(s) for s in std]
     return stats
+
+
+def _masked_cross_entropy(log_p: Any, target: Any, allowed: Any, label_smoothing: float) -> Any:
+    """Mean cross-entropy of masked log-probabilities to labels smoothed over the admissible actions only.
+
+    The target puts ``1 − ε`` on the label and ``ε / |A(x)|`` on each admissible action (ε =
+    ``label_smoothing``); masked actions get 0 (their log-probability, about −1e8, would
+    otherwise dominate the loss). With every action admissible this is PyTorch's
+    ``cross_entropy(..., label_smoothing=ε)``.
+    """
+    import torch
+
+    admissible = allowed.float()
+    smooth = admissible * (label_smoothing / admissible.sum(dim=1, keepdim=True))
+    one_hot = torch.nn.functional.one_hot(target, log_p.shape[1]).float()
+    weights = (1.0 - label_smoothing) * one_hot + smooth
+    return -(weights * torch.where(allowed, log_p, torch.zeros_like(log_p))).sum(dim=1).mean()
 
 
 def clone_defaults() -> dict[str, Any]:
