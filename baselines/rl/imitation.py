@@ -243,13 +243,43 @@ def collect_learner_data(
     cover the states the learner reaches, with the expert's action in each as the label.
     """
     wrapped = ExpertActions(env, expert, **policy_kwargs)
+    masked = _takes_masks(model)
 
     def learner(observations: Mapping[str, Any], labels: Mapping[str, Any]) -> dict[str, Any]:
         live = list(labels)
-        actions, _ = model.predict(np.stack([observations[a] for a in live]), deterministic=True)
+        batch = np.stack([observations[a] for a in live])
+        if masked:  # a MaskablePPO clone drives within the env's action masks, as at evaluation
+            masks = env.unwrapped.action_masks()
+            rows = np.stack([np.asarray(masks[a], dtype=bool).reshape(-1) for a in live])
+            actions, _ = model.predict(batch, deterministic=True, action_masks=rows)
+        else:
+            actions, _ = model.predict(batch, deterministic=True)
         return {a: learner_action(wrapped.action_space(a), action) for a, action in zip(live, actions)}
 
     return _labelled_rollouts(wrapped, steps, seed, gamma, learner)
+
+
+def _takes_masks(model: Any) -> bool:
+    """Whether ``model.predict`` takes ``action_masks`` (sb3-contrib's ``MaskablePPO``)."""
+    import inspect
+
+    try:
+        return "action_masks" in inspect.signature(model.predict).parameters
+    except (TypeError, ValueError):
+        return False
+
+
+def _actor_critic(policy: Any) -> bool:
+    """Whether ``policy`` is an SB3 ``ActorCriticPolicy`` (PPO, A2C) or sb3-contrib's ``MaskableActorCriticPolicy``."""
+    from stable_baselines3.common.policies import ActorCriticPolicy
+
+    if isinstance(policy, ActorCriticPolicy):
+        return True
+    try:
+        from sb3_contrib.common.maskable.policies import MaskableActorCriticPolicy
+    except ImportError:
+        return False
+    return isinstance(policy, MaskableActorCriticPolicy)
 
 
 def _labelled_rollouts(
@@ -333,11 +363,10 @@ def behaviour_clone(
     """
     import torch
     import torch.nn.functional as F
-    from stable_baselines3.common.policies import ActorCriticPolicy
 
     policy = model.policy
-    if not isinstance(policy, ActorCriticPolicy):
-        raise ValueError(f"behaviour cloning needs an actor-critic policy (PPO, A2C), not {type(policy).__name__}")
+    if not _actor_critic(policy):
+        raise ValueError(f"behaviour cloning needs an actor-critic policy (PPO, A2C, MaskablePPO), not {type(policy).__name__}")
     space = policy.action_space
     if not isinstance(space, (spaces.Box, spaces.Discrete)):
         raise ValueError(f"behaviour cloning supports Box and Discrete actions, not {space}")

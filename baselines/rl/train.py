@@ -335,8 +335,10 @@ class Training:
         if bc_expert is not None:  # an empty name is refused by make_expert below
             if self.resume:
                 raise ValueError("behaviour cloning (--bc-expert) pre-trains a new model; it cannot be combined with --resume")
-            if self.algo not in ("ppo", "a2c"):
-                raise ValueError(f"behaviour cloning (--bc-expert) needs ppo or a2c (an actor-critic policy), not {self.algo}")
+            if self.algo not in ("ppo", "a2c", "maskable_ppo"):
+                raise ValueError(
+                    f"behaviour cloning (--bc-expert) needs ppo, a2c or maskable_ppo (an actor-critic policy), not {self.algo}"
+                )
             if bc_steps < 1 or bc_epochs < 1:
                 raise ValueError(f"bc_steps and bc_epochs must be >= 1, got {bc_steps} and {bc_epochs}")
             if bc_dagger < 0 or any(n is not None and n < 1 for n in (bc_dagger_steps, bc_dagger_epochs, bc_batch_size)):
