@@ -31,6 +31,9 @@ field                       shape         dtype  meaning
 ``consume_progress``        (1,)          f32    time at the current target / ``consume_time``
 ``world_model``             (2, ny, nx)   f32    optional (``observe_world_model``): the
                                                  robot's fused grid model (targets, robots)
+``novelty``                 (ny, nx)      f32    optional (``observe_novelty``): per cell
+                                                 1 − exp(−age / ``novelty_time``), age = time
+                                                 since the robot's model last saw it (never: 1)
 ==========================  ============  =====  ============================================
 
 Actions: ``goto_cell`` (default; :class:`~teamgym.envs.foraging.actions.GoToCellAction`, a cell
@@ -73,7 +76,7 @@ from teamgym.sim.render import Overlay
 from teamgym.sim.robot import DiffDriveRobot
 from teamgym.sim.world import World
 
-__all__ = ["Foraging", "env", "packet_due", "parallel_env"]
+__all__ = ["Foraging", "env", "novelty", "packet_due", "parallel_env"]
 
 #: Channel message kind of the perception packets.
 PACKET_KIND = "perception"
@@ -88,6 +91,15 @@ def packet_due(k: int, share: float) -> bool:
     if k == 0:
         return share > 0
     return math.floor(k * share + 1e-9) > math.floor((k - 1) * share + 1e-9)
+
+
+def novelty(now: float, last_seen: np.ndarray, novelty_time: float) -> np.ndarray:
+    """``1 − exp(−(now − last_seen) / novelty_time)`` per cell; never seen (``last_seen = −inf``): 1.
+
+    The novelty term of DMAPS's search field (``baselines.foraging.potential``), from one robot's
+    :class:`~teamgym.envs.foraging.world_model.GridWorldModel` ``last_seen`` (s).
+    """
+    return -np.expm1(-(now - last_seen) / novelty_time)
 
 
 class Foraging(TeamEnv):
@@ -159,6 +171,8 @@ class Foraging(TeamEnv):
         ]
         if c.observe_world_model:
             fields.append(Field("world_model", (2, *self.grid.shape), 0.0, 1.0))
+        if c.observe_novelty:
+            fields.append(Field("novelty", self.grid.shape, 0.0, 1.0))
         layout = ObservationLayout(fields)
         slices = layout.slices
         head = slice(slices["pose_estimate"].start, slices["localisation_certainty"].stop)
@@ -234,7 +248,7 @@ class Foraging(TeamEnv):
         self._nearest = self._nearest_target_distance()
         self._success = False
         self.models = {}
-        if c.observe_world_model:
+        if c.keeps_world_models:
             from teamgym.envs.foraging.world_model import GridWorldModel, ViewSector
 
             self._view = ViewSector(self.grid, c.camera_range, c.camera_fov)
@@ -467,13 +481,16 @@ class Foraging(TeamEnv):
                 obs[fields.received][: 4 * k] = tuples.reshape(-1)
                 obs[fields.received_sender][:k] = senders
                 obs[fields.received_mask][:k] = 1
-            if c.observe_world_model:
+            if c.keeps_world_models:
                 model = self.models[agent]
                 m = int(self._sightings.count[i])
                 model.observe_own(self._sightings.detections[i, :m], self._sector(i), self.world.time)
                 for sender in np.unique(senders).tolist():
                     model.receive(sender, tuples[senders == sender], self.world.time)
-                self.layout.view(obs, "world_model")[:] = model.fused()
+                if c.observe_world_model:
+                    self.layout.view(obs, "world_model")[:] = model.fused()
+                if c.observe_novelty:
+                    self.layout.view(obs, "novelty")[:] = novelty(self.world.time, model.last_seen, c.novelty_time)
 
     def _sector(self, i: int) -> np.ndarray:
         """Cells robot i sees now by its estimate: the camera's sector minus the shadows of the robots in view."""
