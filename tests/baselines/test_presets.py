@@ -86,6 +86,7 @@ def test_training_in_worker_processes_records_workers_and_padding(tmp_path):
         "exploration-maskable-ppo",
         "rendezvous-comm-maskable-ppo",
         "exploration-nash-dagger-ppo",
+        "foraging-dagger-maskable-ppo",
     ],
 )
 def test_shipped_agent_plays_its_env_from_its_sidecar(name):
@@ -100,6 +101,13 @@ def test_shipped_agent_plays_its_env_from_its_sidecar(name):
     env = teamgym.make(sidecar["env"], **{**sidecar["config"], "max_cycles": 15})
     result = run_episode(env, make_policy(f"sb3:{name}", env), 20000, record_trajectories=False)
     assert set(result.returns) == set(env.possible_agents) and 1 <= result.length <= 15
+
+
+def test_foraging_preset_clones_dmaps_from_its_own_episodes_into_maskable_ppo():
+    kwargs = plan("--preset", "foraging-dagger-maskable-ppo")
+    preset = load_preset("foraging-dagger-maskable-ppo")
+    assert kwargs["algo"] == "maskable_ppo" and preset.config == {"observe_world_model": True, "observe_novelty": True}
+    assert (kwargs["bc_expert"], kwargs["bc_noise"], kwargs["bc_dagger"]) == ("dmaps", 0.0, preset.bc["dagger_rounds"])
 
 
 def test_dagger_preset_plans_its_imitation():

@@ -295,6 +295,7 @@ def test_learned_message_of_the_wrong_size_is_refused():
         ({"field_size": (3.0,)}, "field_size"),
         ({"consume_time": 300.0}, "consume_time"),
         ({"task": "collect"}, "task"),
+        ({"observe_novelty": True, "novelty_time": 0.0}, "novelty_time"),
     ],
 )
 def test_invalid_configs_are_refused_naming_the_key(config, key):
@@ -316,6 +317,25 @@ def test_world_model_observation_is_a_bounded_grid():
     model = obs["robot_0"]["world_model"]
     assert model.shape == (2, 12, 15) and env.observation_space("robot_0").contains(obs["robot_0"])
     assert model.max() > 0  # robot_1 (and possibly targets) are in it
+
+
+def test_novelty_observation_is_dmaps_search_novelty_of_the_robots_own_model():
+    from teamgym.envs.foraging.env import novelty
+
+    env = teamgym.make("Foraging-v0", observe_novelty=True, novelty_time=20.0, obs_format="dict")
+    obs, _ = env.reset(seed=2)
+    assert "world_model" not in obs["robot_0"]  # the world model is kept but observed only with observe_world_model
+    for _ in range(30):
+        obs, *_ = env.step({a: 90 for a in env.agents})
+    layer = obs["robot_0"]["novelty"]
+    last_seen = env.models["robot_0"].last_seen
+    age = env.world.time - last_seen
+    np.testing.assert_allclose(layer, np.where(np.isinf(last_seen), 1.0, 1.0 - np.exp(-age / 20.0)), rtol=1e-6, atol=1e-7)
+    assert layer.min() == 0.0 and (layer == 1.0).any() and env.observation_space("robot_0").contains(obs["robot_0"])
+    assert novelty(5.0, np.array([-np.inf, 5.0]), 30.0).tolist() == [1.0, 0.0]
+    plain = teamgym.make("Foraging-v0").observation_space("robot_0").shape[0]
+    both = teamgym.make("Foraging-v0", observe_novelty=True, observe_world_model=True).observation_space("robot_0").shape[0]
+    assert both == plain + 3 * 12 * 15  # novelty after the world model's two layers
 
 
 # -- both tasks through PettingZoo's tests; input handling under hypothesis ----------------------

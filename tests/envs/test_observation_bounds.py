@@ -148,6 +148,7 @@ def foraging(draw):
         "odometry_rotation_noise": draw(one_of(0.0, 1.0)),
         "odometry_distance_noise": draw(one_of(0.0, 1.0)),
         "observe_world_model": draw(st.booleans()),
+        "observe_novelty": draw(st.booleans()),
         "comm_throughput": draw(one_of(0.0, 1.0)),
         "substeps": speed_substeps(speed),
     }

@@ -63,6 +63,13 @@ class ForagingConfig(EnvConfig):
     control steps k where ⌊k·r·dt⌋ steps up (step 0, at reset, included for r > 0): evenly
     spaced, no random draw. ``comm_throughput`` still drops each copy with probability
     1 − throughput, so the robots receive ``packet_rate × comm_throughput`` packets per second.
+
+    Observation options (for learned policies; scripted ones ignore them):
+    ``observe_world_model`` adds the robot's fused grid world model (targets, robots);
+    ``observe_novelty`` adds, per cell, ``1 − exp(−age / novelty_time)`` where ``age`` is the
+    time since the robot's world model last saw the cell (never seen: 1) — the novelty term of
+    DMAPS's search field (``novelty_time`` 30 s as its ``FieldParams``), which the world model
+    alone does not show.
     """
 
     body_speed_keys: ClassVar[tuple[str, ...]] = ("max_speed",)
@@ -91,6 +98,8 @@ class ForagingConfig(EnvConfig):
     odometry_distance_noise: float = 0.01
     action_type: Literal["goto_cell", "velocity"] = "goto_cell"
     observe_world_model: bool = False
+    observe_novelty: bool = False
+    novelty_time: float = 30.0
     consume_reward: float = 1.0
     progress_reward: float = 0.01
     time_penalty: float = 0.001
@@ -117,6 +126,7 @@ class ForagingConfig(EnvConfig):
         require(self, "rotational_certainty", 0 < self.rotational_certainty <= 1, "must be in (0, 1]")
         require(self, "odometry_rotation_noise", 0 <= self.odometry_rotation_noise <= 1, "must be in [0, 1] rad/rad")
         require(self, "odometry_distance_noise", 0 <= self.odometry_distance_noise <= 1, "must be in [0, 1] m/m")
+        require(self, "novelty_time", 0 < self.novelty_time <= 100_000, "must be in (0, 100000] s")
         rate = self.packet_rate
         require(self, "packet_rate", rate is None or 0 <= rate <= 1e6, "must be None (a packet every step) or >= 0 packets/s")
         for key in ("consume_reward", "progress_reward", "time_penalty"):
@@ -167,6 +177,11 @@ class ForagingConfig(EnvConfig):
             needed <= free / 3,
             "they leave too little room on this field (robots and targets may take a third of it)",
         )
+
+    @property
+    def keeps_world_models(self) -> bool:
+        """Whether the env keeps a :class:`~teamgym.envs.foraging.world_model.GridWorldModel` per robot (for its observation)."""
+        return self.observe_world_model or self.observe_novelty
 
     @property
     def cycle_limit(self) -> int:

@@ -31,6 +31,9 @@ field                       shape         dtype  meaning
 ``consume_progress``        (1,)          f32    time at the current target / ``consume_time``
 ``world_model``             (2, ny, nx)   f32    optional (``observe_world_model``): the
                                                  robot's fused grid model (targets, robots)
+``novelty``                 (ny, nx)      f32    optional (``observe_novelty``): per cell
+                                                 1 − exp(−age / ``novelty_time``), age = time
+                                                 since the robot's model last saw it (never: 1)
 ==========================  ============  =====  ============================================
 
 Actions: ``goto_cell`` (default; :class:`~teamgym.envs.foraging.actions.GoToCellAction`, a cell
@@ -75,7 +78,7 @@ from teamgym.sim.render import Overlay
 from teamgym.sim.robot import DiffDriveRobot
 from teamgym.sim.world import World
 
-__all__ = ["Foraging", "env", "packet_due", "parallel_env"]
+__all__ = ["Foraging", "env", "novelty", "packet_due", "parallel_env"]
 
 #: Channel message kind of the perception packets.
 PACKET_KIND = "perception"
@@ -90,6 +93,15 @@ def packet_due(k: int, share: float) -> bool:
     if k == 0:
         return share > 0
     return math.floor(k * share + 1e-9) > math.floor((k - 1) * share + 1e-9)
+
+
+def novelty(now: float, last_seen: np.ndarray, novelty_time: float) -> np.ndarray:
+    """``1 − exp(−(now − last_seen) / novelty_time)`` per cell; never seen (``last_seen = −inf``): 1.
+
+    The novelty term of DMAPS's search field (``baselines.foraging.potential``), from one robot's
+    :class:`~teamgym.envs.foraging.world_model.GridWorldModel` ``last_seen`` (s).
+    """
+    return -np.expm1(-(now - last_seen) / novelty_time)
 
 
 class Foraging(TeamEnv):
@@ -130,7 +142,7 @@ class Foraging(TeamEnv):
         self._persist = c.consumed_targets == "persist"
         self._all_targets = np.arange(c.n_targets)  # what the cameras see and the robots may stand at (persist)
         self._all_targets.flags.writeable = False
-        if c.observe_world_model:
+        if c.keeps_world_models:
             from teamgym.envs.foraging.world_model import ViewSector
 
             self._view = ViewSector(self.grid, c.camera_range, c.camera_fov)
@@ -242,6 +254,8 @@ class Foraging(TeamEnv):
         ]
         if c.observe_world_model:
             fields.append(Field("world_model", (2, *self.grid.shape), 0.0, 1.0))
+        if c.observe_novelty:
+            fields.append(Field("novelty", self.grid.shape, 0.0, 1.0))
         layout = ObservationLayout(fields)
         slices = layout.slices
         head = slice(slices["pose_estimate"].start, slices["localisation_certainty"].stop)
@@ -304,7 +318,7 @@ class Foraging(TeamEnv):
         self._update_presence()
         self._nearest[:] = self._nearest_live
         self.models = {}
-        if c.observe_world_model:
+        if c.keeps_world_models:
             from teamgym.envs.foraging.world_model import GridWorldModel
 
             self.models = {a: GridWorldModel(self.grid, c.n_robots, i) for i, a in enumerate(self.possible_agents)}
@@ -540,7 +554,7 @@ class Foraging(TeamEnv):
         if c.task == "consume":
             out[:, fields.consume_progress] = np.minimum(1.0, timer[:, None] / c.consume_time)
         out[:, fields.received_sender] = -1
-        if c.observe_world_model:
+        if c.keeps_world_models:
             for obs, agent, i in zip(out, self.live_agents, rows.tolist()):
                 self._write_received(obs, self.channel.inbox_payloads(agent, PACKET_KIND))
                 tuples, senders = self._received(agent)
@@ -549,7 +563,10 @@ class Foraging(TeamEnv):
                 model.observe_own(self._sightings.detections[i, :m], self._sector(i), self.world.time)
                 for sender in np.unique(senders).tolist():
                     model.receive(sender, tuples[senders == sender], self.world.time)
-                self.layout.view(obs, "world_model")[:] = model.fused()
+                if c.observe_world_model:
+                    self.layout.view(obs, "world_model")[:] = model.fused()
+                if c.observe_novelty:
+                    self.layout.view(obs, "novelty")[:] = novelty(self.world.time, model.last_seen, c.novelty_time)
             return
         payloads = self.channel.inbox_payloads
         for obs, agent in zip(out, self.live_agents):
