@@ -109,9 +109,10 @@ class TeamVectorMultiAgentEnv(_VectorEnv):
     def _reset_copy(self, k: int, seed: int | None, options: dict | None) -> tuple[dict, dict]:
         rows, infos = self.batch.reset_copy(k, seed, options)
         agents = [a for i, a in enumerate(self.possible_agents) if self.batch.active[k, i]]
-        return self._observations_of(k, rows, agents), infos
+        return self.observations_of(k, rows, agents), infos
 
-    def _observations_of(self, k: int, rows: np.ndarray, agents: list[str]) -> dict[str, Any]:
+    def observations_of(self, k: int, rows: np.ndarray, agents: list[str]) -> dict[str, Any]:
+        """What RLlib sees of copy ``k``'s ``agents`` from its observation ``rows`` (with masks for a masked action type)."""
         row = {a: i for i, a in enumerate(self.possible_agents)}
         observations = {a: rows[row[a]] for a in agents}
         if not self.masked:
@@ -153,7 +154,7 @@ class _StepOutcome:
     def stepped(self, k: int, env: TeamVectorMultiAgentEnv, agents: list[str], stepped: tuple) -> None:
         observations, rewards, terminated, truncated = stepped
         rows = {a: i for i, a in enumerate(env.possible_agents)}
-        self.observations[k] = env._observations_of(k, observations[k], agents)
+        self.observations[k] = env.observations_of(k, observations[k], agents)
         self.rewards[k] = {a: float(rewards[k, rows[a]]) for a in agents}
         over = not env.batch.active[k].any()
         self.terminations[k], self.truncations[k] = episode_flags(
