@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Run the Ray RLlib tests (pytest marker `rllib`: tests/baselines/test_rllib.py, and tests/baselines/test_ray_cluster.py,
+# Run the Ray RLlib tests (pytest marker `rllib`: tests/baselines/test_rllib.py, test_rllib_batch.py, and tests/baselines/test_ray_cluster.py,
 # which starts a two-node Ray cluster in a loopback-only Linux namespace) in their own venv (default
 # build/venv-rllib, git-ignored; RLLIB_VENV overrides): ray[rllib] pins gymnasium==1.2.2, which
 # neither .venv (latest gymnasium) nor the floor venv (gymnasium 1.0) can have. torch==2.13.0 is
@@ -25,6 +25,6 @@ export SDL_VIDEODRIVER=dummy MPLBACKEND=Agg RAY_USAGE_STATS_ENABLED=0
 # on for its own nodes, which run in a loopback-only namespace (joining a node needs it).
 export RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER=0
 if [ "$#" -eq 0 ]; then
-  set -- tests/baselines/test_rllib.py tests/baselines/test_ray_cluster.py
+  set -- tests/baselines/test_rllib.py tests/baselines/test_rllib_batch.py tests/baselines/test_ray_cluster.py
 fi
 "$venv/bin/python" -m pytest -q -m rllib "$@"
