@@ -121,7 +121,7 @@ def test_the_episode_values_are_views_of_the_env_row():
     for attribute in (*env._ROW_VIEWS, "_sightings"):
         value = getattr(env, attribute)
         for part in value[:2] if attribute == "_sightings" else (value,):
-            assert any(np.shares_memory(part, getattr(arrays, name)) for name in arrays.names), attribute
+            assert any(np.shares_memory(part, getattr(arrays, name)) for name in arrays.arrays()), attribute
     assert np.shares_memory(env.odometry.estimate, arrays.estimate) and np.shares_memory(env.odometry.certainty, arrays.certainty)
     state = env._episode_state()
     assert "_foraging_row" in state and not set(env._ROW_VIEWS) & set(state) and "_arrays" not in state

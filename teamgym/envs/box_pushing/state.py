@@ -19,6 +19,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from teamgym.envs.copy_arrays import CopyArrays
+
 if TYPE_CHECKING:
     from teamgym.envs.box_pushing.config import BoxPushingConfig
     from teamgym.envs.box_pushing.scene import GoalWall
@@ -34,7 +36,7 @@ LEAVING = {"removed": 1, "broken_down": 2}
 _SEQUENTIAL_SUM = 8
 
 
-class BoxPushingArrays:
+class BoxPushingArrays(CopyArrays):
     """Robot readings and counters, box slots and team clocks of ``n_copies`` BoxPushing copies."""
 
     def __init__(
@@ -84,37 +86,9 @@ class BoxPushingArrays:
             "event_skipped": np.zeros((k, self.n_events), dtype=bool),
         }
 
-    def grow(self, n_copies: int) -> None:
-        """Make room for ``n_copies`` copies (existing copies keep their rows)."""
-        extra = n_copies - self.n_copies
-        if extra <= 0:
-            return
-        for name, block in self._allocate(extra).items():
-            old = getattr(self, name, None)
-            setattr(self, name, block if old is None else np.concatenate([old, block]))
-        self.n_copies = n_copies
-
-    def shrink(self, n_copies: int) -> None:
-        """Keep only the first ``n_copies`` copies."""
-        if n_copies >= self.n_copies:
-            return
-        for name in self._allocate(0):
-            setattr(self, name, getattr(self, name)[:n_copies].copy())
-        self.n_copies = n_copies
-
-    def row(self, k: int) -> dict[str, np.ndarray]:
-        """Copy ``k``'s values of every array (copies), as :meth:`set_row` takes them."""
-        return {name: getattr(self, name)[k].copy() for name in self._allocate(0)}
-
-    def set_row(self, k: int, values: dict[str, np.ndarray]) -> None:
-        for name, value in values.items():
-            getattr(self, name)[k] = value
-
     def start(self, k: int, proximity: slice) -> None:
         """A new episode in copy ``k``: no box, no robot placed, counters cleared; rings read free."""
-        fresh = self._allocate(1)
-        for name, value in fresh.items():
-            getattr(self, name)[k] = value[0]
+        self.clear_row(k)
         self.readings[k, :, proximity] = self.config.sensor_range
 
     # -- phases ----------------------------------------------------------------------

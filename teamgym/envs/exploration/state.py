@@ -24,10 +24,12 @@ import math
 
 import numpy as np
 
+from teamgym.envs.copy_arrays import CopyArrays
+
 __all__ = ["ExplorationArrays"]
 
 
-class ExplorationArrays:
+class ExplorationArrays(CopyArrays):
     """Sectors, places, counters, readings, the explored set and the team's beliefs of ``n_copies`` Exploration copies.
 
     ``clutter_prior`` (S,): the map's clutter coefficients c_i⁰; ``door_prior`` (D,): the opening
@@ -84,40 +86,9 @@ class ExplorationArrays:
             "stage_ended": np.zeros(k, dtype=bool),  # a task of the stage completed or failed
         }
 
-    def arrays(self) -> list[str]:
-        """The names of the arrays (each with the leading copy axis)."""
-        return list(self._allocate(0))
-
-    def grow(self, n_copies: int) -> None:
-        """Make room for ``n_copies`` copies (existing copies keep their rows)."""
-        extra = n_copies - self.n_copies
-        if extra <= 0:
-            return
-        for name, block in self._allocate(extra).items():
-            old = getattr(self, name, None)
-            setattr(self, name, block if old is None else np.concatenate([old, block]))
-        self.n_copies = n_copies
-
-    def shrink(self, n_copies: int) -> None:
-        """Keep only the first ``n_copies`` copies."""
-        if n_copies >= self.n_copies:
-            return
-        for name in self.arrays():
-            setattr(self, name, getattr(self, name)[:n_copies].copy())
-        self.n_copies = n_copies
-
-    def row(self, k: int) -> dict[str, np.ndarray]:
-        """Copy ``k``'s values of every array (copies), as :meth:`set_row` takes them."""
-        return {name: getattr(self, name)[k].copy() for name in self.arrays()}
-
-    def set_row(self, k: int, values: dict[str, np.ndarray]) -> None:
-        for name, value in values.items():
-            getattr(self, name)[k] = value
-
     def start(self, k: int, door_is_open: np.ndarray) -> None:
         """A new episode in copy ``k``: nothing explored, priors as beliefs, counters cleared, rings read free."""
-        for name, value in self._allocate(1).items():
-            getattr(self, name)[k] = value[0]
+        self.clear_row(k)
         self.door_is_open[k] = door_is_open
 
     # -- phases over copies (the operations of the lone env's hooks) -------------------

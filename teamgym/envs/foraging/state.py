@@ -20,10 +20,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from teamgym.envs.copy_arrays import CopyArrays
+
 __all__ = ["ForagingArrays"]
 
 
-class ForagingArrays:
+class ForagingArrays(CopyArrays):
     """Robot, target and team state of ``n_copies`` Foraging copies (see the module docstring)."""
 
     def __init__(self, n_robots: int, n_targets: int, n_slots: int, n_copies: int = 1) -> None:
@@ -65,38 +67,6 @@ class ForagingArrays:
             "any_target": np.zeros(k, dtype=bool),  # whether the last sensing phase detected a target
         }
 
-    @property
-    def names(self) -> tuple[str, ...]:
-        """The arrays' names."""
-        return tuple(self._allocate(0))
-
-    def grow(self, n_copies: int) -> None:
-        """Make room for ``n_copies`` copies (existing copies keep their rows; views of them stay valid only without growth)."""
-        extra = n_copies - self.n_copies
-        if extra <= 0:
-            return
-        for name, block in self._allocate(extra).items():
-            old = getattr(self, name, None)
-            setattr(self, name, block if old is None else np.concatenate([old, block]))
-        self.n_copies = n_copies
-
-    def shrink(self, n_copies: int) -> None:
-        """Keep only the first ``n_copies`` copies."""
-        if n_copies >= self.n_copies:
-            return
-        for name in self.names:
-            setattr(self, name, getattr(self, name)[:n_copies].copy())
-        self.n_copies = n_copies
-
-    def row(self, k: int) -> dict[str, np.ndarray]:
-        """Copy ``k``'s values of every array (copies), as :meth:`set_row` takes them."""
-        return {name: getattr(self, name)[k].copy() for name in self.names}
-
-    def set_row(self, k: int, values: dict[str, np.ndarray]) -> None:
-        for name, value in values.items():
-            getattr(self, name)[k] = value
-
     def start(self, k: int) -> None:
         """A new episode in copy ``k``: every array at its initial value (the env then places robots and targets)."""
-        for name, value in self._allocate(1).items():
-            getattr(self, name)[k] = value[0]
+        self.clear_row(k)
