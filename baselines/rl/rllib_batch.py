@@ -56,6 +56,8 @@ class TeamVectorMultiAgentEnv(_VectorEnv):
         view = self.envs[0]
         self.num_envs = num_envs
         self.possible_agents = list(view.possible_agents)
+        #: Row of each agent in the batch's arrays (``possible_agents`` order).
+        self.row_of = {a: i for i, a in enumerate(self.possible_agents)}
         self.masked = view.masked
         self.metadata = {"autoreset_mode": "next_step"}
         self.single_observation_spaces = dict(view.observation_spaces)
@@ -113,7 +115,7 @@ class TeamVectorMultiAgentEnv(_VectorEnv):
 
     def observations_of(self, k: int, rows: np.ndarray, agents: list[str]) -> dict[str, Any]:
         """What RLlib sees of copy ``k``'s ``agents`` from its observation ``rows`` (with masks for a masked action type)."""
-        row = {a: i for i, a in enumerate(self.possible_agents)}
+        row = self.row_of
         observations = {a: rows[row[a]] for a in agents}
         if not self.masked:
             return observations
@@ -153,7 +155,7 @@ class _StepOutcome:
 
     def stepped(self, k: int, env: TeamVectorMultiAgentEnv, agents: list[str], stepped: tuple) -> None:
         observations, rewards, terminated, truncated = stepped
-        rows = {a: i for i, a in enumerate(env.possible_agents)}
+        rows = env.row_of
         self.observations[k] = env.observations_of(k, observations[k], agents)
         self.rewards[k] = {a: float(rewards[k, rows[a]]) for a in agents}
         over = not env.batch.active[k].any()
