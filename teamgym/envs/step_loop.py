@@ -27,6 +27,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from teamgym.sim.world_group import GroupPlans
+
 if TYPE_CHECKING:
     from teamgym.envs.base import TeamEnv
 
@@ -49,6 +51,7 @@ class CopyPhases:
 
     def __init__(self, copies: Sequence[TeamEnv]) -> None:
         self.copies = copies
+        self._group_plans = GroupPlans()
 
     def regroup(self) -> None:
         """The list of copies changed (a batch added, dropped or replaced copies)."""
@@ -100,11 +103,14 @@ class CopyPhases:
                 robots[agent].set_command(*act(env, agent, action))
 
     def physics(self, group: list[int]) -> None:
-        """Physics phase: each copy's world steps Δt; its trails are recorded."""
-        reuse = self.reuse_states
+        """Physics phase: each copy's world steps Δt (several together: :func:`~teamgym.sim.world_group.step_worlds`); trails."""
+        reuse, copies = self.reuse_states, self.copies
+        if len(group) > 1:
+            self._group_plans.step([copies[k].world for k in group], reuse)
+        else:
+            copies[group[0]].world.step(reuse_states=reuse)
         for k in group:
-            env = self.copies[k]
-            env.world.step(reuse_states=reuse)
+            env = copies[k]
             env.cycles += 1
             if env.records_trails:
                 env._record_trails()

@@ -290,6 +290,18 @@ class DiffDriveRobot(Entity):
             anchor = -radius
         self._set_anchor(anchor)
 
+    def set_control_motion(self, motion: list[float], anchor_y: float) -> None:
+        """Set the control body to ``motion`` (``(x, y, angle, vx, vy, ω)``) and the drive anchor, as :meth:`apply_command` does.
+
+        For many robots at once (:func:`arc_motion` computes the rows; :mod:`teamgym.sim.world_group`).
+        """
+        handle = self.control._body
+        _set_position(handle, (motion[0], motion[1]))
+        _set_angle(handle, motion[2])
+        _set_velocity(handle, (motion[3], motion[4]))
+        _set_angular_velocity(handle, motion[5])
+        self._set_anchor(anchor_y)
+
     def _set_anchor(self, anchor_y: float) -> None:
         """Put the drive's anchor on the control body at ``(0, anchor_y)`` (each wheel's: offset by the wheel point)."""
         if self.pivot is not None:
@@ -354,6 +366,22 @@ class DiffDriveRobot(Entity):
             before[5] + actual_right,
         )
         self.odometer += math.hypot(dx, dy)
+
+    @property
+    def encoder_totals(self) -> tuple[float, float]:
+        """The encoders' total wheel turns ``(left, right)`` (rad) so far."""
+        return self._encoder_values[4], self._encoder_values[5]
+
+    def finish_step(self, start_pose: tuple[float, float, float], encoder_values: tuple, distance: float) -> None:
+        """:meth:`begin_step` and :meth:`end_step` computed elsewhere for many robots at once (:mod:`teamgym.sim.world_group`).
+
+        ``start_pose``: the pose the step began at; ``encoder_values``: the six readings of
+        :class:`EncoderReading`; ``distance``: how far the body moved (added to the odometer).
+        """
+        self._start_pose = start_pose
+        self.applied_command = self.command
+        self._encoder_values = encoder_values
+        self.odometer += distance
 
     @property
     def encoders(self) -> EncoderReading:
@@ -469,27 +497,39 @@ class RobotSteps(StepGroup):
 
     def _drive(self, world: World, block: np.ndarray, commands: np.ndarray) -> None:
         """:meth:`DiffDriveRobot.apply_command` of every robot, into the world's body buffer."""
-        v, omega = commands[:, 0], commands[:, 1]
-        x, y, theta = block[:, 0], block[:, 1], block[:, 2]
-        angles = theta.tolist()
-        cos, sin = np.array(list(map(math.cos, angles))), np.array(list(map(math.sin, angles)))
-        straight = np.abs(omega) < 1e-9
-        radius = v / np.where(straight, 1.0, omega)
-        motion = np.empty((len(v), 6))
-        motion[:, 0] = np.where(straight, x, x - radius * sin)
-        motion[:, 1] = np.where(straight, y, y + radius * cos)
-        motion[:, 2] = theta
-        motion[:, 3] = np.where(straight, v * cos, 0.0)
-        motion[:, 4] = np.where(straight, v * sin, 0.0)
-        motion[:, 5] = np.where(straight, 0.0, omega)
+        motion, anchors = arc_motion(commands, block)
         world.body_buffer()[self.rows] = motion
-        for pivot, anchor in zip(self._pivots, np.where(straight, 0.0, -radius).tolist()):
+        for pivot, anchor in zip(self._pivots, anchors.tolist()):
             set_pivot_anchor_a(pivot, (0.0, anchor))
 
     def after(self, world: World, starts: list[list[float]], ends: list[list[float]]) -> None:
         dt = world.dt
         for robot, start, end in zip(self.entities, starts, ends):
             robot.end_step(dt, start, end)
+
+
+def arc_motion(commands: np.ndarray, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:meth:`DiffDriveRobot.apply_command` of many robots: their control bodies' rows and pivot anchors.
+
+    ``commands`` ``(R, 2)`` are ``(v, ω)``, ``states`` ``(R, >=3)`` the robots' ``(x, y, θ, ...)``.
+    Returns the control bodies' ``(x, y, angle, vx, vy, ω)`` rows and each pivot's anchor ``y``;
+    sines and cosines from ``math`` and the same operations in the same order as
+    ``apply_command``, so the same bits.
+    """
+    v, omega = commands[:, 0], commands[:, 1]
+    x, y, theta = states[:, 0], states[:, 1], states[:, 2]
+    angles = theta.tolist()
+    cos, sin = np.array(list(map(math.cos, angles))), np.array(list(map(math.sin, angles)))
+    straight = np.abs(omega) < 1e-9
+    radius = v / np.where(straight, 1.0, omega)
+    motion = np.empty((len(v), 6))
+    motion[:, 0] = np.where(straight, x, x - radius * sin)
+    motion[:, 1] = np.where(straight, y, y + radius * cos)
+    motion[:, 2] = theta
+    motion[:, 3] = np.where(straight, v * cos, 0.0)
+    motion[:, 4] = np.where(straight, v * sin, 0.0)
+    motion[:, 5] = np.where(straight, 0.0, omega)
+    return motion, np.where(straight, 0.0, -radius)
 
 
 def wrap_angle(angle: float | np.ndarray) -> float | np.ndarray:

@@ -236,12 +236,10 @@ class World:
         Then every such entity gets ``after_step`` (robots update encoders and odometer).
         """
         dt = self.dt
-        self._contacts.new_step()
-        fresh = reuse_states and self._reader is not None and len(self.states) == len(self._stepped)
-        block = self.states if fresh else self._read()
+        block = self.begin_step(reuse_states)
         before = block.tolist()
         switches: dict[float, list[Entity]] = {}
-        for group, rows in self._plan if self._plan is not None else self._make_plan():
+        for group, rows in self.step_plan():
             if group.direct:
                 self._flush_buffer()
             for at, entity in group.before(self, before[rows], block[rows]):
@@ -252,15 +250,15 @@ class World:
         self._buffer_fresh = False
         h = dt / self.substeps
         coarse = not switches and self.coarse_substeps > 0 and self._contact_free()
-        self.coarse_steps += coarse
-        self.fine_steps += not coarse
         if coarse:
+            self.coarse_steps += 1
             self._coarse_now = True
             self._integrate(dt / self.coarse_substeps, self.coarse_substeps)
             self._coarse_now = False
         elif not switches:
-            self._integrate(h, self.substeps)
+            self.integrate_step()
         else:
+            self.fine_steps += 1
             elapsed = 0.0
             for boundary in [*sorted(switches), dt]:
                 duration = boundary - elapsed
@@ -273,6 +271,38 @@ class World:
         for group, rows in self._plan:
             group.after(self, before[rows], after[rows])
         self.time += dt
+
+    # -- the parts of a step, for worlds stepped together (teamgym.sim.world_group) ----
+    def begin_step(self, reuse_states: bool = False) -> np.ndarray:
+        """Start a control step: forget the last step's contacts; the state rows at its start (see :meth:`step`)."""
+        self._contacts.new_step()
+        fresh = reuse_states and self._reader is not None and len(self.states) == len(self._stepped)
+        return self.states if fresh else self._read()
+
+    def step_plan(self) -> list[tuple[StepGroup, slice]]:
+        """The step groups of the state rows, each with its rows: ``(group, rows)`` per run of entities of one class."""
+        return self._plan if self._plan is not None else self._make_plan()
+
+    def write_bodies(self, rows: np.ndarray, values: np.ndarray) -> None:
+        """Set the bodies at ``rows`` of :meth:`body_buffer` to ``values`` (``(x, y, angle, vx, vy, ω)`` rows) in the space."""
+        self.body_buffer()[rows] = values
+        self._flush_buffer()
+        self._buffer_fresh = False
+
+    def bodies_moved(self) -> None:
+        """Bodies were set through pymunk directly: :meth:`body_buffer` reads the space again."""
+        self._buffer_fresh = False
+
+    def integrate_step(self) -> None:
+        """Integrate one whole control step in ``substeps`` substeps (no mid-step switches)."""
+        self.fine_steps += 1
+        self._integrate(self.dt / self.substeps, self.substeps)
+
+    def finish_step(self) -> np.ndarray:
+        """Read the state rows at the end of a control step and advance the clock; returns the rows."""
+        after = self._read()
+        self.time += self.dt
+        return after
 
     def _make_plan(self) -> list[tuple[StepGroup, slice]]:
         """Runs of consecutive state rows whose entities are of one class, each with its class's step group."""

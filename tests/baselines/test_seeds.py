@@ -185,7 +185,11 @@ def test_learning_curve_across_seeds_iqm_and_min_max(run_dir, tmp_path, capsys):
     low, high = plot_curves.confidence_band(curve.values, "minmax", center="iqm")
     assert low.tolist() == curve.values.min(axis=0).tolist() and high.tolist() == curve.values.max(axis=0).tolist()
     blow, bhigh = plot_curves.confidence_band(curve.values, "bootstrap", center="iqm")
-    assert np.all(low <= blow) and np.all(blow <= line + 1e-12) and np.all(line <= bhigh + 1e-12) and np.all(bhigh <= high)
+    # A percentile bootstrap of the IQM lies within the seeds' range; with 3 seeds it need not hold the IQM itself.
+    # (up to rounding: the IQM of a resample of one repeated value may differ from it in the last bit)
+    tol = 1e-12 * (1.0 + np.abs(curve.values).max())
+    assert np.all(low - tol <= blow) and np.all(blow <= bhigh) and np.all(bhigh <= high + tol)
+    assert np.all(low - tol <= line) and np.all(line <= high + tol)
     out = tmp_path / "c.png"
     assert (
         plot_curves.main([str(run_dir), "--metric", "mean_return", "--center", "iqm", "--ci", "minmax", "--out", str(out)]) == 0

@@ -91,11 +91,13 @@ class NavigationPhases(CopyPhases):
             movers.append(world.mover_states)
         names, dt = span[0].possible_agents, span[0].config.dt
         if len(span) == 1:  # a lone env: no stacking
-            team.read(ks, robots[0][None], movers[0][None])
+            poses = robots[0][None]
+            team.read(ks, poses, movers[0][None])
             hits = span[0].world.contacts_per(names)[None]
             times: np.ndarray | float = span[0].cycles * dt
         else:
-            team.read(ks, np.stack(robots), np.stack(movers))
+            poses = np.stack(robots)
+            team.read(ks, poses, np.stack(movers))
             hits = np.array([env.world.contacts_per(names) for env in span])
             times = np.array([env.cycles for env in span]) * dt
         team.update_distances(ks)
@@ -105,17 +107,20 @@ class NavigationPhases(CopyPhases):
         rewards = team.rewards(ks, live)
         for k in group:
             copies[k]._reward_total += rewards[k - group[0]]
-        self._sense(group, team, ks, span, live & ~arriving)
+        self._sense(group, team, ks, span, live & ~arriving, poses)
 
     def _span(self, group: list[int], ks: slice) -> list[Navigation]:
         """The copies bound to rows ``ks`` (``group`` and the copies between its first and last)."""
         return self.copies[group[0] : group[0] + ks.stop - ks.start]
 
-    def _sense(self, group: list[int], team: NavigationArrays, ks: slice, span: list[Navigation], sensing: np.ndarray) -> None:
+    def _sense(
+        self, group: list[int], team: NavigationArrays, ks: slice, span: list[Navigation], sensing: np.ndarray, poses: np.ndarray
+    ) -> None:
         """Proximity rings of the ``sensing`` robots: rays only where something is within range.
 
         A noiseless ring with nothing near reads ``sensor_range`` in one numpy step; the other
-        rows read through their copy (which casts the rays and draws the noise).
+        rows read through their copy (which casts the rays and draws the noise), or, with a
+        noiseless ring, every copy's rows in one pass. ``poses``: ``(copies, N, 6)`` robot states.
         """
         free = team.sensing_free(ks)
         ring = span[0].ring
@@ -123,9 +128,25 @@ class NavigationPhases(CopyPhases):
             clear = sensing & free
             team.proximity[ks][clear] = ring.max_range
             sensing = sensing & ~free
+            if len(span) > 1:  # every copy's remaining rings in one pass (ProximityRing.read_many)
+                self._read_rings(team, ks, span, sensing, poses)
+                return
         for j in np.flatnonzero(sensing.any(axis=1)).tolist():
             rows = np.flatnonzero(sensing[j])
             span[j]._read_proximity(rows, free[j, rows])
+
+    @staticmethod
+    def _read_rings(team: NavigationArrays, ks: slice, span: list[Navigation], sensing: np.ndarray, poses: np.ndarray) -> None:
+        """Noiseless rings of the ``sensing`` robots of every copy of ``span`` at once, as each copy would read them."""
+        copy_rows, robot_rows = np.nonzero(sensing)
+        if len(copy_rows) == 0:
+            return
+        pairs = list(zip(copy_rows.tolist(), robot_rows.tolist()))
+        ring = span[0].ring
+        block = np.empty((len(pairs), ring.width), dtype=np.float32)
+        robots = [span[j].robot_list[i] for j, i in pairs]
+        ring.read_many([span[j].world.space for j, _ in pairs], robots, poses[copy_rows, robot_rows], block)
+        team.proximity[ks][copy_rows, robot_rows] = block
 
     def end(self, group: list[int], rewards: np.ndarray, terminated: np.ndarray, truncated: np.ndarray) -> None:
         """The end phase as arrays (as :meth:`TeamEnv._end_step` per copy): arrivals terminate, the cycle limit truncates."""

@@ -1,0 +1,242 @@
+"""Several worlds stepped together: the step hooks of all their robots and obstacles in one numpy pass.
+
+A batch of env copies (:class:`~teamgym.envs.batch.TeamBatch`) steps K worlds of one layout
+every control step. :meth:`World.step <teamgym.sim.world.World.step>` runs each world's step
+hooks (:class:`~teamgym.sim.robot.RobotSteps`, :class:`~teamgym.sim.objects.BounceSteps`) on
+that world's few entities; :func:`step_worlds` runs them once over the entities of all the
+worlds — the robots' arc motions (:meth:`DiffDriveRobot.apply_command
+<teamgym.sim.robot.DiffDriveRobot.apply_command>`), the obstacles' bounces
+(:meth:`MovingPolygon.plan_bounce <teamgym.sim.objects.MovingPolygon.plan_bounce>`) and the
+encoders and odometers (:meth:`DiffDriveRobot.end_step <teamgym.sim.robot.DiffDriveRobot.end_step>`)
+— with the same floating-point operations in the same order, so every world ends its step
+bit for bit as if it had stepped alone. What stays per world is what Chipmunk needs per space:
+one batch write of the bodies, the pivot anchors, the substeps and one batch read.
+
+A world takes the group path when its plan holds only those step groups, it integrates a
+whole step in ``substeps`` (no adaptive substeps) and no robot has an actuation delay this
+step; any other world steps alone (``World.step``), so the result never depends on the path.
+"""
+
+from __future__ import annotations
+
+import math
+import weakref
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from teamgym.sim.entity import StepGroup
+from teamgym.sim.objects import BounceSteps, MovingPolygon
+from teamgym.sim.robot import DiffDriveRobot, RobotSteps, arc_motion
+from teamgym.sim.world import World
+
+__all__ = ["GroupPlan", "GroupPlans", "StepTogether", "group_plan", "step_worlds"]
+
+
+@dataclass(frozen=True)
+class GroupPlan:
+    """What :func:`step_worlds` needs of one world: its robots and bouncing obstacles with their rows."""
+
+    robots: list[DiffDriveRobot]
+    #: Rows of the robots in the world's state rows / of their control bodies in its body buffer
+    #: (``None``: the buffer cannot be written, the control bodies are set one by one).
+    robot_rows: slice | np.ndarray
+    control_rows: np.ndarray | None
+    movers: list[MovingPolygon]
+    mover_rows: slice | np.ndarray
+
+
+def group_plan(world: World) -> GroupPlan | None:
+    """The world's :class:`GroupPlan`, or ``None`` when it must step alone (see the module docstring)."""
+    if world.coarse_substeps > 0:
+        return None
+    robots: list = []
+    robot_rows: list[int] = []
+    movers: list = []
+    mover_rows: list[int] = []
+    for group, rows in world.step_plan():
+        span = list(range(rows.start, rows.stop))
+        if isinstance(group, RobotSteps):
+            robots += group.entities
+            robot_rows += span
+        elif isinstance(group, BounceSteps):
+            movers += [m for m in group.entities if m.bounce]
+            mover_rows += [row for row, m in zip(span, group.entities) if m.bounce]
+        elif type(group) is not StepGroup or any(_has_hooks(entity) for entity in group.entities):
+            return None
+    if not robots:
+        return None
+    control_rows = world.body_rows([robot.control for robot in robots])
+    return GroupPlan(robots, _rows(robot_rows), control_rows, movers, _rows(mover_rows))
+
+
+def _rows(rows: list[int]) -> slice | np.ndarray:
+    """State rows as a slice when they are consecutive (a view, no copy), else an index array."""
+    if rows and rows == list(range(rows[0], rows[0] + len(rows))):
+        return slice(rows[0], rows[0] + len(rows))
+    return np.array(rows, dtype=np.intp)
+
+
+class GroupPlans:
+    """:func:`group_plan` of worlds, each kept while its world keeps its step plan (its entities)."""
+
+    def __init__(self) -> None:
+        self._plans: weakref.WeakKeyDictionary[World, tuple[list, GroupPlan | None]] = weakref.WeakKeyDictionary()
+        self._together: StepTogether | None = None
+
+    def plan_of(self, world: World) -> GroupPlan | None:
+        steps = world.step_plan()
+        known = self._plans.get(world)
+        if known is None or known[0] is not steps:
+            known = (steps, group_plan(world))
+            self._plans[world] = known
+        return known[1]
+
+    def step(self, worlds: Sequence[World], reuse_states: bool = False) -> None:
+        """:func:`step_worlds` of ``worlds`` with their plans, reusing the gathered robots while the worlds stay the same."""
+        plans = [self.plan_of(world) for world in worlds]
+        if self._together is None or not self._together.matches(worlds, plans):
+            self._together = StepTogether(worlds, plans)
+        self._together.step(reuse_states)
+
+    def __getstate__(self) -> dict:
+        return {}  # made again on the next step (the plans hold Chipmunk handles)
+
+    def __setstate__(self, state: dict) -> None:
+        self.__init__()
+
+
+def _has_hooks(entity: object) -> bool:
+    """Whether an entity in a plain step group overrides a step hook (then its world steps alone)."""
+    from teamgym.sim.entity import Entity
+
+    cls = type(entity)
+    return any(getattr(cls, name) is not getattr(Entity, name) for name in ("before_step", "mid_step", "after_step"))
+
+
+def step_worlds(worlds: Sequence[World], plans: Sequence[GroupPlan | None], reuse_states: bool = False) -> None:
+    """Advance every world one control step, as ``world.step(reuse_states)`` each would.
+
+    ``plans[i]`` is :func:`group_plan` of ``worlds[i]`` (:class:`GroupPlans` keeps them while the
+    worlds keep their entities). Worlds without a plan, or with a robot in an actuation delay, step alone.
+    """
+    StepTogether(worlds, plans).step(reuse_states)
+
+
+class StepTogether:
+    """The robots and obstacles of worlds that step together, gathered once (a batch reuses it while its copies keep them)."""
+
+    def __init__(self, worlds: Sequence[World], plans: Sequence[GroupPlan | None]) -> None:
+        self.worlds, self.plans = list(worlds), list(plans)
+        pairs = [(world, plan) for world, plan in zip(worlds, plans) if plan is not None]
+        self.together = pairs
+        self.robots = [robot for _, plan in pairs for robot in plan.robots]
+        self.movers = [mover for _, plan in pairs for mover in plan.movers]
+        self.bounds = np.cumsum([0] + [len(plan.robots) for _, plan in pairs]).tolist()
+        self.half_base = 0.5 * np.array([robot.spec.wheel_base for robot in self.robots])
+        self.wheel_radius = np.array([robot.spec.wheel_radius for robot in self.robots])
+        self.mover_radius = np.array([mover.bounding_radius for mover in self.movers])
+        self.mover_size = np.array([world.size for world, plan in pairs for _ in plan.movers], dtype=float).reshape(-1, 2)
+
+    def matches(self, worlds: Sequence[World], plans: Sequence[GroupPlan | None]) -> bool:
+        """Whether these are the worlds and plans this object was made for."""
+        return (
+            len(worlds) == len(self.worlds)
+            and all(a is b for a, b in zip(worlds, self.worlds))
+            and all(a is b for a, b in zip(plans, self.plans))
+        )
+
+    def step(self, reuse_states: bool) -> None:
+        """One control step of every world (the ones without a plan or with a delay alone)."""
+        delayed = any(robot.actuation_delay > 0.0 for robot in self.robots)
+        for world, plan in zip(self.worlds, self.plans):
+            if plan is None or delayed:
+                world.step(reuse_states=reuse_states)
+        if self.together and not delayed:
+            self._step_together(reuse_states)
+
+    def _step_together(self, reuse_states: bool) -> None:
+        together, robots, bounds = self.together, self.robots, self.bounds
+        blocks = [world.begin_step(reuse_states) for world, _ in together]
+        starts = np.concatenate([block[plan.robot_rows] for block, (_, plan) in zip(blocks, together)])
+        commands = np.array([robot.command for robot in robots], dtype=float).reshape(-1, 2)
+        motion, anchors = arc_motion(commands, starts)
+        dt = together[0][0].dt
+        bounced = self._plan_bounces(blocks, dt)
+        anchor_list = anchors.tolist()
+        for m, (world, plan) in enumerate(together):
+            first, last = bounds[m], bounds[m + 1]
+            if plan.control_rows is not None:
+                world.write_bodies(plan.control_rows, motion[first:last])
+                for robot, anchor in zip(plan.robots, anchor_list[first:last]):
+                    robot._set_anchor(anchor)
+            else:
+                for robot, row, anchor in zip(plan.robots, motion[first:last].tolist(), anchor_list[first:last]):
+                    robot.set_control_motion(row, anchor)
+                world.bodies_moved()
+        for mover, velocity in bounced:
+            mover.target_velocity = velocity
+            mover.control.velocity = velocity
+        for world, _ in together:
+            world.integrate_step()
+        ends = np.concatenate([world.finish_step()[plan.robot_rows] for world, plan in together])
+        _end_robot_steps(robots, commands, starts, ends, dt, self.half_base, self.wheel_radius)
+
+    def _plan_bounces(self, blocks: list[np.ndarray], dt: float) -> list[tuple[MovingPolygon, tuple]]:
+        """:meth:`MovingPolygon.plan_bounce` of every bouncing obstacle at once; the obstacles whose velocity changes."""
+        movers = self.movers
+        if not movers:
+            return []
+        state = np.concatenate([block[plan.mover_rows] for block, (_, plan) in zip(blocks, self.together)])
+        target = np.array([mover.target_velocity for mover in movers], dtype=float)
+        radius, size = self.mover_radius, self.mover_size
+        x, y, actual_x, actual_y = state[:, 0], state[:, 1], state[:, 3], state[:, 4]
+        vx, vy = target[:, 0], target[:, 1]
+        flip_x = ((x + vx * dt + radius > size[:, 0]) & (vx > 0)) | ((x + vx * dt - radius < 0.0) & (vx < 0))
+        flip_y = ((y + vy * dt + radius > size[:, 1]) & (vy > 0)) | ((y + vy * dt - radius < 0.0) & (vy < 0))
+        vx = np.where(flip_x, -vx, vx)
+        vy = np.where(flip_y, -vy, vy)
+        same = (vx == target[:, 0]) & (vy == target[:, 1])
+        held = same & (actual_x * vx + actual_y * vy < 0.25 * (vx * vx + vy * vy))
+        vx = np.where(held, -vx, vx)
+        vy = np.where(held, -vy, vy)
+        changed = np.flatnonzero((vx != target[:, 0]) | (vy != target[:, 1])).tolist()
+        return [(movers[i], (float(vx[i]), float(vy[i]))) for i in changed]
+
+
+def _end_robot_steps(
+    robots: list[DiffDriveRobot],
+    commands: np.ndarray,
+    starts: np.ndarray,
+    ends: np.ndarray,
+    dt: float,
+    half_base: np.ndarray,
+    r: np.ndarray,
+) -> None:
+    """:meth:`DiffDriveRobot.end_step` of every robot (no actuation delay): encoders, odometer, applied command.
+
+    ``half_base`` and ``r``: each robot's half wheel base and wheel radius.
+    """
+    dx, dy = ends[:, 0] - starts[:, 0], ends[:, 1] - starts[:, 1]
+    mid = 0.5 * (starts[:, 2] + ends[:, 2])
+    mids = mid.tolist()
+    ds = dx * np.array(list(map(math.cos, mids))) + dy * np.array(list(map(math.sin, mids)))
+    da = ends[:, 2] - starts[:, 2]
+    v, omega = commands[:, 0], commands[:, 1]
+    actual_left, actual_right = (ds - half_base * da) / r, (ds + half_base * da) / r
+    previous = np.array([robot.encoder_totals for robot in robots], dtype=float).reshape(-1, 2)
+    values = np.stack(
+        [
+            (v - half_base * omega) * dt / r,
+            (v + half_base * omega) * dt / r,
+            actual_left,
+            actual_right,
+            previous[:, 0] + actual_left,
+            previous[:, 1] + actual_right,
+        ],
+        axis=1,
+    )
+    poses = starts[:, :3].tolist()
+    for robot, pose, row, step_x, step_y in zip(robots, poses, values.tolist(), dx.tolist(), dy.tolist()):
+        robot.finish_step((pose[0], pose[1], pose[2]), tuple(row), math.hypot(step_x, step_y))

@@ -1,0 +1,72 @@
+"""Worlds stepped together (``teamgym.sim.world_group``) end each step exactly as each stepped alone."""
+
+import copy
+
+import numpy as np
+import pytest
+
+import teamgym
+from teamgym.sim.world_group import GroupPlans, group_plan, step_worlds
+
+
+def _worlds(env_id: str, n: int, **config) -> list:
+    envs = []
+    for k in range(n):
+        env = teamgym.make(env_id, **config)
+        env.reset(seed=100 + k)
+        envs.append(env)
+    return envs
+
+
+def _snapshot(world) -> tuple:
+    robots = [(r.command, r.applied_command, r.encoders, r.odometer) for r in world.robots]
+    movers = [getattr(m, "target_velocity", None) for m in world.movers]
+    return world.read_states()[0].tobytes(), world.states.tobytes(), robots, movers, world.time, world.fine_steps
+
+
+@pytest.mark.parametrize(
+    ("env_id", "config", "plans"),
+    [
+        ("Navigation-v0", {}, True),  # centre pivots, bouncing obstacles, a writable body buffer
+        ("BoxPushing-v1", {}, True),  # wheel feet: an anchor per drive
+        ("Exploration-v0", {}, True),  # a map of walls: control bodies set one by one
+        ("Navigation-v0", {"actuation_delay": 0.05}, True),  # a delay: every world steps alone
+    ],
+)
+def test_worlds_stepped_together_equal_worlds_stepped_alone(env_id, config, plans):
+    envs = _worlds(env_id, 4, **config)
+    twins = [copy.deepcopy(env) for env in envs]
+    grouped = GroupPlans()
+    rng = np.random.default_rng(0)
+    for _ in range(30):
+        for env, twin in zip(envs, twins):
+            for robot, other in zip(env.world.robots, twin.world.robots):
+                v, omega = rng.uniform(-0.3, 0.3), rng.uniform(-2.0, 2.0)
+                robot.set_command(v, omega)
+                other.set_command(v, omega)
+            if config.get("actuation_delay"):
+                for robot, other in zip(env.world.robots, twin.world.robots):
+                    robot.actuation_delay = other.actuation_delay = 0.05
+        grouped.step([env.world for env in envs])
+        for twin in twins:
+            twin.world.step()
+        for env, twin in zip(envs, twins):
+            assert _snapshot(env.world) == _snapshot(twin.world)
+    assert (group_plan(envs[0].world) is not None) is plans
+
+
+def test_a_world_that_cannot_step_together_steps_alone():
+    """A world without a plan (here: adaptive substeps) steps through ``World.step`` beside the others."""
+    envs = _worlds("Navigation-v0", 3)
+    twins = [copy.deepcopy(env) for env in envs]
+    envs[1].world.coarse_substeps = twins[1].world.coarse_substeps = 4
+    worlds = [env.world for env in envs]
+    plans = [group_plan(world) for world in worlds]
+    assert plans[1] is None and plans[0] is not None
+    for _ in range(20):
+        step_worlds(worlds, plans)
+        for twin in twins:
+            twin.world.step()
+    for env, twin in zip(envs, twins):
+        assert _snapshot(env.world) == _snapshot(twin.world)
+    assert envs[1].world.coarse_steps == twins[1].world.coarse_steps > 0
