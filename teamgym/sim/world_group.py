@@ -84,6 +84,7 @@ class GroupPlans:
     def __init__(self) -> None:
         self._plans: weakref.WeakKeyDictionary[World, tuple[list, GroupPlan | None]] = weakref.WeakKeyDictionary()
         self._together: StepTogether | None = None
+        self._last: list[World] | None = None  # the worlds of the last step that stepped alone
 
     def plan_of(self, world: World) -> GroupPlan | None:
         steps = world.step_plan()
@@ -94,11 +95,26 @@ class GroupPlans:
         return known[1]
 
     def step(self, worlds: Sequence[World], reuse_states: bool = False) -> None:
-        """:func:`step_worlds` of ``worlds`` with their plans, reusing the gathered robots while the worlds stay the same."""
-        plans = [self.plan_of(world) for world in worlds]
-        if self._together is None or not self._together.matches(worlds, plans):
-            self._together = StepTogether(worlds, plans)
-        self._together.step(reuse_states)
+        """Step ``worlds`` one control step: together (:class:`StepTogether`) once the same worlds step twice in a row.
+
+        A group that changes from step to step (copies of a macro action type leaving their
+        stage one by one) would gather its robots anew every step, which costs more than it
+        saves: a new group steps its worlds alone the first time, together from the second.
+        """
+        together = self._together
+        if together is not None and together.same_worlds(worlds):
+            plans = [self.plan_of(world) for world in worlds]
+            if not together.matches(worlds, plans):
+                together = self._together = StepTogether(worlds, plans)
+            together.step(reuse_states)
+            return
+        if self._last is not None and len(self._last) == len(worlds) and all(a is b for a, b in zip(self._last, worlds)):
+            self._together = StepTogether(worlds, [self.plan_of(world) for world in worlds])
+            self._together.step(reuse_states)
+            return
+        self._last = list(worlds)
+        for world in worlds:
+            world.step(reuse_states=reuse_states)
 
     def __getstate__(self) -> dict:
         return {}  # made again on the next step (the plans hold Chipmunk handles)
@@ -138,6 +154,10 @@ class StepTogether:
         self.wheel_radius = np.array([robot.spec.wheel_radius for robot in self.robots])
         self.mover_radius = np.array([mover.bounding_radius for mover in self.movers])
         self.mover_size = np.array([world.size for world, plan in pairs for _ in plan.movers], dtype=float).reshape(-1, 2)
+
+    def same_worlds(self, worlds: Sequence[World]) -> bool:
+        """Whether ``worlds`` are the worlds this object was made for (in that order)."""
+        return len(worlds) == len(self.worlds) and all(a is b for a, b in zip(worlds, self.worlds))
 
     def matches(self, worlds: Sequence[World], plans: Sequence[GroupPlan | None]) -> bool:
         """Whether these are the worlds and plans this object was made for."""
