@@ -133,6 +133,7 @@ class Foraging(TeamEnv):
         self._cell_xy = self.grid.cell_at(np.arange(self.grid.n_cells))  # go-to cell -> (gx, gy)
         self._cell_centre = self.grid.centre_of(self._cell_xy)  # go-to cell -> its centre (m)
         self._cell_of_index = [tuple(cell) for cell in self._cell_xy.tolist()]
+        self._cell_centres = [tuple(centre) for centre in self._cell_centre.tolist()]
         self._packet_sizes = [packet_bytes(m, self.grid) for m in range(self.n_detections + 1)]
         self._slot_index = np.arange(self.n_detections)
         self._live_mask_rows: np.ndarray | None = None
@@ -314,7 +315,7 @@ class Foraging(TeamEnv):
         self.odometry = Odometry(self._pose, c.rotational_certainty, c.odometry_rotation_noise, c.odometry_distance_noise)
         self._bind_odometry()
         self._points = self.cameras.points(self.targets)
-        self._geometry = self.cameras.view(self._pose, self._points)
+        self._geometry = self.cameras.look(self._pose, self._points)
         self._update_presence()
         self._nearest[:] = self._nearest_live
         self.models = {}
@@ -332,10 +333,12 @@ class Foraging(TeamEnv):
 
     # -- step phases --------------------------------------------------------------------------
     def _read_pose(self) -> np.ndarray:
-        states = self.world.robot_states
-        pose = states[:, :3].copy()
-        pose[:, 2] = (pose[:, 2] + math.pi) % (2 * math.pi) - math.pi
-        return pose
+        return np.array(self._read_pose_rows(), dtype=float).reshape(-1, 3)
+
+    def _read_pose_rows(self) -> list[tuple[float, float, float]]:
+        """The robots' true poses from the world's last read, θ wrapped to [−π, π) (scalar, the same bits as numpy's)."""
+        pi, two_pi = math.pi, 2 * math.pi
+        return [(x, y, (a + pi) % two_pi - pi) for x, y, a in self.world.robot_states[:, :3].tolist()]
 
     def _rows_of(self, agents: list[str]) -> tuple[np.ndarray, bool]:
         """Rows (``possible_agents`` order) of ``agents`` and whether they are every robot in order."""
@@ -361,10 +364,15 @@ class Foraging(TeamEnv):
         rows, everyone = self._rows_of(agents)
         index = list(cells.values())
         goals = [self._cell_of_index[i] for i in index]  # (gx, gy) of each go-to cell
-        pose, estimate, at, timer = self._pose, self.odometry.estimate, self._at, self._timer
+        pose, estimate, at, timer = self._pose.tolist(), self.odometry.estimate.tolist(), self._at.tolist(), self._timer.tolist()
         table = self._sightings.table
+        t, geometry = self.config.n_targets, self._geometry
+        mate_d, mate_x, mate_y = ([row[t : t + len(pose)] for row in part] for part in geometry[:3])  # teammates, as seen
         if not everyone:
-            pose, estimate, at, timer, table = pose[rows], estimate[rows], at[rows], timer[rows], table[rows]
+            picked = rows.tolist()
+            pose, estimate, at, timer = ([part[i] for i in picked] for part in (pose, estimate, at, timer))
+            mate_x, mate_y, mate_d = ([[part[i][j] for j in picked] for i in picked] for part in (mate_x, mate_y, mate_d))
+            table = table[rows]
         # Homing: the detected target nearest (in cells) to the go-to cell, if within one cell of it; its
         # measured distance and bearing as the table holds them (float32).
         homing = None
@@ -382,32 +390,28 @@ class Foraging(TeamEnv):
         stop = None
         held = self._persist and self.config.task == "consume"  # a robot whose own operation there is done is not held
         done = self.config.consume_time - 1e-9
-        present = [j >= 0 and not (held and time >= done) for j, time in zip(at.tolist(), timer.tolist())]
+        present = [j >= 0 and not (held and time >= done) for j, time in zip(at, timer)]
         if any(present):  # (the own cell of the last packet is the estimated cell now)
             own = table[:, 0, 1:3].tolist()
             stop = [p and max(abs(x - gx), abs(y - gy)) <= 1 for p, (x, y), (gx, gy) in zip(present, own, goals)]
-        t, n = len(self.targets), self.config.n_robots
-        rel, gap = self._geometry.rel[:, t : t + n], self._geometry.distance[:, t : t + n]  # teammates, as the cameras see them
-        if not everyone:
-            rel, gap = rel[np.ix_(rows, rows)], gap[np.ix_(rows, rows)]
-        aim = self._cell_centre[index]
-        commands = self.controller.command_pairs(estimate, pose, aim, homing, stop, self.grid_size, mates=(rel, gap))
+        aim = [self._cell_centres[i] for i in index]
+        commands = self.controller.command_pairs(estimate, pose, aim, homing, stop, self.grid_size, (mate_x, mate_y, mate_d))
         return dict(zip(agents, commands))
 
     def _update_state(self) -> None:
         """State phase: true poses, odometry, distance travelled, who is at which target."""
-        before = self._pose.copy()
-        self._pose[:] = self._read_pose()
-        step = self.odometry.advance(before, self._pose, self.np_random)
-        self._travelled += np.hypot(step[:, 0], step[:, 1])
-        self._geometry = self.cameras.view(self._pose, self._points)
+        before, after = self._pose.tolist(), self._read_pose_rows()
+        self._pose[:] = after
+        step = self.odometry.advance_rows(before, after, self.np_random)
+        self._travelled += np.hypot(*zip(*step))
+        self._geometry = self.cameras.look(self._pose, self._points)
         self._update_presence()
 
     def _update_presence(self) -> None:
         """``_at[i]``: the live target robot i is within ``reach_radius`` of (nearest), −1 if none; ``_nearest_live``
         each robot's distance to its nearest live target."""
         live, reach, n_targets = self._live_targets, self.config.reach_radius, self.config.n_targets
-        gaps = self._geometry.distance[:, :n_targets].tolist()  # robots x targets; per robot, scalar from here on
+        gaps = [row[:n_targets] for row in self._geometry.distance]  # robots x targets
         at = None
         if not len(live):
             self._nearest_live[:] = 0.0
@@ -479,10 +483,10 @@ class Foraging(TeamEnv):
             self.grid,
             self.vision,
             self.odometry,
-            self._pose,
+            self._pose.tolist(),
             self._geometry,
-            self._all_targets if self._persist else self._live_targets,
-            self._live_mask(),
+            [True] * self.config.n_targets if self._persist else self.target_live.tolist(),
+            self._live_mask().tolist(),
             self.n_detections,
             self.np_random,
             self._arrays.table[self._copy],
