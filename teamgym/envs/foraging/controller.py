@@ -24,6 +24,7 @@ import numpy as np
 
 __all__ = ["GoToController"]
 
+
 @dataclass(frozen=True)
 class GoToController:
     """Gains and ranges of the go-to controller (SI units); see the module docstring."""

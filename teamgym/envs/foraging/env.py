@@ -258,11 +258,37 @@ class Foraging(TeamEnv):
         if c.observe_novelty:
             fields.append(Field("novelty", self.grid.shape, 0.0, 1.0))
         layout = ObservationLayout(fields)
-        slices = layout.slices
-        head = slice(slices["pose_estimate"].start, slices["localisation_certainty"].stop)
-        self._fields = SimpleNamespace(head=head, **slices)  # where _observe writes each field of a flat row
-        self._pose_low, self._pose_high = np.array([-w, -h]), np.array([2 * w, 2 * h])
+        self._observe_plan = self._make_observe_plan(layout.slices)
         return layout
+
+    def _make_observe_plan(self, slices: dict[str, slice]) -> SimpleNamespace:
+        """Where :meth:`_observe` writes: flat-row columns of the table's detection tuples and polar values (and their
+        columns in a flat table row), then the columns of the scalar fields in the order it lists their values."""
+        d, r, width = self.n_detections, self.n_received, 8  # a table row: TUPLE, POLAR, TARGET_CELL
+        src = [width * (1 + slot) + col for slot in range(d) for col in range(TUPLE.start, TUPLE.stop)]
+        dst = list(range(slices["detections"].start, slices["detections"].stop))
+        src += [width * (1 + slot) + col for slot in range(d) for col in range(POLAR.start, POLAR.stop)]
+        dst += list(range(slices["detection_polar"].start, slices["detection_polar"].stop))
+        head = slices["pose_estimate"].start
+        scalar = [head, head + 1, head + 2, slices["localisation_certainty"].start]
+        scalar += list(range(slices["detection_mask"].start, slices["detection_mask"].stop))
+        scalar.append(slices["at_target"].start)
+        if self.config.task == "consume":
+            scalar.append(slices["consume_progress"].start)
+        scalar += list(range(slices["received_sender"].start, slices["received_sender"].stop))
+        scalar += list(range(slices["received_mask"].start, slices["received_mask"].stop))
+        (w, h) = self.grid_size
+        return SimpleNamespace(
+            table_src=np.array(src, dtype=np.intp),
+            table_dst=np.array(dst, dtype=np.intp),
+            scalar_dst=np.array(scalar, dtype=np.intp),
+            low=(-w, -h),
+            high=(2 * w, 2 * h),
+            received=slices["received"],
+            no_sender=[-1.0] * r,  # received_sender's padding
+            ones=[1.0] * r,
+            zeros=[0.0] * r,
+        )
 
     # -- a new episode ------------------------------------------------------------------------
     def _draw_scene(self, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray] | None:
@@ -532,35 +558,47 @@ class Foraging(TeamEnv):
 
     # -- outputs ------------------------------------------------------------------------------
     def _observe(self, out: np.ndarray) -> None:
-        c, fields = self.config, self._fields
+        """Every live robot's flat row: the table's detections in one gather, the scalar fields in one scatter."""
+        c = self.config
         rows = self._live_rows()
         self._live_mask()
-        table, count, odometry = self._sightings.table, self._sightings.count, self.odometry
-        estimate, certainty, at, timer = odometry.estimate, odometry.certainty, self._at, self._timer
+        sightings, odometry = self._sightings, self.odometry
+        table = sightings.table
+        est, cert, at, timer = odometry.estimate.tolist(), odometry.certainty.tolist(), self._at.tolist(), self._timer.tolist()
+        count = sightings.count.tolist()
         if not self._everyone:
-            table, count, estimate, certainty, at, timer = (
-                table[rows],
-                count[rows],
-                estimate[rows],
-                certainty[rows],
-                at[rows],
-                timer[rows],
-            )
-        head = out[:, fields.head]  # pose_estimate, localisation_certainty
-        head[:, :2] = np.minimum(np.maximum(estimate[:, :2], self._pose_low), self._pose_high)
-        head[:, 2] = estimate[:, 2]
-        head[:, 3] = certainty
+            picked = rows.tolist()
+            est, cert, at, timer, count = ([part[i] for i in picked] for part in (est, cert, at, timer, count))
+            table = table[rows]
         n = len(out)
-        out[:, fields.detections].reshape(n, -1, 4)[:] = table[:, 1:, TUPLE]
-        out[:, fields.detection_polar].reshape(n, -1, 2)[:] = table[:, 1:, POLAR]
-        out[:, fields.detection_mask] = self._slot_index < count[:, None]
-        out[:, fields.at_target] = at[:, None] >= 0
-        if c.task == "consume":
-            out[:, fields.consume_progress] = np.minimum(1.0, timer[:, None] / c.consume_time)
-        out[:, fields.received_sender] = -1
+        plan = self._observe_plan
+        out[:, plan.table_dst] = table.reshape(n, -1)[:, plan.table_src]
+        (low_x, low_y), (high_x, high_y) = plan.low, plan.high
+        slots, consume, room = range(self.n_detections), c.task == "consume", self.n_received
+        payloads, live = self.channel.inbox_payloads, self.live_agents
+        received, values = plan.received, []
+        for row, (agent, (x, y, theta), pl, m, j, time) in enumerate(zip(live, est, cert, count, at, timer)):
+            senders, start = [], 0
+            for sender, payload in payloads(agent, PACKET_KIND):  # the first n_received tuples, as _received gives them
+                k = min(len(payload) // 4, room - start)
+                if k <= 0:
+                    break
+                out[row, received.start + 4 * start : received.start + 4 * (start + k)] = payload[: 4 * k]
+                senders += [sender] * k
+                start += k
+            value = [min(max(x, low_x), high_x), min(max(y, low_y), high_y), theta, pl]
+            value += [1.0 if slot < m else 0.0 for slot in slots]
+            value.append(1.0 if j >= 0 else 0.0)
+            if consume:
+                value.append(min(1.0, time / c.consume_time))
+            value += senders
+            value += plan.no_sender[: room - start]
+            value += plan.ones[:start]
+            value += plan.zeros[: room - start]
+            values.append(value)
+        out[:, plan.scalar_dst] = values
         if c.keeps_world_models:
-            for obs, agent, i in zip(out, self.live_agents, rows.tolist()):
-                self._write_received(obs, self.channel.inbox_payloads(agent, PACKET_KIND))
+            for obs, agent, i in zip(out, live, rows.tolist()):
                 tuples, senders = self._received(agent)
                 model = self.models[agent]
                 m = int(self._sightings.count[i])
@@ -571,26 +609,6 @@ class Foraging(TeamEnv):
                     self.layout.view(obs, "world_model")[:] = model.fused()
                 if c.observe_novelty:
                     self.layout.view(obs, "novelty")[:] = novelty(self.world.time, model.last_seen, c.novelty_time)
-            return
-        payloads = self.channel.inbox_payloads
-        for obs, agent in zip(out, self.live_agents):
-            self._write_received(obs, payloads(agent, PACKET_KIND))
-
-    def _write_received(self, obs: np.ndarray, packets: list[tuple[int, np.ndarray]]) -> None:
-        """The tuples of ``packets`` (sender index, flat payload), in order, into the ``received`` fields of flat row ``obs``
-        (the first ``n_received`` of them, as :meth:`_received` gives them)."""
-        if not packets:
-            return
-        fields, room, start = self._fields, self.n_received, 0
-        received, sender_of = obs[fields.received], obs[fields.received_sender]
-        for sender, payload in packets:
-            k = min(len(payload) // 4, room - start)
-            if k <= 0:
-                break
-            received[4 * start : 4 * (start + k)] = payload[: 4 * k]
-            sender_of[start : start + k] = sender
-            start += k
-        obs[fields.received_mask][:start] = 1
 
     def _sector(self, i: int) -> np.ndarray:
         """Cells robot i sees now by its estimate: the camera's sector minus the shadows of the robots in view."""

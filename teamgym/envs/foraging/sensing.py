@@ -23,7 +23,21 @@ from teamgym.envs.foraging.perception import ROBOT, SENDER, TARGET, Odometry, Vi
 
 assert (TARGET, ROBOT) == (0, 1)  # a detection's class is written as "is a robot"
 
-__all__ = ["NO_CELL", "SEEN_LANDMARK", "SEEN_ROBOT", "SEEN_TARGET", "Cameras", "Geometry", "Sightings", "View", "cells_of", "landmark_fixes", "measure_all", "perceive", "relocalise"]
+__all__ = [
+    "NO_CELL",
+    "SEEN_LANDMARK",
+    "SEEN_ROBOT",
+    "SEEN_TARGET",
+    "Cameras",
+    "Geometry",
+    "Sightings",
+    "View",
+    "cells_of",
+    "landmark_fixes",
+    "measure_all",
+    "perceive",
+    "relocalise",
+]
 
 #: Cell coordinate of the rows of :attr:`Sightings.table` that are not target detections (far from every cell).
 NO_CELL = 1.0e6
