@@ -24,9 +24,6 @@ import numpy as np
 
 __all__ = ["GoToController"]
 
-#: Up to this many robots the controller finds the near pairs one by one, above it in one numpy pass.
-_SCALAR_ROBOTS = 8
-
 
 @dataclass(frozen=True)
 class GoToController:
@@ -50,7 +47,6 @@ class GoToController:
         homing: np.ndarray | None,
         stop: np.ndarray | None,
         field_size: tuple[float, float],
-        heading_trig: tuple[np.ndarray, np.ndarray] | None = None,
         mates: tuple[np.ndarray, np.ndarray] | None = None,
     ) -> np.ndarray:
         """``(v, ω)`` per robot (n, 2).
@@ -58,96 +54,96 @@ class GoToController:
         ``estimate``/``true_pose`` (n, 3); ``aim`` (n, 2): the go-to point in the field frame
         (used through the estimate); ``homing`` (n, 2): measured (distance, bearing) of a target
         to home on, NaN where none (None: no robot homes); ``stop`` (n,) bool (None: none stops);
-        ``heading_trig``: cos and sin of the true headings, if known already; ``mates``: the
-        offsets (n, n, 2) of every robot from every robot and their lengths (n, n), if known
-        already (``true_pose[j] − true_pose[i]``, as the cameras' view computes them).
-
-        The geometry of every robot (go-to distance and bearing) is one numpy pass; the few
-        products and sums per robot that follow are scalar float arithmetic (the same IEEE
-        operations, in the same order, as the array form they replace), and the turn error
-        is one more numpy pass (``np.arctan2``, whose last bit may differ from ``math.atan2`` with
-        numpy's AVX-512 kernels); cosines and sines are ``math.cos``/``math.sin`` (libm, as numpy's).
+        ``mates``: the offsets (n, n, 2) of every robot from every robot and their lengths (n, n),
+        if known already (``true_pose[j] − true_pose[i]``, as the cameras' view computes them).
+        :meth:`command_pairs` on arrays.
         """
-        pairs = self.command_pairs(estimate, true_pose, aim, homing, stop, field_size, heading_trig, mates)
+        if mates is not None:
+            rel, gap = mates
+            mates = (rel[..., 0].tolist(), rel[..., 1].tolist(), gap.tolist())
+        pairs = self.command_pairs(
+            estimate.tolist(),
+            true_pose.tolist(),
+            aim.tolist(),
+            None if homing is None else homing.tolist(),
+            None if stop is None else stop.tolist(),
+            field_size,
+            mates,
+        )
         return np.array(pairs, dtype=float).reshape(len(pairs), 2)
 
     def command_pairs(
         self,
-        estimate: np.ndarray,
-        true_pose: np.ndarray,
-        aim: np.ndarray,
-        homing: np.ndarray | Sequence[tuple[float, float]] | None,
-        stop: np.ndarray | Sequence[bool] | None,
+        estimate: Sequence[Sequence[float]],
+        true_pose: Sequence[Sequence[float]],
+        aim: Sequence[Sequence[float]],
+        homing: Sequence[tuple[float, float]] | None,
+        stop: Sequence[bool] | None,
         field_size: tuple[float, float],
-        heading_trig: tuple[np.ndarray, np.ndarray] | None = None,
-        mates: tuple[np.ndarray, np.ndarray] | None = None,
+        mates: tuple[list[list[float]], list[list[float]], list[list[float]]] | None = None,
     ) -> list[tuple[float, float]]:
-        """:meth:`commands` as a list of ``(v, ω)`` tuples (what the robots' ``set_command`` takes).
+        """:meth:`commands` of rows as lists, as a list of ``(v, ω)`` tuples (what the robots' ``set_command`` takes).
 
-        ``homing`` and ``stop`` may also be sequences (rows ``(distance, bearing)``, NaN where none; flags).
+        ``homing``: rows ``(distance, bearing)``, NaN where none; ``mates``: the teammates' offsets
+        as x and y lists and their distances, ``[i][j]`` (robot j seen from robot i).
+
+        The go-to distances are one numpy ``np.hypot`` over the robots (libm's ``hypot``, which
+        ``math.hypot`` is not); everything else is scalar float arithmetic in the same IEEE
+        operations, in the same order, as the array form (``math.atan2``, ``math.cos`` and
+        ``math.sin`` are libm's, as numpy's float64 ones without AVX-512 kernels).
         """
-        goal = aim - estimate[:, :2]
-        gx, gy = goal[:, 0], goal[:, 1]
-        distance, bearing = np.hypot(gx, gy).tolist(), (np.arctan2(gy, gx) - estimate[:, 2]).tolist()
+        goal_x = [a[0] - e[0] for a, e in zip(aim, estimate)]
+        goal_y = [a[1] - e[1] for a, e in zip(aim, estimate)]
+        distance = np.hypot(goal_x, goal_y).tolist()
+        atan2, cos, sin = math.atan2, math.cos, math.sin
+        bearing = [atan2(gy, gx) - e[2] for gx, gy, e in zip(goal_x, goal_y, estimate)]
         homes = [False] * len(distance)
         if homing is not None:
-            for i, (home_d, home_b) in enumerate(homing.tolist() if isinstance(homing, np.ndarray) else homing):
+            for i, (home_d, home_b) in enumerate(homing):
                 if home_d == home_d:  # not NaN: home on that target's measured distance and bearing
                     distance[i], bearing[i], homes[i] = home_d, home_b, True
-        headings = true_pose[:, 2].tolist()
-        if heading_trig is None:
-            c, s = [math.cos(h) for h in headings], [math.sin(h) for h in headings]
-        else:
-            c, s = heading_trig[0].tolist(), heading_trig[1].tolist()
+        headings = [p[2] for p in true_pose]
+        c, s = [cos(h) for h in headings], [sin(h) for h in headings]
         push_x, push_y = self._pushes(true_pose, field_size, c, s, mates)
-        for i, b in enumerate(bearing):  # the aim's direction plus the push (the push added to it, as one sum)
-            push_x[i] += math.cos(b)
-            push_y[i] += math.sin(b)
-        error = np.arctan2(push_y, push_x).tolist()
         top, gain, speed = self.max_turn_rate, self.turn_gain, self.max_speed
         slow, arrive = self.slow_distance, self.arrive_distance
-        stops = [False] * len(error) if stop is None else stop.tolist() if isinstance(stop, np.ndarray) else list(stop)
+        stops = [False] * len(distance) if stop is None else stop
         out = []
-        for e, d, stopped, home in zip(error, distance, stops, homes):
+        for b, px, py, d, stopped, home in zip(bearing, push_x, push_y, distance, stops, homes):
             if stopped or (d < arrive and not home):
                 out.append((0.0, 0.0))
-            else:
-                out.append((speed * max(0.0, math.cos(e)) * min(1.0, d / slow), min(max(gain * e, -top), top)))
+            else:  # the aim's direction plus the push (the push added to it, as one sum)
+                e = atan2(py + sin(b), px + cos(b))
+                out.append((speed * max(0.0, cos(e)) * min(1.0, d / slow), min(max(gain * e, -top), top)))
         return out
 
     def _pushes(
         self,
-        pose: np.ndarray,
+        pose: Sequence[Sequence[float]],
         field_size: tuple[float, float],
         c: list[float],
         s: list[float],
-        mates: tuple[np.ndarray, np.ndarray] | None,
+        mates: tuple[list[list[float]], list[list[float]], list[list[float]]] | None,
     ) -> tuple[list[float], list[float]]:
         """Egocentric push (x and y lists over robots) away from near robots and walls; ``c``, ``s``: heading cos, sin."""
         n = len(pose)
-        xy = pose[:, :2].tolist()
         push_x, push_y = [0.0] * n, [0.0] * n
         if n > 1:
             if mates is None:
-                rel = pose[None, :, :2] - pose[:, None, :2]  # j relative to i
-                gap = np.hypot(rel[..., 0], rel[..., 1])
+                rel = np.array([p[:2] for p in pose], dtype=float)
+                rel = rel[None, :, :] - rel[:, None, :]  # j relative to i
+                rel_x, rel_y, gap = rel[..., 0].tolist(), rel[..., 1].tolist(), np.hypot(rel[..., 0], rel[..., 1]).tolist()
             else:
-                rel, gap = mates
-            if n <= _SCALAR_ROBOTS:  # few robots: the pairs one by one
-                pairs = [
-                    (i, j) for i, row in enumerate(gap.tolist()) for j, g in enumerate(row) if g < self.avoid_range and i != j
-                ]
-            else:
-                near = gap < self.avoid_range
-                near.flat[:: n + 1] = False
-                pairs = list(zip(*(a.tolist() for a in np.nonzero(near))))
+                rel_x, rel_y, gap = mates
+            avoid = self.avoid_range
+            pairs = [(i, j) for i, row in enumerate(gap) for j, g in enumerate(row) if g < avoid and i != j]
             if pairs:
                 # Σ_j strength_ij · unit_ij over the near robots j, in index order (the others add zeros).
-                scale, gain = self.avoid_range - 2 * self.robot_radius + 1e-9, self.avoid_gain
+                scale, gain = avoid - 2 * self.robot_radius + 1e-9, self.avoid_gain
                 world: dict[int, tuple[float, float]] = {}
                 for i, j in pairs:
-                    (dx, dy), g = rel[i, j].tolist(), float(gap[i, j])
-                    strength, length = (self.avoid_range - g) / scale, max(g, 1e-9)
+                    dx, dy, g = rel_x[i][j], rel_y[i][j], gap[i][j]
+                    strength, length = (avoid - g) / scale, max(g, 1e-9)
                     term = (strength * (dx / length), strength * (dy / length))
                     world[i] = (world[i][0] + term[0], world[i][1] + term[1]) if i in world else term
                 for i, (wx, wy) in world.items():
@@ -157,7 +153,8 @@ class GoToController:
         # Clearance to the walls x = 0, y = 0 and x = width, y = height, each pushing away.
         width, height = field_size
         radius, reach, gain = self.robot_radius, self.wall_range, self.avoid_gain
-        for i, (x, y) in enumerate(xy):
+        for i, p in enumerate(pose):
+            x, y = p[0], p[1]
             wx = max((reach - (x - radius)) / reach, 0.0) * gain - max((reach - (width - x - radius)) / reach, 0.0) * gain
             wy = max((reach - (y - radius)) / reach, 0.0) * gain - max((reach - (height - y - radius)) / reach, 0.0) * gain
             push_x[i] += wx * c[i] + wy * s[i]

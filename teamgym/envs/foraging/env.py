@@ -133,6 +133,7 @@ class Foraging(TeamEnv):
         self._cell_xy = self.grid.cell_at(np.arange(self.grid.n_cells))  # go-to cell -> (gx, gy)
         self._cell_centre = self.grid.centre_of(self._cell_xy)  # go-to cell -> its centre (m)
         self._cell_of_index = [tuple(cell) for cell in self._cell_xy.tolist()]
+        self._cell_centres = [tuple(centre) for centre in self._cell_centre.tolist()]
         self._packet_sizes = [packet_bytes(m, self.grid) for m in range(self.n_detections + 1)]
         self._slot_index = np.arange(self.n_detections)
         self._live_mask_rows: np.ndarray | None = None
@@ -257,11 +258,37 @@ class Foraging(TeamEnv):
         if c.observe_novelty:
             fields.append(Field("novelty", self.grid.shape, 0.0, 1.0))
         layout = ObservationLayout(fields)
-        slices = layout.slices
-        head = slice(slices["pose_estimate"].start, slices["localisation_certainty"].stop)
-        self._fields = SimpleNamespace(head=head, **slices)  # where _observe writes each field of a flat row
-        self._pose_low, self._pose_high = np.array([-w, -h]), np.array([2 * w, 2 * h])
+        self._observe_plan = self._make_observe_plan(layout.slices)
         return layout
+
+    def _make_observe_plan(self, slices: dict[str, slice]) -> SimpleNamespace:
+        """Where :meth:`_observe` writes: flat-row columns of the table's detection tuples and polar values (and their
+        columns in a flat table row), then the columns of the scalar fields in the order it lists their values."""
+        d, r, width = self.n_detections, self.n_received, 8  # a table row: TUPLE, POLAR, TARGET_CELL
+        src = [width * (1 + slot) + col for slot in range(d) for col in range(TUPLE.start, TUPLE.stop)]
+        dst = list(range(slices["detections"].start, slices["detections"].stop))
+        src += [width * (1 + slot) + col for slot in range(d) for col in range(POLAR.start, POLAR.stop)]
+        dst += list(range(slices["detection_polar"].start, slices["detection_polar"].stop))
+        head = slices["pose_estimate"].start
+        scalar = [head, head + 1, head + 2, slices["localisation_certainty"].start]
+        scalar += list(range(slices["detection_mask"].start, slices["detection_mask"].stop))
+        scalar.append(slices["at_target"].start)
+        if self.config.task == "consume":
+            scalar.append(slices["consume_progress"].start)
+        scalar += list(range(slices["received_sender"].start, slices["received_sender"].stop))
+        scalar += list(range(slices["received_mask"].start, slices["received_mask"].stop))
+        (w, h) = self.grid_size
+        return SimpleNamespace(
+            table_src=np.array(src, dtype=np.intp),
+            table_dst=np.array(dst, dtype=np.intp),
+            scalar_dst=np.array(scalar, dtype=np.intp),
+            low=(-w, -h),
+            high=(2 * w, 2 * h),
+            received=slices["received"],
+            no_sender=[-1.0] * r,  # received_sender's padding
+            ones=[1.0] * r,
+            zeros=[0.0] * r,
+        )
 
     # -- a new episode ------------------------------------------------------------------------
     def _draw_scene(self, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray] | None:
@@ -314,7 +341,7 @@ class Foraging(TeamEnv):
         self.odometry = Odometry(self._pose, c.rotational_certainty, c.odometry_rotation_noise, c.odometry_distance_noise)
         self._bind_odometry()
         self._points = self.cameras.points(self.targets)
-        self._geometry = self.cameras.view(self._pose, self._points)
+        self._geometry = self.cameras.look(self._pose, self._points)
         self._update_presence()
         self._nearest[:] = self._nearest_live
         self.models = {}
@@ -332,10 +359,12 @@ class Foraging(TeamEnv):
 
     # -- step phases --------------------------------------------------------------------------
     def _read_pose(self) -> np.ndarray:
-        states = self.world.robot_states
-        pose = states[:, :3].copy()
-        pose[:, 2] = (pose[:, 2] + math.pi) % (2 * math.pi) - math.pi
-        return pose
+        return np.array(self._read_pose_rows(), dtype=float).reshape(-1, 3)
+
+    def _read_pose_rows(self) -> list[tuple[float, float, float]]:
+        """The robots' true poses from the world's last read, θ wrapped to [−π, π) (scalar, the same bits as numpy's)."""
+        pi, two_pi = math.pi, 2 * math.pi
+        return [(x, y, (a + pi) % two_pi - pi) for x, y, a in self.world.robot_states[:, :3].tolist()]
 
     def _rows_of(self, agents: list[str]) -> tuple[np.ndarray, bool]:
         """Rows (``possible_agents`` order) of ``agents`` and whether they are every robot in order."""
@@ -361,10 +390,15 @@ class Foraging(TeamEnv):
         rows, everyone = self._rows_of(agents)
         index = list(cells.values())
         goals = [self._cell_of_index[i] for i in index]  # (gx, gy) of each go-to cell
-        pose, estimate, at, timer = self._pose, self.odometry.estimate, self._at, self._timer
+        pose, estimate, at, timer = self._pose.tolist(), self.odometry.estimate.tolist(), self._at.tolist(), self._timer.tolist()
         table = self._sightings.table
+        t, geometry = self.config.n_targets, self._geometry
+        mate_d, mate_x, mate_y = ([row[t : t + len(pose)] for row in part] for part in geometry[:3])  # teammates, as seen
         if not everyone:
-            pose, estimate, at, timer, table = pose[rows], estimate[rows], at[rows], timer[rows], table[rows]
+            picked = rows.tolist()
+            pose, estimate, at, timer = ([part[i] for i in picked] for part in (pose, estimate, at, timer))
+            mate_x, mate_y, mate_d = ([[part[i][j] for j in picked] for i in picked] for part in (mate_x, mate_y, mate_d))
+            table = table[rows]
         # Homing: the detected target nearest (in cells) to the go-to cell, if within one cell of it; its
         # measured distance and bearing as the table holds them (float32).
         homing = None
@@ -382,32 +416,28 @@ class Foraging(TeamEnv):
         stop = None
         held = self._persist and self.config.task == "consume"  # a robot whose own operation there is done is not held
         done = self.config.consume_time - 1e-9
-        present = [j >= 0 and not (held and time >= done) for j, time in zip(at.tolist(), timer.tolist())]
+        present = [j >= 0 and not (held and time >= done) for j, time in zip(at, timer)]
         if any(present):  # (the own cell of the last packet is the estimated cell now)
             own = table[:, 0, 1:3].tolist()
             stop = [p and max(abs(x - gx), abs(y - gy)) <= 1 for p, (x, y), (gx, gy) in zip(present, own, goals)]
-        t, n = len(self.targets), self.config.n_robots
-        rel, gap = self._geometry.rel[:, t : t + n], self._geometry.distance[:, t : t + n]  # teammates, as the cameras see them
-        if not everyone:
-            rel, gap = rel[np.ix_(rows, rows)], gap[np.ix_(rows, rows)]
-        aim = self._cell_centre[index]
-        commands = self.controller.command_pairs(estimate, pose, aim, homing, stop, self.grid_size, mates=(rel, gap))
+        aim = [self._cell_centres[i] for i in index]
+        commands = self.controller.command_pairs(estimate, pose, aim, homing, stop, self.grid_size, (mate_x, mate_y, mate_d))
         return dict(zip(agents, commands))
 
     def _update_state(self) -> None:
         """State phase: true poses, odometry, distance travelled, who is at which target."""
-        before = self._pose.copy()
-        self._pose[:] = self._read_pose()
-        step = self.odometry.advance(before, self._pose, self.np_random)
-        self._travelled += np.hypot(step[:, 0], step[:, 1])
-        self._geometry = self.cameras.view(self._pose, self._points)
+        before, after = self._pose.tolist(), self._read_pose_rows()
+        self._pose[:] = after
+        step = self.odometry.advance_rows(before, after, self.np_random)
+        self._travelled += np.hypot(*zip(*step))
+        self._geometry = self.cameras.look(self._pose, self._points)
         self._update_presence()
 
     def _update_presence(self) -> None:
         """``_at[i]``: the live target robot i is within ``reach_radius`` of (nearest), −1 if none; ``_nearest_live``
         each robot's distance to its nearest live target."""
         live, reach, n_targets = self._live_targets, self.config.reach_radius, self.config.n_targets
-        gaps = self._geometry.distance[:, :n_targets].tolist()  # robots x targets; per robot, scalar from here on
+        gaps = [row[:n_targets] for row in self._geometry.distance]  # robots x targets
         at = None
         if not len(live):
             self._nearest_live[:] = 0.0
@@ -479,10 +509,10 @@ class Foraging(TeamEnv):
             self.grid,
             self.vision,
             self.odometry,
-            self._pose,
+            self._pose.tolist(),
             self._geometry,
-            self._all_targets if self._persist else self._live_targets,
-            self._live_mask(),
+            [True] * self.config.n_targets if self._persist else self.target_live.tolist(),
+            self._live_mask().tolist(),
             self.n_detections,
             self.np_random,
             self._arrays.table[self._copy],
@@ -528,35 +558,47 @@ class Foraging(TeamEnv):
 
     # -- outputs ------------------------------------------------------------------------------
     def _observe(self, out: np.ndarray) -> None:
-        c, fields = self.config, self._fields
+        """Every live robot's flat row: the table's detections in one gather, the scalar fields in one scatter."""
+        c = self.config
         rows = self._live_rows()
         self._live_mask()
-        table, count, odometry = self._sightings.table, self._sightings.count, self.odometry
-        estimate, certainty, at, timer = odometry.estimate, odometry.certainty, self._at, self._timer
+        sightings, odometry = self._sightings, self.odometry
+        table = sightings.table
+        est, cert, at, timer = odometry.estimate.tolist(), odometry.certainty.tolist(), self._at.tolist(), self._timer.tolist()
+        count = sightings.count.tolist()
         if not self._everyone:
-            table, count, estimate, certainty, at, timer = (
-                table[rows],
-                count[rows],
-                estimate[rows],
-                certainty[rows],
-                at[rows],
-                timer[rows],
-            )
-        head = out[:, fields.head]  # pose_estimate, localisation_certainty
-        head[:, :2] = np.minimum(np.maximum(estimate[:, :2], self._pose_low), self._pose_high)
-        head[:, 2] = estimate[:, 2]
-        head[:, 3] = certainty
+            picked = rows.tolist()
+            est, cert, at, timer, count = ([part[i] for i in picked] for part in (est, cert, at, timer, count))
+            table = table[rows]
         n = len(out)
-        out[:, fields.detections].reshape(n, -1, 4)[:] = table[:, 1:, TUPLE]
-        out[:, fields.detection_polar].reshape(n, -1, 2)[:] = table[:, 1:, POLAR]
-        out[:, fields.detection_mask] = self._slot_index < count[:, None]
-        out[:, fields.at_target] = at[:, None] >= 0
-        if c.task == "consume":
-            out[:, fields.consume_progress] = np.minimum(1.0, timer[:, None] / c.consume_time)
-        out[:, fields.received_sender] = -1
+        plan = self._observe_plan
+        out[:, plan.table_dst] = table.reshape(n, -1)[:, plan.table_src]
+        (low_x, low_y), (high_x, high_y) = plan.low, plan.high
+        slots, consume, room = range(self.n_detections), c.task == "consume", self.n_received
+        payloads, live = self.channel.inbox_payloads, self.live_agents
+        received, values = plan.received, []
+        for row, (agent, (x, y, theta), pl, m, j, time) in enumerate(zip(live, est, cert, count, at, timer)):
+            senders, start = [], 0
+            for sender, payload in payloads(agent, PACKET_KIND):  # the first n_received tuples, as _received gives them
+                k = min(len(payload) // 4, room - start)
+                if k <= 0:
+                    break
+                out[row, received.start + 4 * start : received.start + 4 * (start + k)] = payload[: 4 * k]
+                senders += [sender] * k
+                start += k
+            value = [min(max(x, low_x), high_x), min(max(y, low_y), high_y), theta, pl]
+            value += [1.0 if slot < m else 0.0 for slot in slots]
+            value.append(1.0 if j >= 0 else 0.0)
+            if consume:
+                value.append(min(1.0, time / c.consume_time))
+            value += senders
+            value += plan.no_sender[: room - start]
+            value += plan.ones[:start]
+            value += plan.zeros[: room - start]
+            values.append(value)
+        out[:, plan.scalar_dst] = values
         if c.keeps_world_models:
-            for obs, agent, i in zip(out, self.live_agents, rows.tolist()):
-                self._write_received(obs, self.channel.inbox_payloads(agent, PACKET_KIND))
+            for obs, agent, i in zip(out, live, rows.tolist()):
                 tuples, senders = self._received(agent)
                 model = self.models[agent]
                 m = int(self._sightings.count[i])
@@ -567,26 +609,6 @@ class Foraging(TeamEnv):
                     self.layout.view(obs, "world_model")[:] = model.fused()
                 if c.observe_novelty:
                     self.layout.view(obs, "novelty")[:] = novelty(self.world.time, model.last_seen, c.novelty_time)
-            return
-        payloads = self.channel.inbox_payloads
-        for obs, agent in zip(out, self.live_agents):
-            self._write_received(obs, payloads(agent, PACKET_KIND))
-
-    def _write_received(self, obs: np.ndarray, packets: list[tuple[int, np.ndarray]]) -> None:
-        """The tuples of ``packets`` (sender index, flat payload), in order, into the ``received`` fields of flat row ``obs``
-        (the first ``n_received`` of them, as :meth:`_received` gives them)."""
-        if not packets:
-            return
-        fields, room, start = self._fields, self.n_received, 0
-        received, sender_of = obs[fields.received], obs[fields.received_sender]
-        for sender, payload in packets:
-            k = min(len(payload) // 4, room - start)
-            if k <= 0:
-                break
-            received[4 * start : 4 * (start + k)] = payload[: 4 * k]
-            sender_of[start : start + k] = sender
-            start += k
-        obs[fields.received_mask][:start] = 1
 
     def _sector(self, i: int) -> np.ndarray:
         """Cells robot i sees now by its estimate: the camera's sector minus the shadows of the robots in view."""

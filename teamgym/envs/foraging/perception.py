@@ -244,28 +244,41 @@ class Odometry:
     ) -> np.ndarray:
         """Integrate one control step of the motion ``before`` → ``after`` (rows x, y, θ); returns the displacements (n, 2).
 
-        Per robot in scalar float arithmetic (the same IEEE operations, in the same order, as the
-        array form; ``math.cos``/``math.sin`` are libm's, as numpy's float64 ones), the certainty
-        factor ``Pe^{|Δθ|}`` as one numpy power over the robots (eq. 2).
+        :meth:`advance_rows` on arrays.
         """
-        step = after[:, :2] - before[:, :2]
-        est = self.estimate
+        return np.array(self.advance_rows(before.tolist(), after.tolist(), rng), dtype=float).reshape(len(before), 2)
+
+    def advance_rows(
+        self,
+        before: list[list[float]],
+        after: list[list[float]],
+        rng: np.random.Generator,
+    ) -> list[tuple[float, float]]:
+        """:meth:`advance` of pose rows as lists; returns the displacements ``(dx, dy)`` per robot.
+
+        Per robot in scalar float arithmetic (the same IEEE operations, in the same order, as the
+        array form; ``math.cos``/``math.sin`` and ``**`` are libm's, as numpy's float64 ones),
+        the certainty factor ``Pe^{|Δθ|}`` per robot (eq. 2).
+        """
         turn_noise, length_noise = rng.standard_normal((2, len(before))).tolist()
         two_pi, pi, distance_noise, rotation_noise = 2 * math.pi, math.pi, self.distance_noise, self.rotation_noise
-        sizes, estimate = [], []
-        rows = zip(before[:, 2].tolist(), after[:, 2].tolist(), step.tolist(), est.tolist(), turn_noise, length_noise)
-        for th0, th1, (dx, dy), (ex, ey, eth), turn_noise_i, length_noise_i in rows:
-            c, s, ce, se = math.cos(th0), math.sin(th0), math.cos(eth), math.sin(eth)
+        pe, cos, sin = self.pe, math.cos, math.sin
+        steps, estimate, certainty = [], [], []
+        rows = zip(before, after, self.estimate.tolist(), self.certainty.tolist(), turn_noise, length_noise)
+        for (x0, y0, th0), (x1, y1, th1), (ex, ey, eth), pl, turn_noise_i, length_noise_i in rows:
+            dx, dy = x1 - x0, y1 - y0
+            c, s, ce, se = cos(th0), sin(th0), cos(eth), sin(eth)
             turn = (th1 - th0 + pi) % two_pi - pi
             forward, lateral = dx * c + dy * s, dy * c - dx * s  # the motion in the robot's frame at the start
             scale = distance_noise * length_noise_i * (1.0 if forward != 0.0 or lateral != 0.0 else 0.0) + 1.0
             size = abs(turn)
             heading = (eth + turn + rotation_noise * size * turn_noise_i + pi) % two_pi - pi
             estimate.append((ex + (forward * ce - lateral * se) * scale, ey + (lateral * ce + forward * se) * scale, heading))
-            sizes.append(size)
-        est[:] = estimate
-        self.certainty *= self.pe ** np.array(sizes)
-        return step
+            certainty.append(pl * pe**size)
+            steps.append((dx, dy))
+        self.estimate[:] = estimate
+        self.certainty[:] = certainty
+        return steps
 
     def relocalise(self, robot: int, true_pose: np.ndarray, pv: float, error: tuple[float, float, float]) -> None:
         """A landmark sighting: the estimate becomes the truth plus ``error`` (dx, dy, dθ) and Pl = Pv."""

@@ -23,7 +23,21 @@ from teamgym.envs.foraging.perception import ROBOT, SENDER, TARGET, Odometry, Vi
 
 assert (TARGET, ROBOT) == (0, 1)  # a detection's class is written as "is a robot"
 
-__all__ = ["NO_CELL", "Cameras", "Sightings", "View", "cells_of", "landmark_fixes", "measure_all", "perceive", "relocalise"]
+__all__ = [
+    "NO_CELL",
+    "SEEN_LANDMARK",
+    "SEEN_ROBOT",
+    "SEEN_TARGET",
+    "Cameras",
+    "Geometry",
+    "Sightings",
+    "View",
+    "cells_of",
+    "landmark_fixes",
+    "measure_all",
+    "perceive",
+    "relocalise",
+]
 
 #: Cell coordinate of the rows of :attr:`Sightings.table` that are not target detections (far from every cell).
 NO_CELL = 1.0e6
@@ -73,6 +87,26 @@ class View(NamedTuple):
     in_sector: np.ndarray  #: (n, P) bool: within the camera's range and opening
 
 
+class Geometry(NamedTuple):
+    """:class:`View`'s offsets and distances as lists (per robot, per point ``[targets, robots, landmarks]``).
+
+    What the env keeps between phases (:meth:`Cameras.look`): the state phase reads the target
+    distances, the go-to controller the teammates' offsets, the sensing phase all of them;
+    bearings are computed only for the points within the camera's range (:meth:`Cameras.sight`).
+    """
+
+    distance: list[list[float]]  #: (n, P) m
+    rel_x: list[list[float]]  #: (n, P) x offsets (m)
+    rel_y: list[list[float]]  #: (n, P) y offsets (m)
+    n_targets: int  #: T: the target columns come first
+
+
+#: A sighting of :meth:`Cameras.sight`: robot row, kind (:data:`SEEN_TARGET`, :data:`SEEN_ROBOT`,
+#: :data:`SEEN_LANDMARK`), true distance (m) and bearing (rad).
+Sighting = tuple[int, int, float, float]
+SEEN_TARGET, SEEN_ROBOT, SEEN_LANDMARK = 0, 1, 2
+
+
 def cells_of(grid: GridSpec, xy: np.ndarray) -> np.ndarray:
     """:meth:`GridSpec.cell_of` as floats (the same cells): ``(..., 2)`` positions to ``(gx, gy)``."""
     cells = xy / grid.cell_size
@@ -106,6 +140,42 @@ class Cameras:
         t = len(points) - self.n - len(self.landmarks)
         points[t : t + self.n] = pose[:, :2]
         return View(*in_view(pose, points, self.camera_range, self.camera_fov))
+
+    def look(self, pose: np.ndarray, points: np.ndarray) -> Geometry:
+        """:meth:`view` without bearings and sectors, as lists: the offsets and distances (one numpy pass, the same bits)."""
+        t = len(points) - self.n - len(self.landmarks)
+        points[t : t + self.n] = pose[:, :2]
+        rel = points[None, :, :] - pose[:, None, :2]
+        rel_x, rel_y = rel[..., 0], rel[..., 1]
+        return Geometry(np.hypot(rel_x, rel_y).tolist(), rel_x.tolist(), rel_y.tolist(), t)
+
+    def sight(self, pose: list[list[float]], geometry: Geometry, visible: list[bool]) -> list[Sighting]:
+        """What every camera sees, row-major (per robot, by point ``[targets, robots, landmarks]``): :meth:`sightings`
+        in scalar float arithmetic (the same IEEE operations: ``math.atan2`` is libm's, as numpy's) from :meth:`look`.
+
+        ``pose``: true ``(x, y, θ)`` per robot; ``visible[j]``: whether target j can be seen (live, or ``persist``).
+        Bearings are computed only for the points within range; occlusion by teammates as :meth:`_unoccluded`.
+        """
+        reach, half, t, n = self.camera_range, 0.5 * self.camera_fov, geometry.n_targets, self.n
+        pi, two_pi, atan2 = math.pi, 2 * math.pi, math.atan2
+        found: list[Sighting] = []
+        offsets: list[tuple[float, float]] = []
+        for i, (drow, xrow, yrow) in enumerate(zip(geometry.distance, geometry.rel_x, geometry.rel_y)):
+            theta, me = pose[i][2], t + i
+            for j, d in enumerate(drow):
+                if d <= reach and j != me and (j >= t or visible[j]):
+                    b = (atan2(yrow[j], xrow[j]) - theta + pi) % two_pi - pi
+                    if abs(b) <= half:
+                        found.append((i, SEEN_TARGET if j < t else SEEN_ROBOT if j < t + n else SEEN_LANDMARK, d, b))
+                        offsets.append((xrow[j], yrow[j], j))
+        if n > 1 and found:
+            clear = self.clear_distance
+            if any(g < clear for i, drow in enumerate(geometry.distance) for k, g in enumerate(drow[t : t + n]) if k != i):
+                xy = [(x, y) for x, y, _ in pose]
+                rows, cols, lengths = [f[0] for f in found], [o[2] for o in offsets], [f[2] for f in found]
+                keep = self._unoccluded_xy(xy, [o[:2] for o in offsets], rows, cols, lengths, t)
+                found = [f for f, kept in zip(found, keep) if kept]
+        return found
 
     def _masks_for(self, live: tuple[int, ...], n_targets: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """For the ``live`` targets: columns of a :class:`View` to keep, (n, P) points a robot may see
@@ -175,7 +245,18 @@ class Cameras:
     ) -> list[bool]:
         """:func:`~teamgym.envs.foraging.perception.occluded` for the few sightings ``(rows[k], cols[k])``, one by one
         (the same float operations): whether no teammate hides each (``t``: the robots' first column)."""
-        xy = pose[:, :2].tolist()
+        return self._unoccluded_xy(pose[:, :2].tolist(), offsets, rows, cols, lengths, t)
+
+    def _unoccluded_xy(
+        self,
+        xy: list[tuple[float, float]],
+        offsets: list[tuple[float, float]],
+        rows: list[int],
+        cols: list[int],
+        lengths: list[float],
+        t: int,
+    ) -> list[bool]:
+        """:meth:`_unoccluded` with the robots' positions ``xy`` as a list."""
         radius = self.radius
         reach = radius**2
         keep = []
@@ -233,7 +314,7 @@ def landmark_fixes(
 
 def relocalise(
     odometry: Odometry,
-    pose: np.ndarray,
+    pose: np.ndarray | list[list[float]],
     fixes: list[tuple[int, float, float, float]],
     measured_d: list[float],
     measured_b: list[float],
@@ -245,7 +326,7 @@ def relocalise(
     """
     estimate, certainty, pi, two_pi = odometry.estimate, odometry.certainty, math.pi, 2 * math.pi
     for (i, true_d, true_b, pv), m_d, m_b in zip(fixes, measured_d, measured_b):
-        x, y, theta = pose[i].tolist()
+        x, y, theta = (float(v) for v in pose[i])
         ray, measured_ray = theta + true_b, theta + m_b
         estimate[i] = (
             x + (true_d * math.cos(ray) - m_d * math.cos(measured_ray)),
@@ -288,34 +369,35 @@ def perceive(
     grid: GridSpec,
     vision: VisionModel,
     odometry: Odometry,
-    pose: np.ndarray,
-    view: View,
-    live_targets: np.ndarray,
-    live: np.ndarray,
+    pose: list[list[float]],
+    geometry: Geometry,
+    visible: list[bool],
+    live: list[bool],
     n_slots: int,
     rng: np.random.Generator,
     out: np.ndarray | None = None,
 ) -> Sightings:
     """One sensing phase: the sightings of every robot (see the module docstring).
 
-    ``view``: :meth:`Cameras.view` at ``pose``; ``live_targets``: indices of the live targets;
-    ``live`` (n,) bool: robots in the episode (only they re-localise). Random draws, in order:
-    the measurement errors of every target and teammate sighting (row-major: per robot,
-    targets before robots), then the re-localisations' (:func:`measure_all`). A tuple's
-    position and Pc use the odometry after the re-localisation. ``out``: the table to write
-    (n, 1 + ``n_slots``, 8) float32, a new one if None.
+    ``pose``: the true poses (rows ``x, y, θ``); ``geometry``: :meth:`Cameras.look` at them;
+    ``visible[j]``: whether target j can be seen; ``live[i]``: robot i is in the episode (only
+    they re-localise). Random draws, in order: the measurement errors of every target and
+    teammate sighting (row-major: per robot, targets before robots), then the
+    re-localisations' (:func:`measure_all`). A tuple's position and Pc use the odometry after
+    the re-localisation. ``out``: the table to write (n, 1 + ``n_slots``, 8) float32, a new one if None.
 
-    Visibility is one numpy pass over every robot and point; the few sightings that follow are
-    handled one by one in scalar float arithmetic (the same IEEE operations as an array form).
+    Distances are one numpy pass over every robot and point (:meth:`Cameras.look`); the few
+    sightings that follow are handled one by one in scalar float arithmetic (the same IEEE
+    operations as an array form).
     """
-    n, t = len(pose), len(live_targets)
-    seen = cameras.sightings(pose, view, live_targets)
-    objects = [s for s in zip(*seen) if s[1] < t + n]  # row-major: per robot, targets before robots
-    rows_list, cols_list, sighted_d, sighted_b = (list(values) for values in zip(*objects)) if objects else ([], [], [], [])
+    n = len(pose)
+    seen = cameras.sight(pose, geometry, visible)
+    objects = [s for s in seen if s[1] != SEEN_LANDMARK]  # row-major: per robot, targets before robots
     pv_of = vision.pv_of
+    sighted_d, sighted_b = [s[2] for s in objects], [s[3] for s in objects]
     sighted_pv = [pv_of(d, b) for d, b in zip(sighted_d, sighted_b)]
-    landmarks = [s for s in zip(*seen) if s[1] >= t + n]
-    fixes = landmark_fixes(odometry.certainty.tolist(), landmarks, pv_of, live.tolist()) if landmarks else []
+    landmarks = [s for s in seen if s[1] == SEEN_LANDMARK]
+    fixes = landmark_fixes(odometry.certainty.tolist(), landmarks, pv_of, live) if landmarks else []
     (measured_d, measured_b), fixed = measure_all(vision, (sighted_d, sighted_b, sighted_pv), fixes, rng)
     if fixes:
         relocalise(odometry, pose, fixes, *fixed)
@@ -323,18 +405,17 @@ def perceive(
     size, (top_x, top_y) = grid.cell_size, (grid.nx - 1, grid.ny - 1)
     table = cameras.blank(n_slots, out)
     table[:, 0, :4] = [(SENDER, _cell(x, size, top_x), _cell(y, size, top_y), pl) for (x, y, _), pl in zip(est, certainty)]
-    count = np.bincount(rows_list, minlength=n)
+    count = [0] * n
     any_target = False
-    if rows_list:
-        slot, previous = 0, -1
-        for i, j, d, b, pv in zip(rows_list, cols_list, measured_d, measured_b, sighted_pv):
-            slot = slot + 1 if i == previous else 1
-            previous = i
+    if objects:
+        cos, sin = math.cos, math.sin
+        for (i, kind, _, _), d, b, pv in zip(objects, measured_d, measured_b, sighted_pv):
+            count[i] += 1
             x, y, theta = est[i]
             heading = theta + b
-            gx, gy = _cell(math.cos(heading) * d + x, size, top_x), _cell(math.sin(heading) * d + y, size, top_y)
-            robot = j >= t
+            gx, gy = _cell(cos(heading) * d + x, size, top_x), _cell(sin(heading) * d + y, size, top_y)
+            robot = kind == SEEN_ROBOT
             cell = (NO_CELL, NO_CELL) if robot else (gx, gy)
-            table[i, slot] = (float(robot), gx, gy, pv * certainty[i], d, b, *cell)  # the class: TARGET 0, ROBOT 1
+            table[i, count[i]] = (float(robot), gx, gy, pv * certainty[i], d, b, *cell)  # the class: TARGET 0, ROBOT 1
             any_target = any_target or not robot
     return Sightings(table, count, any_target)
