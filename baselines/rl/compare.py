@@ -358,9 +358,9 @@ def single_thread_torch() -> None:
     """Run torch on one thread, as ``baselines.evaluate``'s CLI does, for the CLIs that play episodes in-process.
 
     An SB3 policy predicts one robot's tiny batch per call; with torch's default thread count on a
-    machine whose other cores are busy, each small matrix product waits for a second thread (measured:
-    Navigation, 3 episodes of a 128x128 MLP, 34.7 CPU-s with 2 threads against 5.3 with 1, on 2 shared
-    cores). Results do not depend on it; worker processes already run single-threaded.
+    machine whose other cores are busy, each small matrix product waits for a second thread (measured
+    with ``python -m baselines.rl.seeds`` on Navigation, 128x128 MLPs, 2 shared cores: 7.1 CPU-s per
+    episode with 2 threads, at most 0.7 with 1). Worker processes already run single-threaded.
     """
     try:
         import torch

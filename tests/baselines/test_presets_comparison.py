@@ -28,7 +28,7 @@ _NAV = [
 ]  # fmt: skip
 _BOX = [
     "--env", "BoxPushing-v0", "--set", "situation=S3", "--set", "action_type=primitives", "--set", "max_cycles=2000",
-    "--n-envs", "8", "--timesteps", "204800", "--hp", "n_steps=256", "--hp", "batch_size=2048", "--hp", "n_epochs=5",
+    "--n-envs", "8", "--timesteps", "98304", "--hp", "n_steps=256", "--hp", "batch_size=2048", "--hp", "n_epochs=5",
     "--hp", "gamma=0.995", "--hp", "gae_lambda=0.95", "--hp", "learning_rate=3e-4", "--hp", "clip_range=0.2",
     "--hp", "ent_coef=0.01",
 ]  # fmt: skip
