@@ -51,7 +51,7 @@ import numpy as np
 from baselines.episode import EpisodeResult
 from baselines.stats import mean_ci, wilson
 
-__all__ = ["SCRIPTED", "agent_policy", "compare", "episode_values", "main", "row_of"]
+__all__ = ["SCRIPTED", "agent_policy", "compare", "episode_values", "main", "row_of", "single_thread_torch"]
 
 #: Per env: the paper's baseline first, then the simple ones and random (label, policy name).
 SCRIPTED: dict[str, list[tuple[str, str]]] = {
@@ -354,6 +354,21 @@ def _curve(agent: str, rows: Sequence[Mapping[str, Any]], out: Path, metric: str
     return plot_curves(curves, out / "curve.png", metric, lines, title=f"{agent}: {metric} on held-out seeds while training")
 
 
+def single_thread_torch() -> None:
+    """Run torch on one thread, as ``baselines.evaluate``'s CLI does, for the CLIs that play episodes in-process.
+
+    An SB3 policy predicts one robot's tiny batch per call; with torch's default thread count on a
+    machine whose other cores are busy, each small matrix product waits for a second thread (measured
+    with ``python -m baselines.rl.seeds`` on Navigation, 128x128 MLPs, 2 shared cores: 7.1 CPU-s per
+    episode with 2 threads, at most 0.7 with 1). Worker processes already run single-threaded.
+    """
+    try:
+        import torch
+    except ImportError:  # scripted policies only
+        return
+    torch.set_num_threads(1)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the comparison CLI: exit 2 with one line for bad arguments (``--out`` included) before any
     episode, 1 for a failure while playing."""
@@ -381,6 +396,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (ValueError, KeyError, FileNotFoundError) as error:
         print(f"error: {message(error)}", file=sys.stderr)
         return 2
+    single_thread_torch()
     return guarded(lambda: _report(args, compare(args.env, args.agent, args.episodes, args.seed, args.workers, task)))
 
 

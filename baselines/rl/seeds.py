@@ -400,6 +400,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
 
     def body() -> int:
+        from baselines.rl.compare import single_thread_torch
+
+        single_thread_torch()
         record = evaluate_seeds(
             run_dir, args.episodes, args.seed, args.workers, task,
             model=args.model, metric=args.metric, resamples=args.resamples, bootstrap_seed=args.bootstrap_seed,
