@@ -2,9 +2,10 @@
 
 :func:`read_sensors` reads the robots that go on in each copy given (a lone env: its own;
 a batch: every copy of the step's group) and writes their rows of the copies'
-:class:`~teamgym.envs.box_pushing.state.BoxPushingArrays`. Per copy it casts the proximity
-rays in the copy's own space and draws the copy's noise from its own stream, one block of
-standard normals for all its robots, robot after robot and sensor after sensor, as
+:class:`~teamgym.envs.box_pushing.state.BoxPushingArrays`. It casts the proximity rays of
+every copy's robots in one pass, each in its copy's own space (a lone env: robot after robot),
+and draws each copy's noise from the copy's own stream, one block of standard normals for all
+its robots, robot after robot and sensor after sensor, as
 :class:`~teamgym.sim.sensors.SensorSuite` does (the stream a loop over the robots would draw).
 The rest is one numpy pass over the rows of every copy: the unshadowed light (the lamp is the
 config's, the same in every copy), the wheel encoders, the gains and noise of each sensor,
@@ -37,13 +38,17 @@ def read_sensors(sensed: list[tuple[BoxPushing, list[str]]]) -> None:
     encoders, slices = first.sensors.sensors["encoders"], first.sensors.slices
     sizes = (ring.noise_size, light.noise_size, encoders.noise_size)
     drawn = sum(sizes)
-    copies, rows, robots, blocks, poses, noise = [], [], [], [], [], []
+    copies, rows, robots, blocks, poses, noise, spaces = [], [], [], [], [], [], []
+    one = len(sensed) == 1
     for env, agents in sensed:
         world, row = env.world, env._row
         mine = [env.robots[a] for a in agents]
         at = world.robot_states[[world.robot_rows[a] for a in agents]]
         block = np.empty((len(agents), first.sensors.width), dtype=np.float32)
-        env.ring.read_values(world, mine, at, block[:, slices["proximity"]], None)
+        if one:
+            env.ring.read_values(world, mine, at, block[:, slices["proximity"]], None)
+        else:
+            spaces += [world.space] * len(agents)
         if light.blockers:  # shadows: line-of-sight queries in the copy's space
             env.light.read_values(world, mine, at, block[:, slices["light"]], None)
         if drawn:
@@ -53,8 +58,9 @@ def read_sensors(sensed: list[tuple[BoxPushing, list[str]]]) -> None:
         robots += mine
         blocks.append(block)
         poses.append(at)
-    one = len(blocks) == 1
     block, at = (blocks[0], poses[0]) if one else (np.concatenate(blocks), np.concatenate(poses))
+    if not one:  # every copy's rings in one pass (ProximityRing.read_many: the same bits as robot by robot)
+        ring.read_many(spaces, robots, at, block[:, slices["proximity"]])
     z = (noise[0] if one else np.concatenate(noise)) if drawn else None
     if not light.blockers:
         light.shine_rows(at[:, :3].tolist(), block[:, slices["light"]])
