@@ -38,6 +38,12 @@ def _actions(batch, rng: np.random.Generator) -> np.ndarray:
 
 def lone_rate(env_id: str, steps: int) -> float:
     """Agent-steps/s of one lone env through ``step(dict)``, with the actions of :func:`_actions` (process CPU time)."""
+    agent_steps, seconds = lone_run(env_id, steps)
+    return agent_steps / seconds
+
+
+def lone_run(env_id: str, steps: int) -> tuple[int, float]:
+    """Agent-steps and process CPU seconds of ``steps`` steps of one lone env from its reset (make and reset untimed)."""
     env = teamgym.make(env_id)
     env.reset(seed=0)
     space = env.action_space(env.possible_agents[0])
@@ -53,7 +59,7 @@ def lone_rate(env_id: str, steps: int) -> float:
             actions = {a: rng.uniform(space.low, space.high).astype(space.dtype) for a in env.agents}
         agent_steps += len(actions)
         env.step(actions)
-    return agent_steps / (time.process_time() - start)
+    return agent_steps, time.process_time() - start
 
 
 def profile(env_id: str, copies: int, steps: int, inner: list[str]) -> tuple[float, dict[str, float], float]:
