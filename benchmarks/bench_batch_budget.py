@@ -79,7 +79,7 @@ def physics_seconds(run) -> float:
 
 
 def batch_run(env_id: str, copies: int, steps: int):
-    """A function that resets a new batch (seed 0, auto-reset) and steps it ``steps`` times: (agent-steps, seconds)."""
+    """A new batch (auto-reset) and a function that resets it (seed 0) and steps it ``steps`` times: (agent-steps, seconds)."""
     batch = teamgym.make_batch(env_id, copies, auto_reset=True)
 
     def run() -> tuple[int, float]:
@@ -91,13 +91,13 @@ def batch_run(env_id: str, copies: int, steps: int):
             batch.step(_actions(batch, rng))
         return agent_steps, time.process_time() - start
 
-    return run
+    return batch, run
 
 
 def measure(env_id: str, copies: int, steps: int, rounds: int) -> dict:
     """Best-of-``rounds`` figures of one env (see the module docstring)."""
     lone_control, _ = count_control_steps(lambda: lone_run(env_id, steps))
-    run = batch_run(env_id, copies, steps)
+    _, run = batch_run(env_id, copies, steps)
     batch_control, _ = count_control_steps(run)
     lone_rate = batch_rate = 0.0
     lone_us = batch_us = physics_us = float("inf")
