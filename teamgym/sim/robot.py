@@ -354,17 +354,9 @@ class DiffDriveRobot(Entity):
             v = share * self.applied_command[0] + (1 - share) * v
             omega = share * self.applied_command[1] + (1 - share) * omega
         self.applied_command = self.command
-        actual_left, actual_right = (ds - half_base * da) / r, (ds + half_base * da) / r
         before = self._encoder_values
         # Plain floats: the EncoderReading is built only when someone reads ``encoders``.
-        self._encoder_values = (
-            (v - half_base * omega) * dt / r,
-            (v + half_base * omega) * dt / r,
-            actual_left,
-            actual_right,
-            before[4] + actual_left,
-            before[5] + actual_right,
-        )
+        self._encoder_values = encoder_values(v, omega, ds, da, half_base, r, dt, before[4], before[5])
         self.odometer += math.hypot(dx, dy)
 
     @property
@@ -506,6 +498,27 @@ class RobotSteps(StepGroup):
         dt = world.dt
         for robot, start, end in zip(self.entities, starts, ends):
             robot.end_step(dt, start, end)
+
+
+def encoder_values(v, omega, ds, da, half_base, r, dt, total_left, total_right) -> tuple:
+    """The six :class:`EncoderReading` values of one control step, for floats or arrays over robots alike.
+
+    ``(v, ω)``: the command in effect; ``ds``, ``da``: how far the body moved along its mid-step
+    heading and turned; ``half_base``, ``r``: half the wheel base and the wheel radius;
+    ``total_left/right``: the encoders' totals before the step. Commanded wheel turns are
+    ``(v ∓ (b/2)·ω)·Δt / r``, actual ones ``(ds ∓ (b/2)·da) / r``. One formula for
+    :meth:`DiffDriveRobot.end_step` (floats) and a batch's robots (numpy arrays, the same
+    operations in the same order, so the same bits).
+    """
+    actual_left, actual_right = (ds - half_base * da) / r, (ds + half_base * da) / r
+    return (
+        (v - half_base * omega) * dt / r,
+        (v + half_base * omega) * dt / r,
+        actual_left,
+        actual_right,
+        total_left + actual_left,
+        total_right + actual_right,
+    )
 
 
 def arc_motion(commands: np.ndarray, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -28,7 +28,7 @@ import numpy as np
 
 from teamgym.sim.entity import StepGroup
 from teamgym.sim.objects import BounceSteps, MovingPolygon
-from teamgym.sim.robot import DiffDriveRobot, RobotSteps, arc_motion
+from teamgym.sim.robot import DiffDriveRobot, RobotSteps, arc_motion, encoder_values
 from teamgym.sim.world import World
 
 __all__ = ["GroupPlan", "GroupPlans", "StepTogether", "group_plan", "step_worlds"]
@@ -243,19 +243,9 @@ def _end_robot_steps(
     mids = mid.tolist()
     ds = dx * np.array(list(map(math.cos, mids))) + dy * np.array(list(map(math.sin, mids)))
     da = ends[:, 2] - starts[:, 2]
-    v, omega = commands[:, 0], commands[:, 1]
-    actual_left, actual_right = (ds - half_base * da) / r, (ds + half_base * da) / r
     previous = np.array([robot.encoder_totals for robot in robots], dtype=float).reshape(-1, 2)
     values = np.stack(
-        [
-            (v - half_base * omega) * dt / r,
-            (v + half_base * omega) * dt / r,
-            actual_left,
-            actual_right,
-            previous[:, 0] + actual_left,
-            previous[:, 1] + actual_right,
-        ],
-        axis=1,
+        encoder_values(commands[:, 0], commands[:, 1], ds, da, half_base, r, dt, previous[:, 0], previous[:, 1]), axis=1
     )
     poses = starts[:, :3].tolist()
     for robot, pose, row, step_x, step_y in zip(robots, poses, values.tolist(), dx.tolist(), dy.tolist()):
