@@ -20,6 +20,7 @@ from gymnasium import spaces
 import teamgym
 from teamgym.envs.base import EpisodeOverError
 from teamgym.envs.config import ConfigError
+from teamgym.sim import world_group
 
 
 def batch_cases():
@@ -82,7 +83,10 @@ def row_of(observations, k: int, i: int):
 
 
 @pytest.mark.parametrize(("env_id", "config"), batch_cases())
-def test_every_copy_steps_as_the_single_env_with_its_seed(env_id, config):
+def test_every_copy_steps_as_the_single_env_with_its_seed(env_id, config, monkeypatch):
+    # Three copies hold fewer robots than a group needs to step its worlds together by default
+    # (world_group.MIN_ROBOTS_TOGETHER); lower it so the batch takes that path from its second step.
+    monkeypatch.setattr(world_group, "MIN_ROBOTS_TOGETHER", 0)
     K = 3
     batch = teamgym.make_batch(env_id, K, **config)
     lones = [teamgym.make(env_id, **config) for _ in range(K)]

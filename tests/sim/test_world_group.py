@@ -36,7 +36,7 @@ def _snapshot(world) -> tuple:
 def test_worlds_stepped_together_equal_worlds_stepped_alone(env_id, config, plans):
     envs = _worlds(env_id, 4, **config)
     twins = [copy.deepcopy(env) for env in envs]
-    grouped = GroupPlans()
+    grouped = GroupPlans(min_robots=0)  # four worlds: below the default threshold
     rng = np.random.default_rng(0)
     for _ in range(30):
         for env, twin in zip(envs, twins):
@@ -70,3 +70,16 @@ def test_a_world_that_cannot_step_together_steps_alone():
     for env, twin in zip(envs, twins):
         assert _snapshot(env.world) == _snapshot(twin.world)
     assert envs[1].world.coarse_steps == twins[1].world.coarse_steps > 0
+
+
+def test_a_small_group_steps_world_by_world_and_a_large_one_together():
+    """Below ``min_robots`` the worlds step alone (no :class:`StepTogether`), at or above it together; same bits."""
+    envs = _worlds("Navigation-v0", 2)  # 3 robots each
+    twins = [copy.deepcopy(env) for env in envs]
+    small, large = GroupPlans(min_robots=7), GroupPlans(min_robots=6)
+    for _ in range(3):
+        small.step([envs[0].world, envs[1].world])
+        large.step([twins[0].world, twins[1].world])
+    assert small._together is None and large._together is not None
+    for env, twin in zip(envs, twins):
+        assert _snapshot(env.world) == _snapshot(twin.world)
