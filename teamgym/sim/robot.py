@@ -148,11 +148,16 @@ class EncoderReading:
     @property
     def slip(self) -> float:
         """Fraction of commanded rotation that did not happen (0 = none lost, 1 = stalled)."""
-        commanded = abs(self.commanded_left) + abs(self.commanded_right)
-        if commanded < 1e-12:
-            return 0.0
-        lost = abs(self.commanded_left - self.actual_left) + abs(self.commanded_right - self.actual_right)
-        return min(1.0, lost / commanded)
+        return wheel_slip(self.commanded_left, self.commanded_right, self.actual_left, self.actual_right)
+
+
+def wheel_slip(commanded_left: float, commanded_right: float, actual_left: float, actual_right: float) -> float:
+    """:attr:`EncoderReading.slip` of these wheel rotations (one formula for readings and raw encoder rows)."""
+    commanded = abs(commanded_left) + abs(commanded_right)
+    if commanded < 1e-12:
+        return 0.0
+    lost = abs(commanded_left - actual_left) + abs(commanded_right - actual_right)
+    return min(1.0, lost / commanded)
 
 
 class DiffDriveRobot(Entity):
@@ -358,6 +363,11 @@ class DiffDriveRobot(Entity):
         # Plain floats: the EncoderReading is built only when someone reads ``encoders``.
         self._encoder_values = encoder_values(v, omega, ds, da, half_base, r, dt, before[4], before[5])
         self.odometer += math.hypot(dx, dy)
+
+    @property
+    def encoder_row(self) -> tuple[float, ...]:
+        """The six values of :attr:`encoders` as a plain tuple, in its field order (no reading object built)."""
+        return self._encoder_values
 
     @property
     def encoder_totals(self) -> tuple[float, float]:

@@ -631,15 +631,14 @@ class WheelEncoders:
         res = self.resolution
         factors = (1.0 + self.noise_std * z).tolist() if z is not None and self.noise_std > 0 else None
         for j, (robot, row) in enumerate(zip(robots, out)):
-            e = robot.encoders
-            left, right = e.actual_left, e.actual_right
+            commanded_left, commanded_right, left, right, total_left, total_right = robot.encoder_row
             if res > 0:
-                left = (math.floor(e.total_left / res) - math.floor((e.total_left - left) / res)) * res
-                right = (math.floor(e.total_right / res) - math.floor((e.total_right - right) / res)) * res
+                left = (math.floor(total_left / res) - math.floor((total_left - left) / res)) * res
+                right = (math.floor(total_right / res) - math.floor((total_right - right) / res)) * res
             if factors is not None:
                 a, b = factors[j]
                 left, right = left * a, right * b
-            values = (e.commanded_left, e.commanded_right, left, right)
+            values = (commanded_left, commanded_right, left, right)
             top = self.saturation
             if top is not None and max(map(abs, values)) > top:
                 values = tuple(min(max(v, -top), top) for v in values)

@@ -19,6 +19,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from teamgym.sim.robot import wheel_slip
+
 if TYPE_CHECKING:
     from teamgym.envs.box_pushing.env import BoxPushing
 
@@ -74,7 +76,7 @@ def read_sensors(sensed: list[tuple[BoxPushing, list[str]]]) -> None:
         else:
             sensor.apply_noise(part, block[:, slices[name]], robots, gains if sensor is light else None)
         start += size
-    stalled = [robot.encoders.slip > STALL_SLIP for robot in robots]
+    stalled = [wheel_slip(*robot.encoder_row[:4]) > STALL_SLIP for robot in robots]
     if one:  # one copy (a lone env): its rows, robot after robot
         k = copies[0]
         team.readings[k, rows] = block
