@@ -9,13 +9,23 @@ same rule for the lone env and the batch. Every case steps ``--steps`` times fro
 batch's copies then cover the same stretch of their episodes as the lone env); episodes that
 end are reset (lone) or auto-reset (batch) and count. ``--clock cpu`` (the default) times process CPU.
 
-    python benchmarks/bench_batch_every_env.py [--envs ...] [--copies 1 16 64] [--steps 64] [--rounds 3] [--json FILE]
+``--baseline DIR`` also times another checkout (its ``teamgym`` imported from ``DIR`` in a
+child process running this script), round by round interleaved with this tree's, and prints
+this/baseline per case; a case the checkout cannot build (an id without a batch form there)
+is left out.
+
+    python benchmarks/bench_batch_every_env.py [--envs ...] [--copies 1 16 64] [--steps 64] [--rounds 3]
+        [--baseline DIR] [--json FILE]
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
+import subprocess
+import sys
+import tempfile
 import time
 
 import numpy as np
@@ -60,15 +70,45 @@ def time_lone(env_id: str, steps: int, clock) -> float:
 
 def time_batch(env_id: str, copies: int, steps: int, clock) -> float:
     """Agent-steps/s of ``make_batch(env_id, copies, auto_reset=True)`` through ``step(array)``."""
-    batch = teamgym.make_batch(env_id, copies, auto_reset=True)
+    try:
+        batch, by_hand = teamgym.make_batch(env_id, copies, auto_reset=True), False
+    except (TypeError, ValueError):  # a checkout whose batch has no auto_reset: finished copies are reset here
+        batch, by_hand = teamgym.make_batch(env_id, copies), True
     batch.reset(seed=0)
     rng = np.random.default_rng(0)
     shape = (batch.n_copies, batch.n_robots)
     agent_steps, start = 0, clock()
     for _ in range(steps):
+        if by_hand:
+            for k in np.flatnonzero(batch.episode_over()).tolist():
+                batch.reset_copy(k)
         agent_steps += int(batch.active.sum())
-        batch.step(_choose(batch.action_space, rng, batch.action_masks(), shape))
+        masks = batch.action_masks() if hasattr(batch, "action_masks") else None  # older batches had no masks
+        batch.step(_choose(batch.action_space, rng, masks, shape))
     return agent_steps / (clock() - start)
+
+
+def measure_round(env_id: str, copies: list[int], steps: int, clock) -> dict[str, float]:
+    """One round of every case of ``env_id``: agent-steps/s by case name (a batch this checkout lacks is left out)."""
+    rates = {"lone": time_lone(env_id, steps, clock)}
+    for k in copies:
+        try:
+            rates[f"batch {k}"] = time_batch(env_id, k, steps, clock)
+        except (ValueError, NotImplementedError, AttributeError, TypeError):
+            continue
+    return rates
+
+
+def baseline_round(directory: str, env_id: str, args: argparse.Namespace) -> dict[str, float]:
+    """One round of ``env_id`` with ``teamgym`` from the checkout ``directory`` (a child process running this script)."""
+    with tempfile.TemporaryDirectory() as scratch:
+        out = os.path.join(scratch, "round.json")
+        command = [sys.executable, os.path.abspath(__file__), "--envs", env_id, "--copies", *map(str, args.copies)]
+        command += ["--steps", str(args.steps), "--rounds", "1", "--clock", args.clock, "--json", out, "--quiet"]
+        environment = {**os.environ, "PYTHONPATH": os.path.abspath(directory)}
+        subprocess.run(command, check=True, env=environment, cwd=scratch)
+        with open(out) as handle:
+            return json.load(handle)["agent_steps_per_s"][env_id]
 
 
 def main() -> None:
@@ -78,28 +118,42 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=64, help="steps from reset per copy, per case and round (the same for all)")
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--clock", choices=sorted(CLOCKS), default="cpu")
+    parser.add_argument("--baseline", help="another checkout (its root), timed in a child process, interleaved")
     parser.add_argument("--json", help="write the results here")
+    parser.add_argument("--quiet", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
     unknown = [e for e in args.envs if e not in teamgym.envs()]
     if unknown or min(args.copies) < 1 or args.steps < 1 or args.rounds < 1:
         parser.error(f"unknown env ids {unknown}" if unknown else "--copies, --steps and --rounds must be >= 1")
+    if args.baseline and not os.path.isdir(os.path.join(args.baseline, "teamgym")):
+        parser.error(f"--baseline {args.baseline!r} is not a checkout (no teamgym/ in it)")
     clock = CLOCKS[args.clock]
     results: dict[str, dict[str, float]] = {}
+    baseline: dict[str, dict[str, float]] = {}
     for env_id in args.envs:
         best: dict[str, float] = {}
+        before: dict[str, float] = {}
         for _ in range(args.rounds):
-            cases = {"lone": lambda e=env_id: time_lone(e, args.steps, clock)}
-            for k in args.copies:
-                cases[f"batch {k}"] = lambda e=env_id, k=k: time_batch(e, k, args.steps, clock)
-            for name, run in cases.items():
-                best[name] = max(best.get(name, 0.0), run())
+            for name, rate in measure_round(env_id, args.copies, args.steps, clock).items():
+                best[name] = max(best.get(name, 0.0), rate)
+            if args.baseline:
+                for name, rate in baseline_round(args.baseline, env_id, args).items():
+                    before[name] = max(before.get(name, 0.0), rate)
         results[env_id] = best
+        if before:
+            baseline[env_id] = before
         lone = best["lone"]
-        cells = "  ".join(f"{name}: {rate:9.0f} ({rate / lone:4.2f}x)" for name, rate in best.items())
-        print(f"{env_id:16s} {cells}", flush=True)
+        if not args.quiet:
+            cells = "  ".join(f"{name}: {rate:9.0f} ({rate / lone:4.2f}x)" for name, rate in best.items())
+            print(f"{env_id:16s} {cells}", flush=True)
+            if before:
+                cells = "  ".join(f"{name}: {best[name] / rate:4.2f}x" for name, rate in before.items() if name in best)
+                print(f"{'  this/baseline':16s} {cells}", flush=True)
     if args.json:
         with open(args.json, "w") as handle:
             record = {"clock": args.clock, "steps": args.steps, "rounds": args.rounds, "agent_steps_per_s": results}
+            if args.baseline:
+                record["baseline"] = {"checkout": os.path.abspath(args.baseline), "agent_steps_per_s": baseline}
             json.dump(record, handle, indent=2)
 
 
