@@ -79,10 +79,11 @@ def _rows(rows: list[int]) -> slice | np.ndarray:
 
 
 #: Robots a group of worlds needs to step together (:class:`GroupPlans`). Gathering the group's
-#: robots into arrays costs a fixed few tens of µs per control step, which the pass saves back
-#: only over many robots: at 4–16 copies of Navigation, BoxPushing or Exploration the batch ran
-#: 2–20 % faster with its worlds stepped alone, at 64 copies of 3 robots up to 10 % slower.
-MIN_ROBOTS_TOGETHER = 96
+#: robots into arrays costs a fixed few tens of µs per control step that the one pass did not
+#: save back in any group measured on 2026-12-07 (``benchmarks/bench_world_group.py``: together /
+#: one by one 1.08–1.16 at 4 copies, 1.00–1.09 from 16 to 256 copies of Navigation, BoxPushing-v0
+#: and Exploration), so by default only groups beyond those sizes take it.
+MIN_ROBOTS_TOGETHER = 1024
 
 
 class GroupPlans:
