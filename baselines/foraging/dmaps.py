@@ -51,7 +51,8 @@ Only ``goto_cell`` is supported (``required_config``). The policy is determinist
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from collections.abc import Mapping
+from dataclasses import dataclass, field, fields
 from typing import Any
 
 import numpy as np
@@ -127,6 +128,42 @@ class DMAPSParams:
     consumed_radius: int = 1
     world: WorldModelParams = field(default_factory=WorldModelParams)
     potential: FieldParams = field(default_factory=FieldParams)
+
+    @classmethod
+    def from_mapping(cls, values: Mapping[str, Any]) -> DMAPSParams:
+        """Parameters from JSON-style data: the defaults overridden by ``values``.
+
+        ``values`` maps field names to numbers; ``world`` and ``potential`` are mappings of
+        :class:`WorldModelParams` and :class:`FieldParams` fields (overriding their defaults),
+        e.g. ``{"min_hold": 0.0, "potential": {"turn_cost": 0.2}}`` (a preset's
+        ``bc.expert_kwargs`` ``{"params": {...}}`` for ``dmaps``). ``TypeError`` names an unknown
+        key or a value that is not a number; a nested instance is taken as it is.
+        """
+        return _params_from_mapping(cls, "dmaps", values, {"world": WorldModelParams, "potential": FieldParams})
+
+
+def _params_from_mapping(kind: type, name: str, values: Any, nested: Mapping[str, type]) -> Any:
+    """``kind(**values)`` with every key and number checked (nested mappings as ``nested[key]``)."""
+    if isinstance(values, kind):
+        return values
+    if not isinstance(values, Mapping) or not all(isinstance(key, str) for key in values):
+        raise TypeError(f"{name} parameters must map parameter names to values, got {values!r}")
+    defaults = {f.name: f for f in fields(kind)}
+    unknown = sorted(set(values) - set(defaults))
+    if unknown:
+        raise TypeError(f"unknown {name} parameter(s) {unknown}; known: {sorted(defaults)}")
+    checked: dict[str, Any] = {}
+    for key, value in values.items():
+        if key in nested:
+            checked[key] = _params_from_mapping(nested[key], f"{name} {key}", value, {})
+            continue
+        default = getattr(kind(), key)
+        number = isinstance(value, (int, float)) and not isinstance(value, bool)
+        if not number or (isinstance(default, int) and not isinstance(value, int)):
+            expected = "an integer" if isinstance(default, int) else "a number"
+            raise TypeError(f"{name} parameter {key!r} must be {expected}, got {value!r}")
+        checked[key] = float(value) if isinstance(default, float) else value
+    return kind(**checked)
 
 
 class RobotPlanner:
@@ -393,7 +430,9 @@ class DMAPS(Policy):
     """Distributed Multi-Agent Planning System (paper 002); see the module docstring.
 
     ``communication=False`` ignores every received packet (``dmaps-nocomm``): each robot
-    plans on its own perception only. ``params`` overrides :class:`DMAPSParams`.
+    plans on its own perception only. ``params`` overrides :class:`DMAPSParams`: an instance,
+    or a mapping of its fields (JSON data, e.g. ``{"min_hold": 0.0}``;
+    :meth:`DMAPSParams.from_mapping`), which a preset's ``bc.expert_kwargs`` can pass.
     ``search_only=True`` runs the search behaviour alone (no approach, no hold: targets are
     modelled but ignored), e.g. to time how long a robot takes to cover the field.
     """
@@ -404,10 +443,16 @@ class DMAPS(Policy):
     required_config = {"action_type": "goto_cell"}
 
     def __init__(
-        self, env: Any, communication: bool = True, params: DMAPSParams | None = None, search_only: bool = False
+        self,
+        env: Any,
+        communication: bool = True,
+        params: DMAPSParams | Mapping[str, Any] | None = None,
+        search_only: bool = False,
     ) -> None:
         super().__init__(env)
         check_goto_cell(env, "dmaps" if communication else "dmaps-nocomm")
+        if params is not None and not isinstance(params, DMAPSParams):
+            params = DMAPSParams.from_mapping(params)
         c = env.config
         self.communication = bool(communication)
         self.search_only = bool(search_only)

@@ -8,7 +8,7 @@ on), ``n_envs``, ``timesteps``, ``hyperparameters`` (SB3 keyword arguments, incl
 ``policy_kwargs``), ``bc`` (optional behaviour cloning: ``expert``, ``steps``,
 ``epochs``, optional ``noise`` of the executed expert actions, ``batch_size`` of the
 fit and ``expert_kwargs`` (the expert's constructor arguments, e.g. ``{"look_cycles": 0}``
-for ``sbs``), and optional DAgger rounds
+for ``sbs``, ``{"params": {"min_hold": 0.0}}`` for ``dmaps``), and optional DAgger rounds
 ``dagger_rounds``, ``dagger_steps``, ``dagger_epochs``), ``eval`` (optional held-out evaluation while training: ``every``,
 ``episodes``, ``seed``), ``init`` (optional: a saved model or shipped agent whose policy
 weights the new run starts from, as ``--init``), ``critic`` (optional: ``local`` or ``central``,

@@ -70,6 +70,18 @@ def test_unknown_expert_argument_is_refused_before_any_work(tmp_path):
     assert not list(tmp_path.iterdir())
 
 
+def test_dmaps_parameters_pass_as_json_and_unknown_ones_are_refused_before_any_work(tmp_path):
+    from baselines.rl.imitation import make_expert
+
+    env = teamgym.make("Foraging-v0")
+    expert = make_expert("dmaps", env, params={"min_hold": 0.0, "max_hold": 0.0})
+    assert (expert.params.min_hold, expert.params.max_hold) == (0.0, 0.0)
+    bad = {"params": {"min_hld": 0}}
+    with pytest.raises(TypeError, match=r"unknown dmaps parameter\(s\) \['min_hld'\]"):
+        train("Foraging-v0", "maskable_ppo", 32, out=tmp_path / "m.zip", bc_expert="dmaps", bc_expert_kwargs=bad)
+    assert not list(tmp_path.iterdir())
+
+
 def test_pretrain_without_expert_arguments_is_unchanged():
     from stable_baselines3 import PPO
 

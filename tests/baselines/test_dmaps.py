@@ -226,6 +226,43 @@ def test_search_goal_is_kept_and_respects_the_action_mask(env):
     assert decide(other, "robot_0", obs, mask) != goals[0]
 
 
+def test_without_hysteresis_the_search_goal_follows_the_field_at_every_step(env):
+    turning = [observation(env, (1.5, 1.2, k * np.pi / 2)) for k in range(8)]  # 0.8 s, the robot turning on the spot
+    held = DMAPS(env)
+    assert len({decide(held, "robot_0", obs) for obs in turning}) == 1  # min_hold 1 s
+    free = DMAPS(env, params={"min_hold": 0.0, "max_hold": 0.0})  # JSON data, as a preset's bc.expert_kwargs
+    assert free.params == DMAPSParams(min_hold=0.0, max_hold=0.0)
+    assert len({decide(free, "robot_0", obs) for obs in turning}) > 2  # the turning cost moves the best cell
+
+
+def test_params_from_json_data():
+    params = DMAPSParams.from_mapping({"min_hold": 0, "target_separation": 3, "potential": {"turn_cost": 0.2}})
+    assert params == DMAPSParams(min_hold=0.0, target_separation=3, potential=FieldParams(turn_cost=0.2))
+    assert isinstance(params.min_hold, float) and DMAPSParams.from_mapping({}) == DMAPSParams()
+    assert DMAPSParams.from_mapping(params) is params
+    env = teamgym.make("Foraging-v0")
+    assert make_policy("dmaps", env, params={"max_hold": 5}).params.max_hold == 5.0
+    assert make_policy("dmaps", env, params=DMAPSParams(max_hold=4.0)).params.max_hold == 4.0
+
+
+@pytest.mark.parametrize(
+    ("values", "message"),
+    [
+        ({"min_hld": 0.0}, r"unknown dmaps parameter\(s\) \['min_hld'\]; known: \[.*'min_hold'"),
+        ({"world": {"blob": 1.0}}, r"unknown dmaps world parameter\(s\) \['blob'\]"),
+        ({"min_hold": "0"}, "dmaps parameter 'min_hold' must be a number, got '0'"),
+        ({"min_hold": True}, "dmaps parameter 'min_hold' must be a number"),
+        ({"target_separation": 2.5}, "dmaps parameter 'target_separation' must be an integer, got 2.5"),
+        ({"potential": 1}, "dmaps potential parameters must map parameter names to values, got 1"),
+        ([("min_hold", 0.0)], "dmaps parameters must map parameter names to values"),
+    ],
+)
+def test_bad_params_are_refused_in_one_line(values, message):
+    with pytest.raises(TypeError, match=message) as error:
+        DMAPS(teamgym.make("Foraging-v0"), params=values)
+    assert "\n" not in str(error.value)
+
+
 def test_policy_is_deterministic_on_the_same_observations(env):
     obs = observation(env, (1.5, 1.2, 0.4), [(ROBOT, 9, 6, 0.7)], [(1, SENDER, 9, 6, 0.8), (1, TARGET, 2, 9, 0.6)])
     first, second = DMAPS(env), DMAPS(env)

@@ -110,6 +110,16 @@ def test_foraging_preset_clones_dmaps_from_its_own_episodes_into_maskable_ppo():
     assert (kwargs["bc_expert"], kwargs["bc_noise"], kwargs["bc_dagger"]) == ("dmaps", 0.0, preset.bc["dagger_rounds"])
 
 
+def test_foraging_nohold_preset_changes_only_the_teacher():
+    base, nohold = load_preset("foraging-dagger-maskable-ppo"), load_preset("foraging-nohold-dagger-maskable-ppo")
+    for key in ("env", "algo", "config", "n_envs", "timesteps", "hyperparameters", "eval"):
+        assert getattr(nohold, key) == getattr(base, key), key
+    assert {k: v for k, v in nohold.bc.items() if k != "expert_kwargs"} == base.bc and "expert_kwargs" not in base.bc
+    kwargs = plan("--preset", "foraging-nohold-dagger-maskable-ppo")
+    assert kwargs["bc_expert_kwargs"] == {"params": {"min_hold": 0.0, "max_hold": 0.0}}
+    assert plan("--preset", "foraging-dagger-maskable-ppo").get("bc_expert_kwargs") is None
+
+
 def test_dagger_preset_plans_its_imitation():
     kwargs = plan("--preset", "navigation-dagger-ppo")
     bc = load_preset("navigation-dagger-ppo").bc
