@@ -78,12 +78,12 @@ def _rows(rows: list[int]) -> slice | np.ndarray:
     return np.array(rows, dtype=np.intp)
 
 
-#: Robots a group of worlds needs to step together (:class:`GroupPlans`). Gathering the group's
-#: robots into arrays costs a fixed few tens of µs per control step that the one pass did not
-#: save back in any group measured on 2026-12-07 (``benchmarks/bench_world_group.py``: together /
-#: one by one 1.08–1.16 at 4 copies, 1.00–1.09 from 16 to 256 copies of Navigation, BoxPushing-v0
-#: and Exploration), so by default only groups beyond those sizes take it.
-MIN_ROBOTS_TOGETHER = 1024
+#: Robots a group of worlds needs to step together (:class:`GroupPlans`). Gathering the group
+#: into arrays costs a fixed few tens of µs per control step, which the one pass saves back only
+#: over many robots. Measured on 2026-12-07 (``benchmarks/bench_world_group.py``, same process,
+#: together / one by one): 1.08–1.16× the time at 4 copies of Navigation, BoxPushing-v0 and
+#: Exploration; at 64 copies 0.96–1.04× over repeated runs (within the shared machine's noise).
+MIN_ROBOTS_TOGETHER = 128
 
 
 class GroupPlans:
