@@ -99,6 +99,7 @@ class GroupPlans:
         self._together: StepTogether | None = None
         self._last: list[World] | None = None  # the worlds of the last step that stepped alone
         self._small = False  # whether those worlds hold too few robots to step together
+        self._min_robots_given = min_robots  # kept by pickles (None: the default when unpickled)
         self.min_robots = MIN_ROBOTS_TOGETHER if min_robots is None else min_robots
 
     def plan_of(self, world: World) -> GroupPlan | None:
@@ -138,10 +139,10 @@ class GroupPlans:
             world.step(reuse_states=reuse_states)
 
     def __getstate__(self) -> dict:
-        return {}  # made again on the next step (the plans hold Chipmunk handles)
+        return {"min_robots": self._min_robots_given}  # plans are made again (they hold Chipmunk handles)
 
     def __setstate__(self, state: dict) -> None:
-        self.__init__()
+        self.__init__(state.get("min_robots"))
 
 
 def _has_hooks(entity: object) -> bool:

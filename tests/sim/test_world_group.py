@@ -1,6 +1,7 @@
 """Worlds stepped together (``teamgym.sim.world_group``) end each step exactly as each stepped alone."""
 
 import copy
+import pickle
 
 import numpy as np
 import pytest
@@ -83,3 +84,8 @@ def test_a_small_group_steps_world_by_world_and_a_large_one_together():
     assert small._together is None and large._together is not None
     for env, twin in zip(envs, twins):
         assert _snapshot(env.world) == _snapshot(twin.world)
+
+
+def test_a_pickled_group_keeps_its_threshold():
+    assert pickle.loads(pickle.dumps(GroupPlans(min_robots=5))).min_robots == 5
+    assert pickle.loads(pickle.dumps(GroupPlans())).min_robots == GroupPlans().min_robots
