@@ -13,7 +13,8 @@ interleaved over ``--rounds`` rounds (process CPU time, best round):
   Chipmunk's ``cpSpaceStep`` and the contact callbacks it calls), timed in a second pass of
   the same rollout, in µs per copy and control step.
 
-Control steps are counted in an untimed pass of the same rollouts (``World._integrate`` calls).
+Control steps are counted (``World._integrate`` calls) in a first pass of the same rollouts; the
+timed lone and batch passes run unwatched.
 It prints the ratio batch/lone in agent-steps/s (what the aim measures), the ceiling
 ``lone / physics`` (the ratio a batch whose Python cost nothing would reach), and the Python
 (and ray-query) time per copy-step the 3× aim leaves, ``lone / 3 − physics``, beside what the
@@ -41,41 +42,25 @@ import teamgym  # noqa: E402
 from teamgym.sim.world import World  # noqa: E402
 
 
-def count_control_steps(run) -> tuple[int, object]:
-    """``run()``'s result and how many control steps its worlds took (``World._integrate`` calls)."""
+def watch_substeps(run) -> tuple[int, float, object]:
+    """``run()`` with ``World._integrate`` watched: its calls (control steps), the CPU seconds inside it, ``run()``'s result."""
     original = World._integrate
-    calls = [0]
+    calls, spent = [0], [0.0]
 
-    def counted(self, h, n):
+    def watched(self, h, n):
         calls[0] += 1
-        return original(self, h, n)
-
-    World._integrate = counted
-    try:
-        result = run()
-    finally:
-        World._integrate = original
-    return calls[0], result
-
-
-def physics_seconds(run) -> float:
-    """Process CPU seconds inside ``World._integrate`` (substeps: Chipmunk, its contact callbacks) during ``run()``."""
-    original = World._integrate
-    spent = [0.0]
-
-    def timed(self, h, n):
         start = time.process_time()
         try:
             return original(self, h, n)
         finally:
             spent[0] += time.process_time() - start
 
-    World._integrate = timed
+    World._integrate = watched
     try:
-        run()
+        result = run()
     finally:
         World._integrate = original
-    return spent[0]
+    return calls[0], spent[0], result
 
 
 def batch_run(env_id: str, copies: int, steps: int):
@@ -96,9 +81,9 @@ def batch_run(env_id: str, copies: int, steps: int):
 
 def measure(env_id: str, copies: int, steps: int, rounds: int) -> dict:
     """Best-of-``rounds`` figures of one env (see the module docstring)."""
-    lone_control, _ = count_control_steps(lambda: lone_run(env_id, steps))
+    lone_control, _, _ = watch_substeps(lambda: lone_run(env_id, steps))
     _, run = batch_run(env_id, copies, steps)
-    batch_control, _ = count_control_steps(run)
+    batch_control, _, _ = watch_substeps(run)
     lone_rate = batch_rate = 0.0
     lone_us = batch_us = physics_us = float("inf")
     for _ in range(rounds):
@@ -106,7 +91,7 @@ def measure(env_id: str, copies: int, steps: int, rounds: int) -> dict:
         lone_rate, lone_us = max(lone_rate, agent_steps / seconds), min(lone_us, seconds / lone_control * 1e6)
         agent_steps, seconds = run()
         batch_rate, batch_us = max(batch_rate, agent_steps / seconds), min(batch_us, seconds / batch_control * 1e6)
-        physics_us = min(physics_us, physics_seconds(run) / batch_control * 1e6)
+        physics_us = min(physics_us, watch_substeps(run)[1] / batch_control * 1e6)
     return {
         "env": env_id,
         "copies": copies,
@@ -134,7 +119,7 @@ def main() -> None:
     args = parser.parse_args()
     rows = []
     print(f"{args.copies} copies, {args.steps} steps, best of {args.rounds} rounds, process CPU time; µs per (copy) control step")
-    print(f"{'env':16} {'batch/lone':>10} {'ceiling':>8} {'lone':>8} {'batch':>8} {'physics':>8} {'budget 3x':>10} {'now':>8}")
+    print(f"{'env':16} {'batch/lone':>10} {'ceiling':>8} {'lone':>8} {'batch':>8} {'physics':>8} {'budget 3x':>10} {'now':>10}")
     for env_id in args.envs:
         row = measure(env_id, args.copies, args.steps, args.rounds)
         rows.append(row)

@@ -88,14 +88,19 @@ def time_batch(env_id: str, copies: int, steps: int, clock) -> float:
     return agent_steps / (clock() - start)
 
 
-def measure_round(env_id: str, copies: list[int], steps: int, clock) -> dict[str, float]:
-    """One round of every case of ``env_id``: agent-steps/s by case name (a batch this checkout lacks is left out)."""
+def measure_round(env_id: str, copies: list[int], steps: int, clock, older: bool = False) -> dict[str, float]:
+    """One round of every case of ``env_id``: agent-steps/s by case name.
+
+    ``older``: the checkout is a baseline, whose batches an id may lack; those cases are left out
+    (in this tree every error propagates).
+    """
     rates = {"lone": time_lone(env_id, steps, clock)}
     for k in copies:
         try:
             rates[f"batch {k}"] = time_batch(env_id, k, steps, clock)
         except (ValueError, NotImplementedError, AttributeError, TypeError):
-            continue
+            if not older:
+                raise
     return rates
 
 
@@ -104,7 +109,7 @@ def baseline_round(directory: str, env_id: str, args: argparse.Namespace) -> dic
     with tempfile.TemporaryDirectory() as scratch:
         out = os.path.join(scratch, "round.json")
         command = [sys.executable, os.path.abspath(__file__), "--envs", env_id, "--copies", *map(str, args.copies)]
-        command += ["--steps", str(args.steps), "--rounds", "1", "--clock", args.clock, "--json", out, "--quiet"]
+        command += ["--steps", str(args.steps), "--rounds", "1", "--clock", args.clock, "--json", out, "--as-baseline"]
         environment = {**os.environ, "PYTHONPATH": os.path.abspath(directory)}
         subprocess.run(command, check=True, env=environment, cwd=scratch)
         with open(out) as handle:
@@ -120,7 +125,7 @@ def main() -> None:
     parser.add_argument("--clock", choices=sorted(CLOCKS), default="cpu")
     parser.add_argument("--baseline", help="another checkout (its root), timed in a child process, interleaved")
     parser.add_argument("--json", help="write the results here")
-    parser.add_argument("--quiet", action="store_true", help=argparse.SUPPRESS)
+    parser.add_argument("--as-baseline", action="store_true", help=argparse.SUPPRESS)  # the child of --baseline
     args = parser.parse_args()
     unknown = [e for e in args.envs if e not in teamgym.envs()]
     if unknown or min(args.copies) < 1 or args.steps < 1 or args.rounds < 1:
@@ -134,7 +139,7 @@ def main() -> None:
         best: dict[str, float] = {}
         before: dict[str, float] = {}
         for _ in range(args.rounds):
-            for name, rate in measure_round(env_id, args.copies, args.steps, clock).items():
+            for name, rate in measure_round(env_id, args.copies, args.steps, clock, args.as_baseline).items():
                 best[name] = max(best.get(name, 0.0), rate)
             if args.baseline:
                 for name, rate in baseline_round(args.baseline, env_id, args).items():
@@ -143,7 +148,7 @@ def main() -> None:
         if before:
             baseline[env_id] = before
         lone = best["lone"]
-        if not args.quiet:
+        if not args.as_baseline:
             cells = "  ".join(f"{name}: {rate:9.0f} ({rate / lone:4.2f}x)" for name, rate in best.items())
             print(f"{env_id:16s} {cells}", flush=True)
             if before:

@@ -151,6 +151,10 @@ class EncoderReading:
         return wheel_slip(self.commanded_left, self.commanded_right, self.actual_left, self.actual_right)
 
 
+#: A float, or a numpy array of one value per robot.
+FloatOrArray = float | np.ndarray
+
+
 def wheel_slip(commanded_left: float, commanded_right: float, actual_left: float, actual_right: float) -> float:
     """:attr:`EncoderReading.slip` of these wheel rotations (one formula for readings and raw encoder rows)."""
     commanded = abs(commanded_left) + abs(commanded_right)
@@ -510,7 +514,17 @@ class RobotSteps(StepGroup):
             robot.end_step(dt, start, end)
 
 
-def encoder_values(v, omega, ds, da, half_base, r, dt, total_left, total_right) -> tuple:
+def encoder_values(
+    v: FloatOrArray,
+    omega: FloatOrArray,
+    ds: FloatOrArray,
+    da: FloatOrArray,
+    half_base: FloatOrArray,
+    r: FloatOrArray,
+    dt: float,
+    total_left: FloatOrArray,
+    total_right: FloatOrArray,
+) -> tuple[FloatOrArray, ...]:
     """The six :class:`EncoderReading` values of one control step, for floats or arrays over robots alike.
 
     ``(v, ω)``: the command in effect; ``ds``, ``da``: how far the body moved along its mid-step

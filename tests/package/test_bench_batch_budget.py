@@ -19,13 +19,13 @@ _spec.loader.exec_module(bench)
 
 
 def test_control_steps_of_a_lone_run_are_its_env_steps_when_each_step_is_one_control_step():
-    calls, (agent_steps, _) = bench.count_control_steps(lambda: bench.lone_run("Navigation-v0", 5))
-    assert calls == 5 and agent_steps == 15
-    assert World._integrate is bench.World._integrate and "counted" not in World._integrate.__qualname__
+    calls, spent, (agent_steps, _) = bench.watch_substeps(lambda: bench.lone_run("Navigation-v0", 5))
+    assert calls == 5 and agent_steps == 15 and spent > 0.0
+    assert World._integrate.__qualname__ == "World._integrate"  # restored
 
 
 def test_a_macro_step_counts_every_control_step_it_runs():
-    calls, (agent_steps, _) = bench.count_control_steps(lambda: bench.lone_run("Rendezvous-v0", 2))
+    calls, _, (agent_steps, _) = bench.watch_substeps(lambda: bench.lone_run("Rendezvous-v0", 2))
     env = teamgym.make("Rendezvous-v0")
     env.reset(seed=0)
     assert calls > 2 and agent_steps == 2 * len(env.possible_agents)
@@ -35,7 +35,7 @@ def test_timing_the_substeps_leaves_the_rollout_unchanged():
     batch, run = bench.batch_run("Navigation-v0", 3, 4)
     run()
     plain = [env.world.robot_states.copy() for env in batch.copies]
-    assert bench.physics_seconds(run) > 0.0
-    timed = [env.world.robot_states.copy() for env in batch.copies]
-    assert all(np.array_equal(a, b) for a, b in zip(plain, timed))
-    assert "timed" not in World._integrate.__qualname__
+    assert bench.watch_substeps(run)[1] > 0.0
+    watched = [env.world.robot_states.copy() for env in batch.copies]
+    assert all(np.array_equal(a, b) for a, b in zip(plain, watched))
+    assert World._integrate.__qualname__ == "World._integrate"
