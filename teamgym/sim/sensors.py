@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Protocol, runtime_checkable
 import numpy as np
 import pymunk
 
+from teamgym.sim import kernel
 from teamgym.sim.categories import OPAQUE, Category
 from teamgym.sim.chipmunk import RayCaster
 from teamgym.sim.entity import Entity
@@ -319,6 +320,9 @@ class ProximityRing(NoisyRowSensor):
         """
         rows = _check_rows(self, robots, poses, out)
         out.fill(self.max_range)
+        if kernel.enabled():
+            self._read_many_compiled(spaces, robots, rows, poses, out)
+            return
         caster, span = self._caster, self.max_range
         reach = [
             m
@@ -327,6 +331,30 @@ class ProximityRing(NoisyRowSensor):
         ]
         if not reach:
             return
+        ends = self._ray_ends(robots, reach, rows, poses).ravel().tolist()
+        filters = [robots[m].sensor_filter for m in reach]
+        distances = caster.ray_distances([spaces[m] for m in reach], ends, filters, len(self._cos), span)
+        out[reach] = np.array(distances).reshape(len(reach), len(self._cos))
+
+    def _read_many_compiled(
+        self, spaces: Sequence[pymunk.Space], robots: Sequence[DiffDriveRobot], rows: list, poses: np.ndarray, out: np.ndarray
+    ) -> None:
+        """:meth:`read_many` through :mod:`teamgym.sim.kernel`: the same Chipmunk queries, made from one compiled loop each."""
+        span = self.max_range
+        handles = kernel.space_handles(spaces)
+        words = np.array([kernel.filter_words(robot.sensor_filter) for robot in robots], dtype=np.uint64).reshape(-1, 2)
+        radius = np.array([robot.spec.radius for robot in robots])
+        near = kernel.shapes_within(handles, words[:, 0], words[:, 1], np.ascontiguousarray(poses[:, :2]), radius + span)
+        reach = np.flatnonzero(near).tolist()
+        if not reach:
+            return
+        ends = self._ray_ends(robots, reach, rows, poses).ravel()
+        distances = kernel.first_hits(handles[reach], words[reach, 0], words[reach, 1], ends, len(self._cos), span)
+        out[reach] = distances.reshape(len(reach), len(self._cos))
+
+    def _ray_ends(self, robots: Sequence[DiffDriveRobot], reach: list[int], rows: list, poses: np.ndarray) -> np.ndarray:
+        """``(len(reach), width, 4)``: each ray's ``x0, y0, x1, y1`` with the operations of :meth:`_cast_one`."""
+        span = self.max_range
         theta = [rows[m][2] for m in reach]
         c, s = np.array([math.cos(t) for t in theta])[:, None], np.array([math.sin(t) for t in theta])[:, None]
         ca, sa = np.array(self._cos), np.array(self._sin)
@@ -334,11 +362,7 @@ class ProximityRing(NoisyRowSensor):
         r = np.array([robots[m].spec.radius for m in reach])[:, None]
         picked = poses[reach]
         start_x, start_y = picked[:, 0, None] + r * dx, picked[:, 1, None] + r * dy
-        ends = np.stack([start_x, start_y, start_x + span * dx, start_y + span * dy], axis=-1).ravel().tolist()
-        width = len(self._cos)
-        filters = [robots[m].sensor_filter for m in reach]
-        distances = caster.ray_distances([spaces[m] for m in reach], ends, filters, width, span)
-        out[reach] = np.array(distances).reshape(len(reach), width)
+        return np.stack([start_x, start_y, start_x + span * dx, start_y + span * dy], axis=-1)
 
     def _cast_one(self, robot: DiffDriveRobot, space: pymunk.Space, x: float, y: float, theta: float, out: np.ndarray) -> None:
         """Cast one robot's rays; hits go into ``out`` (the other values are left as they are)."""

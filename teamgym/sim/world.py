@@ -344,6 +344,17 @@ class World:
             self._reader.write(self.space)
             self._buffer_dirty = False
 
+    def state_bodies(self) -> list[pymunk.Body]:
+        """The body of each state row, in row order."""
+        return [entity.state_body for entity in self._stepped]
+
+    def end_step_with(self, states: np.ndarray) -> None:
+        """Finish a control step integrated outside :meth:`step` (:mod:`teamgym.sim.kernel`): ``states`` are the rows after it."""
+        self.fine_steps += 1
+        self._buffer_fresh = self._buffer_dirty = False  # the body buffer no longer holds the space
+        self._take_states(states)
+        self.time += self.dt
+
     def read_states(self) -> tuple[np.ndarray, np.ndarray]:
         """Refresh ``states`` and return ``(robot_states, mover_states)``, rows ``(x, y, angle, vx, vy, ω)``."""
         self._read()
@@ -354,6 +365,9 @@ class World:
             self._reader = BodyReader([e.state_body for e in self._stepped])
         states = self._reader.read(self.space) if self._reader.bodies else np.zeros((0, 6))
         self._buffer_fresh = bool(self._reader.bodies)
+        return self._take_states(states)
+
+    def _take_states(self, states: np.ndarray) -> np.ndarray:
         empty = slice(0, 0)
         self.states = states
         self.robot_states = states[self._rows_of.get(Category.ROBOT, empty)]
@@ -371,7 +385,7 @@ class World:
         """
         space = self.space
         raw_step, handle = space_step, space._space
-        if _pending(space):
+        if pending_work(space):
             space.step(h)
             n -= 1
         for _ in range(n):
@@ -475,7 +489,7 @@ class World:
         return state
 
 
-def _pending(space: pymunk.Space) -> bool:
+def pending_work(space: pymunk.Space) -> bool:
     """Whether ``pymunk.Space.step`` has work besides Chipmunk's step (pymunk 7's private lists of deferred work)."""
     return bool(
         space._bodies_to_check or space._add_later or space._remove_later or space._post_step_callbacks or space._removed_shapes

@@ -10,7 +10,9 @@ worlds — the robots' arc motions (:meth:`DiffDriveRobot.apply_command
 encoders and odometers (:meth:`DiffDriveRobot.end_step <teamgym.sim.robot.DiffDriveRobot.end_step>`)
 — with the same floating-point operations in the same order, so every world ends its step
 bit for bit as if it had stepped alone. What stays per world is what Chipmunk needs per space:
-one batch write of the bodies, the pivot anchors, the substeps and one batch read.
+the control bodies' writes, the pivot anchors, the substeps and one batch read — made from one
+compiled call for all worlds where :mod:`teamgym.sim.kernel` is enabled (:class:`CompiledWorlds`),
+else world by world from Python.
 
 A world takes the group path when its plan holds only those step groups, it integrates a
 whole step in ``substeps`` (no adaptive substeps) and no robot has an actuation delay this
@@ -26,12 +28,23 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from teamgym.sim import kernel
 from teamgym.sim.entity import StepGroup
 from teamgym.sim.objects import BounceSteps, MovingPolygon
 from teamgym.sim.robot import DiffDriveRobot, RobotSteps, arc_motion, encoder_values
-from teamgym.sim.world import World
+from teamgym.sim.world import World, pending_work
 
-__all__ = ["MIN_ROBOTS_TOGETHER", "GroupPlan", "GroupPlans", "StepTogether", "group_plan", "step_worlds"]
+__all__ = [
+    "MIN_ROBOTS_TOGETHER",
+    "MIN_ROBOTS_TOGETHER_COMPILED",
+    "CompiledWorlds",
+    "GroupPlan",
+    "GroupPlans",
+    "StepTogether",
+    "default_min_robots",
+    "group_plan",
+    "step_worlds",
+]
 
 
 @dataclass(frozen=True)
@@ -78,20 +91,32 @@ def _rows(rows: list[int]) -> slice | np.ndarray:
     return np.array(rows, dtype=np.intp)
 
 
-#: Robots a group of worlds needs to step together (:class:`GroupPlans`). Gathering the group
-#: into arrays costs a fixed few tens of µs per control step, which the one pass saves back only
-#: over many robots. Measured on 2026-12-07 (``benchmarks/bench_world_group.py``, same process,
-#: together / one by one): 1.08–1.16× the time at 4 copies of Navigation, BoxPushing-v0 and
-#: Exploration; at 64 copies 0.96–1.04× over repeated runs (within the shared machine's noise).
+#: Robots a group of worlds needs to step together (:class:`GroupPlans`) when they step in Python.
+#: Gathering the group into arrays costs a fixed few tens of µs per control step, which the one
+#: pass saves back only over many robots. Measured on 2026-12-07 (``benchmarks/bench_world_group.py``,
+#: same process, together / one by one): 1.08–1.16× the time at 4 copies of Navigation,
+#: BoxPushing-v0 and Exploration; at 64 copies 0.96–1.04× over repeated runs.
 MIN_ROBOTS_TOGETHER = 128
+
+#: The same with the compiled kernel (:mod:`teamgym.sim.kernel`), which makes the Chipmunk calls
+#: of a group in one call: together / one by one 0.99–1.06× at 4 copies, 0.94–0.97× at 8 and
+#: 0.85–0.93× at 16 (2026-12-07, same benchmark). The smaller of the two thresholds applies.
+MIN_ROBOTS_TOGETHER_COMPILED = 16
+
+
+def default_min_robots() -> int:
+    """The fewest robots a group steps together with by default: compiled or not (see the two thresholds)."""
+    if kernel.enabled():
+        return min(MIN_ROBOTS_TOGETHER, MIN_ROBOTS_TOGETHER_COMPILED)
+    return MIN_ROBOTS_TOGETHER
 
 
 class GroupPlans:
     """:func:`group_plan` of worlds, each kept while its world keeps its step plan (its entities).
 
     ``min_robots``: the fewest robots (over the plans of the worlds) with which a group steps
-    together (default :data:`MIN_ROBOTS_TOGETHER` when made); smaller groups step world by world
-    (the same bits either way).
+    together (default :func:`default_min_robots`, taken when a group first needs it, so a lone
+    env never loads the kernel); smaller groups step world by world (the same bits either way).
     """
 
     def __init__(self, min_robots: int | None = None) -> None:
@@ -100,7 +125,13 @@ class GroupPlans:
         self._last: list[World] | None = None  # the worlds of the last step that stepped alone
         self._small = False  # whether those worlds hold too few robots to step together
         self._min_robots_given = min_robots  # kept by pickles (None: the default when unpickled)
-        self.min_robots = MIN_ROBOTS_TOGETHER if min_robots is None else min_robots
+        self._min_robots = min_robots
+
+    @property
+    def min_robots(self) -> int:
+        if self._min_robots is None:
+            self._min_robots = default_min_robots()
+        return self._min_robots
 
     def plan_of(self, world: World) -> GroupPlan | None:
         steps = world.step_plan()
@@ -176,6 +207,8 @@ class StepTogether:
         self.wheel_radius = np.array([robot.spec.wheel_radius for robot in self.robots])
         self.mover_radius = np.array([mover.bounding_radius for mover in self.movers])
         self.mover_size = np.array([world.size for world, plan in pairs for _ in plan.movers], dtype=float).reshape(-1, 2)
+        self._compiled: CompiledWorlds | None = None
+        self._compiled_tried = False
 
     def same_worlds(self, worlds: Sequence[World]) -> bool:
         """Whether ``worlds`` are the worlds this object was made for (in that order)."""
@@ -199,13 +232,23 @@ class StepTogether:
             self._step_together(reuse_states)
 
     def _step_together(self, reuse_states: bool) -> None:
-        together, robots, bounds = self.together, self.robots, self.bounds
+        together, robots = self.together, self.robots
         blocks = [world.begin_step(reuse_states) for world, _ in together]
         starts = np.concatenate([block[plan.robot_rows] for block, (_, plan) in zip(blocks, together)])
         commands = np.array([robot.command for robot in robots], dtype=float).reshape(-1, 2)
         motion, anchors = arc_motion(commands, starts)
         dt = together[0][0].dt
         bounced = self._plan_bounces(blocks, dt)
+        compiled = self._compiled_worlds()
+        if compiled is not None and not any(pending_work(world.space) for world, _ in together):
+            ends = compiled.step(motion, anchors, bounced)
+        else:
+            ends = self._step_in_python(motion, anchors, bounced)
+        _end_robot_steps(robots, commands, starts, ends, dt, self.half_base, self.wheel_radius)
+
+    def _step_in_python(self, motion: np.ndarray, anchors: np.ndarray, bounced: list[tuple[MovingPolygon, tuple]]) -> np.ndarray:
+        """Write the control bodies, anchors and bounces world by world, integrate, read: the robots' end rows."""
+        together, bounds = self.together, self.bounds
         anchor_list = anchors.tolist()
         for m, (world, plan) in enumerate(together):
             first, last = bounds[m], bounds[m + 1]
@@ -223,7 +266,16 @@ class StepTogether:
         for world, _ in together:
             world.integrate_step()
         ends = np.concatenate([world.finish_step()[plan.robot_rows] for world, plan in together])
-        _end_robot_steps(robots, commands, starts, ends, dt, self.half_base, self.wheel_radius)
+        return ends
+
+    def _compiled_worlds(self) -> CompiledWorlds | None:
+        """The compiled step of these worlds (:mod:`teamgym.sim.kernel`), made at the first step; ``None`` without it."""
+        if not kernel.enabled():
+            return None
+        if not self._compiled_tried:
+            self._compiled_tried = True
+            self._compiled = CompiledWorlds(self.together)
+        return self._compiled
 
     def _plan_bounces(self, blocks: list[np.ndarray], dt: float) -> list[tuple[MovingPolygon, tuple]]:
         """:meth:`MovingPolygon.plan_bounce` of every bouncing obstacle at once; the obstacles whose velocity changes."""
@@ -245,6 +297,76 @@ class StepTogether:
         vy = np.where(held, -vy, vy)
         changed = np.flatnonzero((vx != target[:, 0]) | (vy != target[:, 1])).tolist()
         return [(movers[i], (float(vx[i]), float(vy[i]))) for i in changed]
+
+
+class CompiledWorlds:
+    """Worlds of a :class:`StepTogether` stepped by :class:`teamgym.sim.kernel.WorldsKernel`: their bodies as handles and rows.
+
+    The kernel makes the Chipmunk calls of :meth:`StepTogether._step_in_python` (control bodies,
+    drive anchors, bounce velocities, the substeps, the reads) for all worlds in one compiled
+    call; this object holds the handles of the robots' control bodies and drives and of the
+    obstacles' control bodies, finds the state rows in the kernel's buffer and hands each world
+    its rows after the step.
+    """
+
+    def __init__(self, together: Sequence[tuple[World, GroupPlan]]) -> None:
+        self.worlds = [world for world, _ in together]
+        robots = [robot for _, plan in together for robot in plan.robots]
+        self.controls = kernel.body_handles([robot.control for robot in robots])
+        self.mover_bodies = {id(mover): mover.control for _, plan in together for mover in plan.movers}
+        joints, owners, offsets, plain = [], [], [], []
+        for i, robot in enumerate(robots):
+            if robot.pivot is not None:
+                joints.append(robot.pivot), owners.append(i), offsets.append((0.0, 0.0)), plain.append(True)
+            else:
+                for drive, point in zip(robot.drives, robot.wheel_points):
+                    joints.append(drive), owners.append(i), offsets.append(point), plain.append(False)
+        self.joints = kernel.joint_handles(joints)
+        self.joint_owner = np.array(owners, dtype=np.intp)
+        self.joint_offset = np.array(offsets, dtype=float).reshape(-1, 2)
+        self.joint_plain = np.array(plain, dtype=bool)
+        self._robot_rows = [plan.robot_rows for _, plan in together]
+        self._map_rows()
+        first = self.worlds[0]
+        self.dt, self.substeps = first.dt, first.substeps
+        if any(world.dt != self.dt or world.substeps != self.substeps for world in self.worlds):
+            raise ValueError("CompiledWorlds: the worlds step with different dt or substeps")
+
+    def _map_rows(self) -> None:
+        """A kernel over the worlds' spaces as they are, and where their state rows are in its buffer."""
+        self.kernel = kernel.WorldsKernel([world.space for world in self.worlds])
+        state_rows = [self.kernel.body_rows(m, world.state_bodies()) for m, world in enumerate(self.worlds)]
+        self.state_rows = np.concatenate(state_rows)
+        self.state_bounds = np.cumsum([0] + [len(rows) for rows in state_rows]).tolist()
+        self.robot_rows = np.concatenate(
+            [
+                np.arange(len(rows))[robot_rows] + first
+                for rows, first, robot_rows in zip(state_rows, self.state_bounds, self._robot_rows)
+            ]
+        )
+
+    def step(self, motion: np.ndarray, anchors: np.ndarray, bounced: list[tuple[MovingPolygon, tuple]]) -> np.ndarray:
+        """One control step (as :meth:`StepTogether._step_in_python`); returns the robots' state rows after it."""
+        anchor_y = anchors[self.joint_owner]
+        anchor_values = np.empty((len(anchor_y), 2))
+        # a pivot's anchor is (0, y) as given; a wheel drive's is offset by its wheel point
+        anchor_values[:, 0] = np.where(self.joint_plain, 0.0, 0.0 + self.joint_offset[:, 0])
+        anchor_values[:, 1] = np.where(self.joint_plain, anchor_y, anchor_y + self.joint_offset[:, 1])
+        movers = kernel.body_handles([self.mover_bodies[id(mover)] for mover, _ in bounced])
+        velocities = np.array([velocity for _, velocity in bounced], dtype=float).reshape(-1, 2)
+        for mover, velocity in bounced:
+            mover.target_velocity = velocity
+        h, n = self.dt / self.substeps, self.substeps
+        try:
+            buffer = self.kernel.step(self.controls, motion, movers, velocities, self.joints, anchor_values, n, h)
+        except kernel.KernelError:  # bodies added or removed behind the worlds' backs: find the rows again
+            self._map_rows()
+            buffer = self.kernel.read()
+        states = buffer[self.state_rows]
+        bounds = self.state_bounds
+        for m, world in enumerate(self.worlds):
+            world.end_step_with(states[bounds[m] : bounds[m + 1]])
+        return states[self.robot_rows]
 
 
 def _end_robot_steps(

@@ -8,6 +8,7 @@ import pytest
 
 import teamgym
 from teamgym.sim.world_group import GroupPlans, group_plan, step_worlds
+from tests.world_twins import command_both, envs_and_twins
 
 
 def _worlds(env_id: str, n: int, **config) -> list:
@@ -35,16 +36,12 @@ def _snapshot(world) -> tuple:
     ],
 )
 def test_worlds_stepped_together_equal_worlds_stepped_alone(env_id, config, plans):
-    envs = _worlds(env_id, 4, **config)
-    twins = [copy.deepcopy(env) for env in envs]
+    envs, twins = envs_and_twins(env_id, 4, 100, **config)
     grouped = GroupPlans(min_robots=0)  # four worlds: below the default threshold
     rng = np.random.default_rng(0)
     for _ in range(30):
+        command_both(envs, twins, rng)
         for env, twin in zip(envs, twins):
-            for robot, other in zip(env.world.robots, twin.world.robots):
-                v, omega = rng.uniform(-0.3, 0.3), rng.uniform(-2.0, 2.0)
-                robot.set_command(v, omega)
-                other.set_command(v, omega)
             if config.get("actuation_delay"):
                 for robot, other in zip(env.world.robots, twin.world.robots):
                     robot.actuation_delay = other.actuation_delay = 0.05
