@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from teamgym.sim.robot import set_commands
 from teamgym.sim.world_group import GroupPlans
 
 if TYPE_CHECKING:
@@ -90,8 +91,7 @@ class CopyPhases:
         if commands is None:
             return False
         names = first.possible_agents
-        for k, i, (v, omega) in zip(rows[0].tolist(), rows[1].tolist(), commands.tolist()):
-            copies[k].robots[names[i]].set_command(v, omega)
+        set_commands([copies[k].robots[names[i]] for k, i in zip(rows[0].tolist(), rows[1].tolist())], commands)
         return True
 
     def _act(self, group: list[int], actions: list[dict[str, Any]]) -> None:

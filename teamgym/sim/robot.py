@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Literal
 
@@ -126,6 +127,29 @@ def saturate(v: float, omega: float, spec: RobotSpec) -> tuple[float, float]:
         scale = spec.max_wheel_speed / peak
         return v * scale, omega * scale
     return v, omega
+
+
+def set_commands(robots: Sequence[DiffDriveRobot], commands: np.ndarray) -> None:
+    """:meth:`DiffDriveRobot.set_command` of each robot with its row ``(v, ω)`` of ``commands``, saturated in one pass.
+
+    The operations of :func:`saturate` on arrays (same order, same bits); a robot that is not
+    enabled gets ``(0, 0)``. A row that is not finite raises as :meth:`~DiffDriveRobot.set_command`
+    does, before any robot is commanded.
+    """
+    commands = np.asarray(commands, dtype=float).reshape(-1, 2)
+    if not np.isfinite(commands).all():
+        bad = int(np.flatnonzero(~np.isfinite(commands).all(axis=1))[0])
+        robots[bad].set_command(*commands[bad].tolist())  # raises the one-line error
+    v, omega = commands[:, 0], commands[:, 1]
+    half = 0.5 * np.array([robot.spec.wheel_base for robot in robots]) * omega
+    peak = np.maximum(np.abs(v - half), np.abs(v + half))
+    top = np.array([robot.spec.max_wheel_speed for robot in robots])
+    over = peak > top
+    if over.any():
+        scale = np.divide(top, peak, out=np.ones_like(peak), where=over)
+        v, omega = np.where(over, v * scale, v), np.where(over, omega * scale, omega)
+    for robot, v_i, omega_i in zip(robots, v.tolist(), omega.tolist()):
+        robot.command = (v_i, omega_i) if robot.enabled else (0.0, 0.0)
 
 
 @dataclass

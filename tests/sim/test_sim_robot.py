@@ -140,3 +140,33 @@ def test_wrap_angle_range():
 def test_robot_spec_rejects_bad_values(field, value):
     with pytest.raises(ValueError, match=field):
         RobotSpec(**{field: value})
+
+
+@settings(max_examples=100, deadline=None, database=None)
+@given(rows=st.lists(st.tuples(finite, finite, bases, st.floats(min_value=0.01, max_value=2.0), st.booleans()), max_size=6))
+def test_set_commands_is_set_command_robot_by_robot(rows):
+    """The batch form of ``set_command`` (one numpy pass) gives each robot the same command, bit for bit."""
+    from teamgym.sim.robot import set_commands
+
+    def robots() -> list[DiffDriveRobot]:
+        made = []
+        for i, (_, _, base, top, enabled) in enumerate(rows):
+            robot = DiffDriveRobot(f"r{i}", (0.0, 0.0), spec=RobotSpec(radius=0.3, wheel_base=base, max_wheel_speed=top))
+            robot.enabled = enabled
+            made.append(robot)
+        return made
+
+    one_by_one, together = robots(), robots()
+    for robot, (v, omega, *_) in zip(one_by_one, rows):
+        robot.set_command(v, omega)
+    set_commands(together, np.array([(v, omega) for v, omega, *_ in rows]))
+    assert [r.command for r in together] == [r.command for r in one_by_one]
+
+
+def test_set_commands_rejects_a_row_that_is_not_finite_before_commanding_any():
+    from teamgym.sim.robot import set_commands
+
+    robots = [DiffDriveRobot(f"r{i}", (0.0, 0.0)) for i in range(2)]
+    with pytest.raises(ValueError, match="robot 'r1': command must be finite"):
+        set_commands(robots, np.array([[0.1, 0.0], [math.nan, 0.0]]))
+    assert [r.command for r in robots] == [(0.0, 0.0), (0.0, 0.0)]
