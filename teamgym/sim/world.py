@@ -275,9 +275,13 @@ class World:
     # -- the parts of a step, for worlds stepped together (teamgym.sim.world_group) ----
     def begin_step(self, reuse_states: bool = False) -> np.ndarray:
         """Start a control step: forget the last step's contacts; the state rows at its start (see :meth:`step`)."""
-        self._contacts.new_step()
+        self.forget_step_contacts()
         fresh = reuse_states and self._reader is not None and len(self.states) == len(self._stepped)
         return self.states if fresh else self._read()
+
+    def forget_step_contacts(self) -> None:
+        """Start a control step's contact record (the last step's contacts are forgotten, the totals kept)."""
+        self._contacts.new_step()
 
     def step_plan(self) -> list[tuple[StepGroup, slice]]:
         """The step groups of the state rows, each with its rows: ``(group, rows)`` per run of entities of one class."""

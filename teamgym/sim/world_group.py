@@ -233,17 +233,20 @@ class StepTogether:
 
     def _step_together(self, reuse_states: bool) -> None:
         together, robots = self.together, self.robots
-        blocks = [world.begin_step(reuse_states) for world, _ in together]
-        starts = np.concatenate([block[plan.robot_rows] for block, (_, plan) in zip(blocks, together)])
+        compiled = self._compiled_worlds()
+        if compiled is not None and not any(pending_work(world.space) for world, _ in together):
+            states = compiled.start(reuse_states)
+            starts, mover_states = states[compiled.robot_rows], states[compiled.mover_rows]
+        else:
+            compiled = None
+            blocks = [world.begin_step(reuse_states) for world, _ in together]
+            starts = np.concatenate([block[plan.robot_rows] for block, (_, plan) in zip(blocks, together)])
+            mover_states = np.concatenate([block[plan.mover_rows] for block, (_, plan) in zip(blocks, together)])
         commands = np.array([robot.command for robot in robots], dtype=float).reshape(-1, 2)
         motion, anchors = arc_motion(commands, starts)
         dt = together[0][0].dt
-        bounced = self._plan_bounces(blocks, dt)
-        compiled = self._compiled_worlds()
-        if compiled is not None and not any(pending_work(world.space) for world, _ in together):
-            ends = compiled.step(motion, anchors, bounced)
-        else:
-            ends = self._step_in_python(motion, anchors, bounced)
+        bounced = self._plan_bounces(mover_states, dt)
+        ends = self._step_in_python(motion, anchors, bounced) if compiled is None else compiled.step(motion, anchors, bounced)
         _end_robot_steps(robots, commands, starts, ends, dt, self.half_base, self.wheel_radius)
 
     def _step_in_python(self, motion: np.ndarray, anchors: np.ndarray, bounced: list[tuple[MovingPolygon, tuple]]) -> np.ndarray:
@@ -277,12 +280,12 @@ class StepTogether:
             self._compiled = CompiledWorlds(self.together)
         return self._compiled
 
-    def _plan_bounces(self, blocks: list[np.ndarray], dt: float) -> list[tuple[MovingPolygon, tuple]]:
-        """:meth:`MovingPolygon.plan_bounce` of every bouncing obstacle at once; the obstacles whose velocity changes."""
+    def _plan_bounces(self, state: np.ndarray, dt: float) -> list[tuple[MovingPolygon, tuple]]:
+        """:meth:`MovingPolygon.plan_bounce` of every bouncing obstacle at once (``state``: their state rows at the
+        step's start); the obstacles whose velocity changes."""
         movers = self.movers
         if not movers:
             return []
-        state = np.concatenate([block[plan.mover_rows] for block, (_, plan) in zip(blocks, self.together)])
         target = np.array([mover.target_velocity for mover in movers], dtype=float)
         radius, size = self.mover_radius, self.mover_size
         x, y, actual_x, actual_y = state[:, 0], state[:, 1], state[:, 3], state[:, 4]
@@ -326,6 +329,10 @@ class CompiledWorlds:
         self.joint_offset = np.array(offsets, dtype=float).reshape(-1, 2)
         self.joint_plain = np.array(plain, dtype=bool)
         self._robot_rows = [plan.robot_rows for _, plan in together]
+        self._mover_rows = [plan.mover_rows for _, plan in together]
+        #: Every world's state rows after the last step (``None``: read them at the next start).
+        self.states: np.ndarray | None = None
+        self._handed: list[np.ndarray] = []  # the views of ``states`` each world was handed
         self._map_rows()
         first = self.worlds[0]
         self.dt, self.substeps = first.dt, first.substeps
@@ -338,15 +345,35 @@ class CompiledWorlds:
         state_rows = [self.kernel.body_rows(m, world.state_bodies()) for m, world in enumerate(self.worlds)]
         self.state_rows = np.concatenate(state_rows)
         self.state_bounds = np.cumsum([0] + [len(rows) for rows in state_rows]).tolist()
-        self.robot_rows = np.concatenate(
-            [
-                np.arange(len(rows))[robot_rows] + first
-                for rows, first, robot_rows in zip(state_rows, self.state_bounds, self._robot_rows)
-            ]
-        )
+        self.robot_rows = self._in_states(state_rows, self._robot_rows)
+        self.mover_rows = self._in_states(state_rows, self._mover_rows)
+        self.states = None
+
+    def _in_states(self, state_rows: list[np.ndarray], own_rows: list[slice | np.ndarray]) -> np.ndarray:
+        """Rows of ``states`` for each world's own rows (a :class:`GroupPlan`'s ``robot_rows`` / ``mover_rows``)."""
+        firsts = self.state_bounds
+        return np.concatenate([np.arange(len(rows))[own] + first for rows, first, own in zip(state_rows, firsts, own_rows)])
+
+    def start(self, reuse_states: bool) -> np.ndarray:
+        """Begin a step (each world forgets its last step's contacts); every world's state rows at its start.
+
+        With ``reuse_states`` (no body moved since the last read) and every world still holding the
+        rows this object handed it after the last step, those rows; else every body is read again.
+        """
+        for world in self.worlds:
+            world.forget_step_contacts()
+        if reuse_states and self.states is not None and all(w.states is s for w, s in zip(self.worlds, self._handed)):
+            return self.states
+        try:
+            buffer = self.kernel.read()
+        except kernel.KernelError:  # bodies added or removed behind the worlds' backs: find the rows again
+            self._map_rows()
+            buffer = self.kernel.read()
+        self.states = buffer[self.state_rows]
+        return self.states
 
     def step(self, motion: np.ndarray, anchors: np.ndarray, bounced: list[tuple[MovingPolygon, tuple]]) -> np.ndarray:
-        """One control step (as :meth:`StepTogether._step_in_python`); returns the robots' state rows after it."""
+        """One control step (as :meth:`StepTogether._step_in_python`) after :meth:`start`; the robots' state rows after it."""
         anchor_y = anchors[self.joint_owner]
         anchor_values = np.empty((len(anchor_y), 2))
         # a pivot's anchor is (0, y) as given; a wheel drive's is offset by its wheel point
@@ -362,10 +389,11 @@ class CompiledWorlds:
         except kernel.KernelError:  # bodies added or removed behind the worlds' backs: find the rows again
             self._map_rows()
             buffer = self.kernel.read()
-        states = buffer[self.state_rows]
+        states = self.states = buffer[self.state_rows]
         bounds = self.state_bounds
-        for m, world in enumerate(self.worlds):
-            world.end_step_with(states[bounds[m] : bounds[m + 1]])
+        self._handed = [states[bounds[m] : bounds[m + 1]] for m in range(len(self.worlds))]
+        for world, rows in zip(self.worlds, self._handed):
+            world.end_step_with(rows)
         return states[self.robot_rows]
 
 

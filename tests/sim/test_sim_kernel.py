@@ -99,3 +99,34 @@ def test_the_environment_variable_switches_the_kernel_off():
         [sys.executable, "-c", code], env={**os.environ, kernel.ENV_FLAG: "0"}, capture_output=True, text=True, check=True
     )
     assert done.stdout.strip() == "False"
+
+
+@needs_kernel
+def test_rows_read_elsewhere_or_bodies_moved_between_steps_are_read_again(restore_switch):
+    """A world that re-read its rows (so they are not the kernel's), stepped alone for a step (a
+    delay), or had a body moved by hand (``reuse_states=False``) starts the next compiled step from
+    the space as it is."""
+    envs, twins = envs_and_twins("Navigation-v0", 4, 500)
+    compiled, in_python = GroupPlans(min_robots=0), GroupPlans(min_robots=0)
+    rng = np.random.default_rng(2)
+    for step in range(24):
+        command_both(envs, twins, rng)
+        moved = step % 6 == 5
+        if step % 4 == 3:
+            envs[1].world.read_states()
+            twins[1].world.read_states()
+        if moved:  # push one robot by hand in both copies
+            for env in (envs[2], twins[2]):
+                robot = env.world.robots[0]
+                for body in (robot.body, robot.control):
+                    body.position = (body.position.x + 0.01, body.position.y)
+        for env in (*envs, *twins):  # one step with an actuation delay: every world steps alone
+            for robot in env.world.robots:
+                robot.actuation_delay = 0.05 if step == 13 else 0.0
+        kernel.set_enabled(True)
+        compiled.step([env.world for env in envs], reuse_states=not moved)
+        kernel.set_enabled(False)
+        in_python.step([twin.world for twin in twins], reuse_states=not moved)
+        for env, twin in zip(envs, twins):
+            assert _snapshot(env.world) == _snapshot(twin.world)
+    assert compiled._together._compiled is not None
