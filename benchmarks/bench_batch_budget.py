@@ -10,11 +10,13 @@ interleaved over ``--rounds`` rounds (process CPU time, best round):
 * **batch**: ``teamgym.make_batch(env_id, K)`` with the same action rule, in µs per copy and
   control step;
 * **physics**: the part of the batch's step spent in its worlds' substeps (``World._integrate``:
-  Chipmunk's ``cpSpaceStep`` and the contact callbacks it calls), timed in a second pass of
-  the same rollout, in µs per copy and control step.
+  Chipmunk's ``cpSpaceStep`` and the contact callbacks it calls; with the compiled kernel,
+  ``WorldsKernel.step``, which also makes the control bodies' setter calls and the body reads
+  around the substeps), timed in a second pass of the same rollout, in µs per copy and control step.
 
-Control steps are counted (``World._integrate`` calls) in a first pass of the same rollouts; the
-timed lone and batch passes run unwatched.
+Control steps are counted (``World._integrate`` calls, and one per world of each
+``WorldsKernel.step``) in a first pass of the same rollouts; the timed lone and batch passes run
+unwatched.
 It prints the ratio batch/lone in agent-steps/s (what the aim measures), the ceiling
 ``lone / physics`` (the ratio a batch whose Python cost nothing would reach), and the Python
 (and ray-query) time per copy-step the 3× aim leaves, ``lone / 3 − physics``, beside what the
@@ -39,27 +41,32 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_batch_phases import _actions, lone_run  # noqa: E402
 
 import teamgym  # noqa: E402
+from teamgym.sim.kernel import WorldsKernel  # noqa: E402
 from teamgym.sim.world import World  # noqa: E402
 
 
 def watch_substeps(run) -> tuple[int, float, object]:
-    """``run()`` with ``World._integrate`` watched: its calls (control steps), the CPU seconds inside it, ``run()``'s result."""
-    original = World._integrate
+    """``run()`` with the substeps watched (``World._integrate``, ``WorldsKernel.step``): control steps, CPU s inside, result."""
+    originals = World._integrate, WorldsKernel.step
     calls, spent = [0], [0.0]
 
-    def watched(self, h, n):
-        calls[0] += 1
-        start = time.process_time()
-        try:
-            return original(self, h, n)
-        finally:
-            spent[0] += time.process_time() - start
+    def watching(original, worlds_of):
+        def watched(self, *args):
+            calls[0] += worlds_of(self)
+            start = time.process_time()
+            try:
+                return original(self, *args)
+            finally:
+                spent[0] += time.process_time() - start
 
-    World._integrate = watched
+        return watched
+
+    World._integrate = watching(originals[0], lambda world: 1)
+    WorldsKernel.step = watching(originals[1], lambda kernel: len(kernel.spaces))
     try:
         result = run()
     finally:
-        World._integrate = original
+        World._integrate, WorldsKernel.step = originals
     return calls[0], spent[0], result
 
 

@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 import teamgym
 from teamgym.sim.world import World
@@ -39,3 +40,16 @@ def test_timing_the_substeps_leaves_the_rollout_unchanged():
     watched = [env.world.robot_states.copy() for env in batch.copies]
     assert all(np.array_equal(a, b) for a, b in zip(plain, watched))
     assert World._integrate.__qualname__ == "World._integrate"
+
+
+def test_worlds_stepped_by_the_kernel_count_one_control_step_each(monkeypatch):
+    from teamgym.sim import kernel, world_group
+
+    if not kernel.enabled():
+        pytest.skip("numba not installed: every world steps through World._integrate (the tests above)")
+    monkeypatch.setattr(world_group, "MIN_ROBOTS_TOGETHER", 0)
+    batch, run = bench.batch_run("Navigation-v0", 3, 4)
+    calls, spent, _ = bench.watch_substeps(run)
+    assert batch._phases._group_plans._together._compiled is not None  # the kernel stepped them
+    assert calls == 3 * 4 and spent > 0.0
+    assert kernel.WorldsKernel.step.__qualname__ == "WorldsKernel.step"
