@@ -62,7 +62,7 @@ def watch_substeps(run) -> tuple[int, float, object]:
         return watched
 
     World._integrate = watching(originals[0], lambda world: 1)
-    WorldsKernel.step = watching(originals[1], lambda kernel: len(kernel.spaces))
+    WorldsKernel.step = watching(originals[1], lambda kernel: len(kernel.layouts))
     try:
         result = run()
     finally:

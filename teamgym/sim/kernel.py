@@ -25,6 +25,7 @@ import ctypes
 import os
 import sys
 from collections.abc import Sequence
+from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
@@ -36,6 +37,7 @@ from teamgym.sim.chipmunk import _GET_BODIES, _MOTION_FIELDS
 
 __all__ = [
     "KernelError",
+    "SpaceLayout",
     "WorldsKernel",
     "body_handles",
     "enabled",
@@ -240,6 +242,23 @@ def space_handles(spaces: Sequence[pymunk.Space]) -> np.ndarray:
     return np.array([_address(space._space) for space in spaces], dtype=np.uint64)
 
 
+@dataclass(frozen=True)
+class SpaceLayout:
+    """A space's Chipmunk handle and its bodies in Chipmunk's iteration order (``rows``: body id → row)."""
+
+    handle: int
+    rows: dict[int, int]
+
+    @classmethod
+    def of(cls, space: pymunk.Space) -> SpaceLayout:
+        return cls(_address(space._space), {body_id: row for row, body_id in enumerate(_body_ids(space))})
+
+    def body_rows(self, bodies: Sequence[pymunk.Body]) -> np.ndarray:
+        """Rows of ``bodies`` in the space's iteration order; ``KeyError`` for a body not in the space."""
+        rows = self.rows
+        return np.array([rows[body.id] for body in bodies], dtype=np.intp)
+
+
 class WorldsKernel:
     """The bodies of several worlds in one float buffer, and the compiled step over them.
 
@@ -247,21 +266,17 @@ class WorldsKernel:
     world, each in Chipmunk's iteration order; :meth:`body_rows` finds bodies in it. :meth:`step`
     sets the control bodies, obstacle velocities and drive anchors it is given (Chipmunk's
     setters, as pymunk's properties call them), integrates ``substeps`` substeps of ``h`` in
-    every space and reads every body into :attr:`buffer`.
+    every space and reads every body into :attr:`buffer`. ``spaces`` are pymunk spaces or their
+    :class:`SpaceLayout` (made once per space and reused while its bodies stay).
     """
 
-    def __init__(self, spaces: Sequence[pymunk.Space], function=None) -> None:
+    def __init__(self, spaces: Sequence[pymunk.Space | SpaceLayout], function=None) -> None:
         self._step = function if function is not None else _compiled()
         if self._step is None:
             raise KernelError("the compiled step kernel is not available (see teamgym.sim.kernel.enabled)")
-        self.spaces = list(spaces)
-        self.handles = space_handles(self.spaces)
-        counts, self._ids = [], []
-        for space in self.spaces:
-            ids = _body_ids(space)
-            counts.append(len(ids))
-            self._ids.append({body_id: row for row, body_id in enumerate(ids)})
-        self.counts = np.array(counts, dtype=np.int64)
+        self.layouts = [s if isinstance(s, SpaceLayout) else SpaceLayout.of(s) for s in spaces]
+        self.handles = np.array([layout.handle for layout in self.layouts], dtype=np.uint64)
+        self.counts = np.array([len(layout.rows) for layout in self.layouts], dtype=np.int64)
         self.offsets = np.concatenate([[0], np.cumsum(self.counts)]).astype(np.int64)
         total = int(self.offsets[-1])
         # Room for twice the bodies: a world that gains bodies is caught before the array would move.
@@ -280,8 +295,7 @@ class WorldsKernel:
 
     def body_rows(self, m: int, bodies: Sequence[pymunk.Body]) -> np.ndarray:
         """Rows of ``bodies`` of world ``m`` in :attr:`buffer`; ``KeyError`` for a body not in its space."""
-        index = self._ids[m]
-        return np.array([int(self.offsets[m]) + index[body.id] for body in bodies], dtype=np.intp)
+        return self.layouts[m].body_rows(bodies) + int(self.offsets[m])
 
     def step(
         self,

@@ -24,7 +24,7 @@ from __future__ import annotations
 import math
 import weakref
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -58,6 +58,14 @@ class GroupPlan:
     control_rows: np.ndarray | None
     movers: list[MovingPolygon]
     mover_rows: slice | np.ndarray
+    #: The robots' half wheel bases and wheel radii, the obstacles' bounding radii and the arena
+    #: size ``(w, h)`` per obstacle: constants of the plan, gathered once.
+    half_base: np.ndarray
+    wheel_radius: np.ndarray
+    mover_radius: np.ndarray
+    mover_size: np.ndarray
+    #: The world's compiled part (:class:`CompiledPart`), made when a compiled group first needs it.
+    memo: dict = field(default_factory=dict, compare=False, repr=False)
 
 
 def group_plan(world: World) -> GroupPlan | None:
@@ -81,7 +89,17 @@ def group_plan(world: World) -> GroupPlan | None:
     if not robots:
         return None
     control_rows = world.body_rows([robot.control for robot in robots])
-    return GroupPlan(robots, _rows(robot_rows), control_rows, movers, _rows(mover_rows))
+    return GroupPlan(
+        robots,
+        _rows(robot_rows),
+        control_rows,
+        movers,
+        _rows(mover_rows),
+        half_base=0.5 * np.array([robot.spec.wheel_base for robot in robots]),
+        wheel_radius=np.array([robot.spec.wheel_radius for robot in robots]),
+        mover_radius=np.array([mover.bounding_radius for mover in movers]),
+        mover_size=np.array([world.size for _ in movers], dtype=float).reshape(-1, 2),
+    )
 
 
 def _rows(rows: list[int]) -> slice | np.ndarray:
@@ -142,12 +160,14 @@ class GroupPlans:
         return known[1]
 
     def step(self, worlds: Sequence[World], reuse_states: bool = False) -> None:
-        """Step ``worlds`` one control step: together (:class:`StepTogether`) once the same worlds step twice in a row
-        and hold at least ``min_robots`` robots.
+        """Step ``worlds`` one control step: together (:class:`StepTogether`) when they hold at least
+        ``min_robots`` robots — with the compiled kernel from a group's first step, else once the
+        same worlds step twice in a row.
 
         A group that changes from step to step (copies of a macro action type leaving their
-        stage one by one) would gather its robots anew every step, which costs more than it
-        saves: a new group steps its worlds alone the first time, together from the second.
+        stage one by one) gathers its robots anew every step. In Python that costs more than it
+        saves, so a new group steps its worlds alone the first time; the kernel joins the
+        worlds' arrays made once per step plan (:class:`CompiledPart`), which costs little.
         """
         together = self._together
         if together is not None and together.same_worlds(worlds):
@@ -156,7 +176,13 @@ class GroupPlans:
                 together = self._together = StepTogether(worlds, plans)
             together.step(reuse_states)
             return
-        if self._last is not None and len(self._last) == len(worlds) and all(a is b for a, b in zip(self._last, worlds)):
+        if kernel.enabled():
+            plans = [self.plan_of(world) for world in worlds]
+            if sum(len(plan.robots) for plan in plans if plan is not None) >= self.min_robots:
+                self._together = StepTogether(worlds, plans)
+                self._together.step(reuse_states)
+                return
+        elif self._last is not None and len(self._last) == len(worlds) and all(a is b for a, b in zip(self._last, worlds)):
             if not self._small:
                 plans = [self.plan_of(world) for world in worlds]
                 if sum(len(plan.robots) for plan in plans if plan is not None) >= self.min_robots:
@@ -203,10 +229,11 @@ class StepTogether:
         self.robots = [robot for _, plan in pairs for robot in plan.robots]
         self.movers = [mover for _, plan in pairs for mover in plan.movers]
         self.bounds = np.cumsum([0] + [len(plan.robots) for _, plan in pairs]).tolist()
-        self.half_base = 0.5 * np.array([robot.spec.wheel_base for robot in self.robots])
-        self.wheel_radius = np.array([robot.spec.wheel_radius for robot in self.robots])
-        self.mover_radius = np.array([mover.bounding_radius for mover in self.movers])
-        self.mover_size = np.array([world.size for world, plan in pairs for _ in plan.movers], dtype=float).reshape(-1, 2)
+        plans_together = [plan for _, plan in pairs]
+        self.half_base = _joined([plan.half_base for plan in plans_together])
+        self.wheel_radius = _joined([plan.wheel_radius for plan in plans_together])
+        self.mover_radius = _joined([plan.mover_radius for plan in plans_together])
+        self.mover_size = _joined([plan.mover_size for plan in plans_together], (0, 2))
         self._compiled: CompiledWorlds | None = None
         self._compiled_tried = False
 
@@ -302,57 +329,106 @@ class StepTogether:
         return [(movers[i], (float(vx[i]), float(vy[i]))) for i in changed]
 
 
-class CompiledWorlds:
-    """Worlds of a :class:`StepTogether` stepped by :class:`teamgym.sim.kernel.WorldsKernel`: their bodies as handles and rows.
+@dataclass(frozen=True)
+class CompiledPart:
+    """One world's share of a :class:`CompiledWorlds`, kept with its :class:`GroupPlan` (made once per plan).
 
-    The kernel makes the Chipmunk calls of :meth:`StepTogether._step_in_python` (control bodies,
-    drive anchors, bounce velocities, the substeps, the reads) for all worlds in one compiled
-    call; this object holds the handles of the robots' control bodies and drives and of the
-    obstacles' control bodies, finds the state rows in the kernel's buffer and hands each world
-    its rows after the step.
+    Rows are the world's own (its space's iteration order, its state rows); :class:`CompiledWorlds`
+    offsets them by the worlds before it.
     """
 
-    def __init__(self, together: Sequence[tuple[World, GroupPlan]]) -> None:
-        self.worlds = [world for world, _ in together]
-        robots = [robot for _, plan in together for robot in plan.robots]
-        self.controls = kernel.body_handles([robot.control for robot in robots])
-        self.mover_bodies = {id(mover): mover.control for _, plan in together for mover in plan.movers}
+    layout: kernel.SpaceLayout
+    state_rows: np.ndarray  # each state body's row in the space's iteration order
+    robot_rows: np.ndarray  # the robots' rows among the state rows
+    mover_rows: np.ndarray  # the bouncing obstacles' rows among the state rows
+    controls: np.ndarray  # the robots' control bodies (handles)
+    joints: np.ndarray  # every drive's pivot joint (handles), robot after robot
+    joint_owner: np.ndarray  # each drive's robot (index into the plan's robots)
+    joint_offset: np.ndarray  # a wheel drive's wheel point (0 for a centre pivot)
+    joint_plain: np.ndarray  # whether the drive is the robot's centre pivot
+    mover_controls: dict[int, int]  # id(obstacle) -> handle of its control body
+
+    @classmethod
+    def of(cls, world: World, plan: GroupPlan) -> CompiledPart:
+        layout = kernel.SpaceLayout.of(world.space)
+        every = np.arange(len(world.state_bodies()))
         joints, owners, offsets, plain = [], [], [], []
-        for i, robot in enumerate(robots):
+        for i, robot in enumerate(plan.robots):
             if robot.pivot is not None:
                 joints.append(robot.pivot), owners.append(i), offsets.append((0.0, 0.0)), plain.append(True)
             else:
                 for drive, point in zip(robot.drives, robot.wheel_points):
                     joints.append(drive), owners.append(i), offsets.append(point), plain.append(False)
-        self.joints = kernel.joint_handles(joints)
-        self.joint_owner = np.array(owners, dtype=np.intp)
-        self.joint_offset = np.array(offsets, dtype=float).reshape(-1, 2)
-        self.joint_plain = np.array(plain, dtype=bool)
-        self._robot_rows = [plan.robot_rows for _, plan in together]
-        self._mover_rows = [plan.mover_rows for _, plan in together]
-        #: Every world's state rows after the last step (``None``: read them at the next start).
-        self.states: np.ndarray | None = None
-        self._handed: list[np.ndarray] = []  # the views of ``states`` each world was handed
-        self._map_rows()
+        return cls(
+            layout,
+            layout.body_rows(world.state_bodies()),
+            every[plan.robot_rows],
+            every[plan.mover_rows],
+            kernel.body_handles([robot.control for robot in plan.robots]),
+            kernel.joint_handles(joints),
+            np.array(owners, dtype=np.intp),
+            np.array(offsets, dtype=float).reshape(-1, 2),
+            np.array(plain, dtype=bool),
+            {id(mover): int(handle) for mover, handle in zip(plan.movers, kernel.body_handles([m.control for m in plan.movers]))},
+        )
+
+
+class CompiledWorlds:
+    """Worlds of a :class:`StepTogether` stepped by :class:`teamgym.sim.kernel.WorldsKernel`: their bodies as handles and rows.
+
+    The kernel makes the Chipmunk calls of :meth:`StepTogether._step_in_python` (control bodies,
+    drive anchors, bounce velocities, the substeps, the reads) for all worlds in one compiled
+    call. Each world's handles and rows (:class:`CompiledPart`) are made once per step plan and
+    kept with it, so a group that changes from step to step (copies leaving a macro stage one by
+    one) is put together again by joining arrays; this object joins them, finds every world's
+    state rows in the kernel's buffer and hands each world its rows after the step.
+    """
+
+    def __init__(self, together: Sequence[tuple[World, GroupPlan]]) -> None:
+        self.worlds = [world for world, _ in together]
+        self._plans = [plan for _, plan in together]
         first = self.worlds[0]
         self.dt, self.substeps = first.dt, first.substeps
         if any(world.dt != self.dt or world.substeps != self.substeps for world in self.worlds):
             raise ValueError("CompiledWorlds: the worlds step with different dt or substeps")
+        #: Every world's state rows after the last step (``None``: read them at the next start).
+        self.states: np.ndarray | None = None
+        self._handed: list[np.ndarray] = []  # the views of ``states`` each world was handed
+        self._join()
 
-    def _map_rows(self) -> None:
-        """A kernel over the worlds' spaces as they are, and where their state rows are in its buffer."""
-        self.kernel = kernel.WorldsKernel([world.space for world in self.worlds])
-        state_rows = [self.kernel.body_rows(m, world.state_bodies()) for m, world in enumerate(self.worlds)]
-        self.state_rows = np.concatenate(state_rows)
-        self.state_bounds = np.cumsum([0] + [len(rows) for rows in state_rows]).tolist()
-        self.robot_rows = self._in_states(state_rows, self._robot_rows)
-        self.mover_rows = self._in_states(state_rows, self._mover_rows)
+    def _parts(self) -> list[CompiledPart]:
+        parts = []
+        for world, plan in zip(self.worlds, self._plans):
+            part = plan.memo.get("compiled")
+            if part is None:
+                part = plan.memo["compiled"] = CompiledPart.of(world, plan)
+            parts.append(part)
+        return parts
+
+    def _join(self) -> None:
+        """The kernel over the worlds' spaces and every array of the group, joined from the worlds' parts."""
+        parts = self._parts()
+        self.kernel = kernel.WorldsKernel([part.layout for part in parts])
+        body_offsets = self.kernel.offsets.tolist()
+        self.state_rows = np.concatenate([part.state_rows + offset for part, offset in zip(parts, body_offsets)])
+        self.state_bounds = np.cumsum([0] + [len(part.state_rows) for part in parts]).tolist()
+        firsts = self.state_bounds
+        self.robot_rows = np.concatenate([part.robot_rows + first for part, first in zip(parts, firsts)])
+        self.mover_rows = np.concatenate([part.mover_rows + first for part, first in zip(parts, firsts)])
+        self.controls = np.concatenate([part.controls for part in parts])
+        robot_firsts = np.cumsum([0] + [len(part.controls) for part in parts]).tolist()
+        self.joints = np.concatenate([part.joints for part in parts])
+        self.joint_owner = np.concatenate([part.joint_owner + first for part, first in zip(parts, robot_firsts)])
+        self.joint_offset = np.concatenate([part.joint_offset for part in parts])
+        self.joint_plain = np.concatenate([part.joint_plain for part in parts])
+        self.mover_controls = {key: handle for part in parts for key, handle in part.mover_controls.items()}
         self.states = None
 
-    def _in_states(self, state_rows: list[np.ndarray], own_rows: list[slice | np.ndarray]) -> np.ndarray:
-        """Rows of ``states`` for each world's own rows (a :class:`GroupPlan`'s ``robot_rows`` / ``mover_rows``)."""
-        firsts = self.state_bounds
-        return np.concatenate([np.arange(len(rows))[own] + first for rows, first, own in zip(state_rows, firsts, own_rows)])
+    def _rejoin(self) -> None:
+        """Bodies were added or removed behind the worlds' backs: make every world's part again."""
+        for plan in self._plans:
+            plan.memo.pop("compiled", None)
+        self._join()
 
     def start(self, reuse_states: bool) -> np.ndarray:
         """Begin a step (each world forgets its last step's contacts); every world's state rows at its start.
@@ -366,8 +442,8 @@ class CompiledWorlds:
             return self.states
         try:
             buffer = self.kernel.read()
-        except kernel.KernelError:  # bodies added or removed behind the worlds' backs: find the rows again
-            self._map_rows()
+        except kernel.KernelError:
+            self._rejoin()
             buffer = self.kernel.read()
         self.states = buffer[self.state_rows]
         return self.states
@@ -379,15 +455,15 @@ class CompiledWorlds:
         # a pivot's anchor is (0, y) as given; a wheel drive's is offset by its wheel point
         anchor_values[:, 0] = np.where(self.joint_plain, 0.0, 0.0 + self.joint_offset[:, 0])
         anchor_values[:, 1] = np.where(self.joint_plain, anchor_y, anchor_y + self.joint_offset[:, 1])
-        movers = kernel.body_handles([self.mover_bodies[id(mover)] for mover, _ in bounced])
+        movers = np.array([self.mover_controls[id(mover)] for mover, _ in bounced], dtype=np.uint64)
         velocities = np.array([velocity for _, velocity in bounced], dtype=float).reshape(-1, 2)
         for mover, velocity in bounced:
             mover.target_velocity = velocity
         h, n = self.dt / self.substeps, self.substeps
         try:
             buffer = self.kernel.step(self.controls, motion, movers, velocities, self.joints, anchor_values, n, h)
-        except kernel.KernelError:  # bodies added or removed behind the worlds' backs: find the rows again
-            self._map_rows()
+        except kernel.KernelError:  # stepped, but a world's bodies changed behind its back: read them again
+            self._rejoin()
             buffer = self.kernel.read()
         states = self.states = buffer[self.state_rows]
         bounds = self.state_bounds
@@ -395,6 +471,10 @@ class CompiledWorlds:
         for world, rows in zip(self.worlds, self._handed):
             world.end_step_with(rows)
         return states[self.robot_rows]
+
+
+def _joined(arrays: list[np.ndarray], empty: tuple[int, ...] = (0,)) -> np.ndarray:
+    return np.concatenate(arrays) if arrays else np.zeros(empty)
 
 
 def _end_robot_steps(
