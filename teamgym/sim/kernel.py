@@ -6,10 +6,11 @@ setter calls per control body, an anchor call per robot drive, ``substeps`` call
 nearest-shape query per robot and a segment query per ray. From Python each call costs a
 quarter of a microsecond or more of interpreter work besides Chipmunk's own, which with the
 numpy around it came to 15–20 µs per world and control step. Here numba (the ``fast`` extra:
-``pip install teamgym[fast]``) compiles those loops; they call the same functions exported by
-pymunk's Chipmunk library through ``ctypes``, with the same arguments in the same order per
-body, so the numbers they leave are the Python path's, bit for bit
-(``tests/sim/test_sim_kernel.py`` compares both on batches of every kind of world).
+``pip install teamgym[fast]``) compiles those loops (:mod:`teamgym.sim.compiled_loops`, cached on
+disk after the first process); they call the same functions exported by pymunk's Chipmunk
+library, with the same arguments in the same order per body, so the numbers they leave are the
+Python path's, bit for bit (``tests/sim/test_sim_kernel.py`` compares both on batches of every
+kind of world).
 
 Without numba, on Windows (where a ``cpVect`` argument is passed by reference) or with the
 environment variable ``TEAMGYM_KERNEL=0``, :func:`enabled` is false and everything runs in
@@ -21,7 +22,6 @@ pointer-sized group, two 32-bit masks) two integer words (x86-64 System V and AA
 
 from __future__ import annotations
 
-import ctypes
 import os
 import sys
 from collections.abc import Sequence
@@ -73,104 +73,33 @@ def _address(handle: object) -> int:
 
 
 @lru_cache(maxsize=1)
-def _compiled():
-    """The compiled step function, or ``None`` where it cannot be used (made once per process)."""
+def _loops():
+    """:mod:`teamgym.sim.compiled_loops` (imports numba), or ``None`` where it cannot be used."""
     if sys.platform == "win32" or sys.byteorder != "little":
         return None
     try:
-        import numba
+        from teamgym.sim import compiled_loops
     except ImportError:
         return None
-    so = _c_library()
-    u64, f64 = ctypes.c_uint64, ctypes.c_double
-
-    def c_function(name: str, *argtypes):
-        function = getattr(so, name)
-        function.argtypes, function.restype = list(argtypes), None
-        return function
-
-    space_step = c_function("cpSpaceStep", u64, f64)
-    each_body = c_function("cpSpaceEachBody", u64, u64, u64)
-    # a cpVect passed by value is two doubles (see the module docstring)
-    set_position = c_function("cpBodySetPosition", u64, f64, f64)
-    set_angle = c_function("cpBodySetAngle", u64, f64)
-    set_velocity = c_function("cpBodySetVelocity", u64, f64, f64)
-    set_angular_velocity = c_function("cpBodySetAngularVelocity", u64, f64)
-    set_anchor_a = c_function("cpPivotJointSetAnchorA", u64, f64, f64)
-
-    @numba.njit(cache=False)
-    def step_worlds(
-        spaces, floats_each, num, get_fn, get_data,
-        bodies, values, movers, velocities, joints, anchors, substeps, h,
-    ):  # fmt: skip
-        # 1. the control bodies (x, y, angle, vx, vy, ω), the obstacles' new velocities, the drives' anchors
-        for i in range(bodies.shape[0]):
-            body = bodies[i]
-            set_position(body, values[i, 0], values[i, 1])
-            set_angle(body, values[i, 2])
-            set_velocity(body, values[i, 3], values[i, 4])
-            set_angular_velocity(body, values[i, 5])
-        for i in range(movers.shape[0]):
-            set_velocity(movers[i], velocities[i, 0], velocities[i, 1])
-        for j in range(joints.shape[0]):
-            set_anchor_a(joints[j], anchors[j, 0], anchors[j, 1])
-        # 2. the substeps of every world
-        for m in range(spaces.shape[0]):
-            for _ in range(substeps):
-                space_step(spaces[m], h)
-        # 3. every body of every world read (0, or 1 + the first world whose body count changed)
-        total = 0
-        for m in range(spaces.shape[0]):
-            total += floats_each[m]
-        failed = 0
-        num[0] = 0
-        for m in range(spaces.shape[0]):
-            start = num[0]
-            each_body(spaces[m], get_fn, get_data)
-            if failed == 0 and num[0] - start != floats_each[m]:
-                failed = m + 1
-        num[0] = total
-        return failed
-
-    return step_worlds if _self_test(step_worlds) else None
+    return compiled_loops
 
 
-def _c_library():
-    return ctypes.CDLL(pymunk._chipmunk.__file__)
+@lru_cache(maxsize=1)
+def _compiled():
+    """The compiled step function, or ``None`` where it cannot be used (checked once per process)."""
+    loops = _loops()
+    if loops is None:
+        return None
+    return loops.step_worlds if _self_test(loops.step_worlds) else None
 
 
 @lru_cache(maxsize=1)
 def _compiled_queries():
-    """The compiled segment and nearest-point queries, or ``None`` where they cannot be used (made once per process)."""
-    if _compiled() is None:
+    """The compiled segment and nearest-point queries, or ``None`` where they cannot be used (checked once per process)."""
+    loops = _loops()
+    if loops is None or _compiled() is None:
         return None
-    import numba
-
-    so = _c_library()
-    u64, f64 = ctypes.c_uint64, ctypes.c_double
-    # (space, start: cpVect, end: cpVect, radius, filter: cpShapeFilter, info*) -> cpShape*
-    segment_first = so.cpSpaceSegmentQueryFirst
-    segment_first.argtypes, segment_first.restype = [u64, f64, f64, f64, f64, f64, u64, u64, u64], u64
-    # (space, point: cpVect, max distance, filter: cpShapeFilter, info*) -> cpShape*
-    point_nearest = so.cpSpacePointQueryNearest
-    point_nearest.argtypes, point_nearest.restype = [u64, f64, f64, f64, u64, u64, u64], u64
-
-    @numba.njit(cache=False)
-    def cast(handles, groups, bits, ends, width, span, info, info_at, out):
-        for m in range(handles.shape[0]):
-            for j in range(width):
-                i = m * width + j
-                hit = segment_first(
-                    handles[m], ends[4 * i], ends[4 * i + 1], ends[4 * i + 2], ends[4 * i + 3], 0.0, groups[m], bits[m], info_at
-                )
-                out[i] = info[_ALPHA] * span if hit != 0 else span
-
-    @numba.njit(cache=False)
-    def near(handles, groups, bits, points, distances, info_at, out):
-        for m in range(handles.shape[0]):
-            out[m] = point_nearest(handles[m], points[m, 0], points[m, 1], distances[m], groups[m], bits[m], info_at) != 0
-
-    return (cast, near) if _queries_agree(cast, near) else None
+    return (loops.cast, loops.near) if _queries_agree(loops.cast, loops.near) else None
 
 
 def _queries_agree(cast, near) -> bool:
@@ -190,7 +119,7 @@ def _queries_agree(cast, near) -> bool:
         handles = np.array([_address(space._space)] * 2, dtype=np.uint64)
         ends = np.array([[0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0], [0.0, 0.0, -0.8, -0.6]] * 2, dtype=np.float64)
         out = np.empty(6)
-        cast(handles, words[:, 0], words[:, 1], ends.ravel(), 3, 2.0, _INFO, _INFO.ctypes.data, out)
+        cast(handles, words[:, 0], words[:, 1], ends.ravel(), 3, 2.0, _INFO, _ALPHA, _INFO.ctypes.data, out)
         caster = RayCaster()
         expected = caster.ray_distances([space] * 2, ends.ravel().tolist(), filters, 3, 2.0)
         points, reach = np.array([[0.5, 0.3], [0.5, 0.3]]), np.array([0.25, 0.25])
@@ -223,7 +152,7 @@ def first_hits(
     """
     cast, _ = _compiled_queries()
     out = np.empty(len(handles) * width, dtype=np.float64)
-    cast(handles, groups, bits, ends, int(width), float(span), _INFO, _INFO.ctypes.data, out)
+    cast(handles, groups, bits, ends, int(width), float(span), _INFO, _ALPHA, _INFO.ctypes.data, out)
     return out
 
 
