@@ -79,7 +79,7 @@ def _loops():
         return None
     try:
         from teamgym.sim import compiled_loops
-    except ImportError:
+    except Exception:  # noqa: BLE001 - no numba, a numba that refuses this numpy, a library it cannot load
         return None
     return compiled_loops
 

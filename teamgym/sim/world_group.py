@@ -304,7 +304,9 @@ class StepTogether:
             return None
         if not self._compiled_tried:
             self._compiled_tried = True
-            self._compiled = CompiledWorlds(self.together)
+            first = self.together[0][0]
+            if all(world.dt == first.dt and world.substeps == first.substeps for world, _ in self.together):
+                self._compiled = CompiledWorlds(self.together)  # (else the worlds step in Python)
         return self._compiled
 
     def _plan_bounces(self, state: np.ndarray, dt: float) -> list[tuple[MovingPolygon, tuple]]:
