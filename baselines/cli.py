@@ -13,6 +13,7 @@
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import sys
 from collections.abc import Callable, Sequence
@@ -127,6 +128,17 @@ def workers_or_ray(text: str) -> int | str:
         return at_least(1)(text)
     except argparse.ArgumentTypeError:
         raise argparse.ArgumentTypeError(f"expected an integer >= 1 or 'ray', got {text!r}") from None
+
+
+def json_object(text: str) -> dict[str, Any]:
+    """An argparse ``type``: a JSON object (``{"key": value, ...}``), e.g. a policy's keyword arguments."""
+    try:
+        value = json.loads(text)
+    except json.JSONDecodeError as error:
+        raise argparse.ArgumentTypeError(f"expected a JSON object, got {text!r} ({error.msg} at column {error.colno})") from None
+    if not isinstance(value, dict):
+        raise argparse.ArgumentTypeError(f"expected a JSON object {{...}}, got {type(value).__name__} {text!r}")
+    return value
 
 
 def parse_pairs(items: Sequence[str] | None, flag: str = "--set") -> dict[str, str]:

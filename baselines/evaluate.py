@@ -84,6 +84,7 @@ from baselines.cli import (
     check_out,
     cluster_address,
     guarded,
+    json_object,
     message,
     nonblank,
     one_line,
@@ -303,6 +304,13 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="sample a learned policy's actions (sb3:PATH, rllib:PATH) instead of taking the most likely",
     )
+    parser.add_argument(
+        "--policy-kwargs",
+        type=json_object,
+        default=None,
+        metavar="JSON",
+        help='keyword arguments of the policy, a JSON object, e.g. \'{"params": {"min_hold": 0}}\' for dmaps (default: none)',
+    )
     parser.add_argument("--list", action="store_true", help="list env ids and policy names and exit")
     return parser
 
@@ -350,7 +358,11 @@ def _run(args: argparse.Namespace) -> int:
         except ImportError as error:
             raise UsageError(str(error)) from error
     env_id, config, sidecar, trained_on = _model_defaults(args.policy, args.env, config)
-    policy_kwargs = {"deterministic": False} if args.stochastic else {}
+    policy_kwargs = dict(args.policy_kwargs or {})
+    if args.stochastic:
+        if "deterministic" in policy_kwargs:
+            raise UsageError("give --stochastic or a 'deterministic' key in --policy-kwargs, not both")
+        policy_kwargs["deterministic"] = False
     name = _slug(args.policy) + ("-stochastic" if args.stochastic else "")
     out = Path(args.out) if args.out is not None else Path("results") / f"{_slug(env_id)}_{name}"
     check_out(out)
@@ -395,6 +407,8 @@ def _run(args: argparse.Namespace) -> int:
     if args.workers == "ray":
         summary["ray_nodes"] = dict(sorted(nodes.items()))
     summary["deterministic"] = not args.stochastic
+    if args.policy_kwargs:
+        summary["policy_kwargs"] = args.policy_kwargs
     summary["overrides"] = {k: str(v) for k, v in config.items()}
     if sidecar is not None:
         summary["sidecar"] = str(sidecar)

@@ -137,6 +137,11 @@ def assert_one_line_error(err: str, needle: str) -> None:
         (["--env", "BoxPushing-v0", "--policy", "nash-first"], "policy 'nash-first' does not fit BoxPushing-v0"),
         (["--env", "Exploration-v0", "--policy", "sbs"], "policy 'sbs' does not fit Exploration-v0"),
         (["--env", "BoxPushing-v0", "--policy", "sbs", "--set", "action_type=wheels"], "primitives"),
+        (["--policy-kwargs", "{bad"], "--policy-kwargs: expected a JSON object"),
+        (["--policy-kwargs", "[1, 2]"], "expected a JSON object {...}, got list"),
+        (["--policy", "goto", "--policy-kwargs", '{"speed": 1}'], "unexpected keyword argument 'speed'"),
+        (["--policy", "goto", "--policy-kwargs", '{"deterministic": true}', "--stochastic"], "--stochastic applies"),
+        (["--policy", "sb3:x.zip", "--policy-kwargs", '{"deterministic": true}', "--stochastic"], "not both"),
     ],
 )
 def test_usage_errors(args, needle, capsys, tmp_path, no_episodes):
@@ -153,6 +158,19 @@ def test_out_naming_a_file_fails_before_any_episode(under, capsys, tmp_path, no_
     assert main(["--episodes", "1", "--out", str(out), "--quiet"]) == 2
     assert_one_line_error(capsys.readouterr().err, str(existing))
     assert existing.read_text() == "keep me"
+
+
+def test_policy_kwargs_reach_the_policy_and_the_summary(tmp_path):
+    """``--policy-kwargs`` is the policy's keyword arguments: a slower cruise speed makes goto slower."""
+    times = {}
+    for cruise in (0.25, 0.1):
+        out = tmp_path / str(cruise)
+        args = ["--policy", "goto", "--episodes", "2", "--seed", "7", "--no-plot", "--quiet", "--out", str(out)]
+        assert main([*args, "--policy-kwargs", json.dumps({"v_cruise": cruise})]) == 0
+        summary = json.loads((out / "summary.json").read_text())
+        assert summary["policy_kwargs"] == {"v_cruise": cruise}
+        times[cruise] = summary["mean_time_to_goal"]
+    assert times[0.1] > times[0.25]
 
 
 def test_negative_seed_from_the_shell_is_one_line():
