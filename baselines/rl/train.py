@@ -937,17 +937,33 @@ def _real(low: float, high: float | None = None, *, open_low: bool = False, open
 
 
 #: The imitation and message options (``--bc-...`` beyond expert, steps, epochs and DAgger rounds; ``--message-...``).
-_BC_KNOBS = ("bc_noise", "bc_batch_size", "bc_lr", "bc_std_fraction", "bc_label_smoothing", "bc_no_value")
+_BC_KNOBS = (
+    "bc_noise",
+    "bc_batch_size",
+    "bc_lr",
+    "bc_std_fraction",
+    "bc_label_smoothing",
+    "bc_no_value",
+    "bc_expert_kwargs",
+)
 _BC_DAGGER_KNOBS = ("bc_dagger_steps", "bc_dagger_epochs")
 
 
 def _add_knobs(parser: argparse.ArgumentParser) -> None:
     """``--bc-noise`` and the other cloning settings, and ``--message-levels/tokens/vocab`` (learned messages)."""
-    from baselines.cli import at_least
+    from baselines.cli import at_least, json_object
     from baselines.rl.imitation import DEFAULT_STD_FRACTION
     from baselines.rl.message_actions import DEFAULT_LEVELS, DEFAULT_TOKENS, DEFAULT_VOCAB
 
     count = at_least(1)
+    parser.add_argument(
+        "--bc-expert-kwargs",
+        type=json_object,
+        default=None,
+        metavar="JSON",
+        help='the expert\'s keyword arguments, a JSON object, e.g. \'{"params": {"max_hold": 0}}\' for dmaps '
+        "(default: a preset's bc.expert_kwargs when its expert is used, else none)",
+    )
     parser.add_argument(
         "--bc-noise",
         type=_real(0, 1),
@@ -1155,7 +1171,9 @@ def _plan(args: argparse.Namespace) -> tuple[dict[str, Any], list[int] | None]:
         kwargs["bc_std_fraction"] = _pick(args.bc_std_fraction, bc.get("std_fraction"), None)
         kwargs["bc_label_smoothing"] = _pick(args.bc_label_smoothing, bc.get("label_smoothing"), None)
         kwargs["bc_fit_value"] = False if args.bc_no_value else bc.get("fit_value")
-        if expert == bc.get("expert"):  # the preset's expert arguments fit only its expert
+        if args.bc_expert_kwargs is not None:
+            kwargs["bc_expert_kwargs"] = args.bc_expert_kwargs
+        elif expert == bc.get("expert"):  # the preset's expert arguments fit only its expert
             kwargs["bc_expert_kwargs"] = bc.get("expert_kwargs")
     elif args.bc_dagger:
         raise ValueError("--bc-dagger needs --bc-expert (or a preset with behaviour cloning)")

@@ -70,10 +70,21 @@ def test_dagger_amounts_on_the_command_line(tmp_path):
     assert record["dagger_rounds"] == 1 and record["dagger_steps"] == 10 and record["dagger_transitions"] == 30
 
 
+def test_expert_arguments_on_the_command_line(tmp_path):
+    """``--bc-expert-kwargs`` builds the expert with them (a slower goto: another expert return), and the sidecar keeps them."""
+    default = bc_record(tmp_path, "--bc-noise", "0")
+    slow = bc_record(tmp_path, "--bc-noise", "0", "--bc-expert-kwargs", '{"v_cruise": 0.1}')
+    assert slow["expert_kwargs"] == {"v_cruise": 0.1} and "expert_kwargs" not in default
+    assert slow["expert_mean_return"] != pytest.approx(default["expert_mean_return"], abs=1e-6)
+
+
 @pytest.mark.parametrize(
     ("args", "needle"),
     [
         (["--bc-noise", "0.2"], "--bc-noise need --bc-expert"),
+        (["--bc-expert-kwargs", "{}"], "--bc-expert-kwargs need --bc-expert"),
+        ([*BC, "--bc-expert-kwargs", "[]"], "--bc-expert-kwargs: expected a JSON object"),
+        ([*BC, "--bc-expert-kwargs", '{"speed": 1}'], "unexpected keyword argument 'speed'"),
         ([*BC, "--bc-noise", "1.5"], "--bc-noise: expected a number in [0, 1]"),
         ([*BC, "--bc-lr", "0"], "--bc-lr"),
         ([*BC, "--bc-label-smoothing", "1"], "--bc-label-smoothing"),
