@@ -10,7 +10,11 @@ Process CPU time; best of ``--rounds``. ``--lone`` also steps one lone env (``st
 same action rule, ``--steps`` steps from a reset, resets when its episode ends) in each round and
 prints both rates in agent-steps/s and their ratio (issue 24's aim: 64 copies ≥ 3× one lone env).
 
+``--set KEY=VALUE`` (repeatable) configures the batch and the lone env alike (e.g.
+``--set action_type=operator``: macro actions whose stages end copy by copy).
+
     python benchmarks/bench_batch_phases.py --env BoxPushing-v0 --copies 64 [--steps 64] [--rounds 3] [--inner ...] [--lone]
+        [--set KEY=VALUE ...]
 """
 
 from __future__ import annotations
@@ -36,15 +40,15 @@ def _actions(batch, rng: np.random.Generator) -> np.ndarray:
     return rng.uniform(space.low, space.high, size=(*shape, *space.shape)).astype(space.dtype)
 
 
-def lone_rate(env_id: str, steps: int) -> float:
+def lone_rate(env_id: str, steps: int, config: dict | None = None) -> float:
     """Agent-steps/s of one lone env through ``step(dict)``, with the actions of :func:`_actions` (process CPU time)."""
-    agent_steps, seconds = lone_run(env_id, steps)
+    agent_steps, seconds = lone_run(env_id, steps, config)
     return agent_steps / seconds
 
 
-def lone_run(env_id: str, steps: int) -> tuple[int, float]:
+def lone_run(env_id: str, steps: int, config: dict | None = None) -> tuple[int, float]:
     """Agent-steps and process CPU seconds of ``steps`` steps of one lone env from its reset (make and reset untimed)."""
-    env = teamgym.make(env_id)
+    env = teamgym.make(env_id, **(config or {}))
     env.reset(seed=0)
     space = env.action_space(env.possible_agents[0])
     rng = np.random.default_rng(0)
@@ -62,7 +66,9 @@ def lone_run(env_id: str, steps: int) -> tuple[int, float]:
     return agent_steps, time.process_time() - start
 
 
-def profile(env_id: str, copies: int, steps: int, inner: list[str]) -> tuple[float, dict[str, float], float]:
+def profile(
+    env_id: str, copies: int, steps: int, inner: list[str], config: dict | None = None
+) -> tuple[float, dict[str, float], float]:
     """Seconds per copy-step in all and per phase (``inner`` functions too), and the batch's agent-steps/s."""
     clock = time.process_time
     spent: dict[str, float] = {}
@@ -84,7 +90,7 @@ def profile(env_id: str, copies: int, steps: int, inner: list[str]) -> tuple[flo
         restore.append((module, name, getattr(module, name)))
         setattr(module, name, timed(f"  {name}", getattr(module, name)))
     try:
-        batch = teamgym.make_batch(env_id, copies, auto_reset=True)
+        batch = teamgym.make_batch(env_id, copies, auto_reset=True, **(config or {}))
         batch.reset(seed=0)
         phases = batch._phases
         for name in PHASES:
@@ -115,16 +121,27 @@ def main() -> None:
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--inner", nargs="*", default=[], help="MODULE:NAME functions to time inside the phases")
     parser.add_argument("--lone", action="store_true", help="also time one lone env and print agent-steps/s of both")
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="env config (repeatable)")
     args = parser.parse_args()
+    config = {}
+    for item in args.set:
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip():
+            parser.error(f"--set expects KEY=VALUE, got {item!r}")
+        config[key.strip()] = value.strip()
+    try:
+        teamgym.make(args.env, **config)
+    except (ValueError, TypeError, KeyError) as error:
+        parser.error(str(error).splitlines()[0])
     if args.env not in teamgym.envs() or min(args.copies, args.steps, args.rounds) < 1:
         parser.error(f"unknown env id {args.env!r}" if args.env not in teamgym.envs() else "--copies, --steps, --rounds >= 1")
     if any(target.count(":") != 1 for target in args.inner):
         parser.error("--inner takes MODULE:NAME")
     rounds, lone = [], 0.0
     for _ in range(args.rounds):  # a lone env's round beside each batch round, on the same machine load
-        rounds.append(profile(args.env, args.copies, args.steps, args.inner))
+        rounds.append(profile(args.env, args.copies, args.steps, args.inner, config))
         if args.lone:
-            lone = max(lone, lone_rate(args.env, args.steps))
+            lone = max(lone, lone_rate(args.env, args.steps, config))
     total, per, rate = min(rounds, key=lambda r: r[0])
     print(f"{args.env} K={args.copies}: {1e6 * total:.1f} us per copy-step (best of {args.rounds} rounds)")
     for name, value in per.items():
