@@ -366,7 +366,7 @@ class World:
 
     def _read(self) -> np.ndarray:
         if self._reader is None:
-            self._reader = BodyReader([e.state_body for e in self._stepped])
+            self._reader = BodyReader(self.state_bodies())
         states = self._reader.read(self.space) if self._reader.bodies else np.zeros((0, 6))
         self._buffer_fresh = bool(self._reader.bodies)
         return self._take_states(states)
