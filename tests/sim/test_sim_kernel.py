@@ -130,3 +130,11 @@ def test_rows_read_elsewhere_or_bodies_moved_between_steps_are_read_again(restor
         for env, twin in zip(envs, twins):
             assert _snapshot(env.world) == _snapshot(twin.world)
     assert compiled._together._compiled is not None
+
+
+@pytest.mark.skipif(os.environ.get("TEAMGYM_FLOORS") != "1", reason="only in the floor run (scripts/run_tests_floors.sh)")
+def test_the_floor_run_steps_every_world_in_python():
+    """The floor-version run installs no numba, so the whole suite there runs the Python path the kernel is checked against."""
+    assert not kernel.enabled()
+    with pytest.raises(ImportError):
+        import numba  # noqa: F401
