@@ -89,6 +89,19 @@ class BatchArrays:
 
 
 _GET_BODIES = _ffi.addressof(_lib, "pmSpaceBodyGetIteratorFuncBatched")
+
+
+def body_ids(space: pymunk.Space) -> list[int]:
+    """Ids of the space's bodies in Chipmunk's iteration order (the order of pymunk's batch iterators)."""
+    arrays = BatchArrays()
+    data = _ffi.new("pmBatchedData *")
+    data.fields = _batch.BodyFields.BODY_ID.value
+    data.floatArray = arrays._float_arr
+    data.intArray = arrays._int_arr
+    _lib.cpSpaceEachBody(space._space, _GET_BODIES, data)
+    return arrays.ints().tolist()
+
+
 _SET_BODIES = _ffi.addressof(_lib, "pmSpaceBodySetIteratorFuncBatched")
 _MOTION_FIELDS = _BODY_FIELDS & ~_batch.BodyFields.BODY_ID
 

@@ -4,13 +4,14 @@ Worlds that step together (:mod:`teamgym.sim.world_group`) each make, per contro
 setter calls per control body, an anchor call per robot drive, ``substeps`` calls of
 ``cpSpaceStep`` and one batch read of their bodies; the proximity rings of their robots make a
 nearest-shape query per robot and a segment query per ray. From Python each call costs a
-quarter of a microsecond or more of interpreter work besides Chipmunk's own, which with the
-numpy around it came to 15–20 µs per world and control step. Here numba (the ``fast`` extra:
-``pip install teamgym[fast]``) compiles those loops (:mod:`teamgym.sim.compiled_loops`, cached on
-disk after the first process); they call the same functions exported by pymunk's Chipmunk
-library, with the same arguments in the same order per body, so the numbers they leave are the
-Python path's, bit for bit (``tests/sim/test_sim_kernel.py`` compares both on batches of every
-kind of world).
+quarter of a microsecond or more of interpreter work besides Chipmunk's own (Navigation, 64
+copies: the physics phase took 60 µs per copy-step in Python and 44 µs compiled,
+``TEAMGYM_KERNEL=1`` / ``0 python benchmarks/bench_batch_phases.py --env Navigation-v0 --copies 64``).
+Here numba (the ``fast`` extra: ``pip install teamgym[fast]``) compiles those loops
+(:mod:`teamgym.sim.compiled_loops`, cached on disk after the first process); they call the same
+functions exported by pymunk's Chipmunk library, with the same arguments in the same order per
+body, so the numbers they leave are the Python path's, bit for bit (``tests/sim/test_sim_kernel.py``
+compares both on batches of every kind of world).
 
 Without numba, on Windows (where a ``cpVect`` argument is passed by reference) or with the
 environment variable ``TEAMGYM_KERNEL=0``, :func:`enabled` is false and everything runs in
@@ -33,7 +34,7 @@ import pymunk
 from pymunk._chipmunk import ffi as _ffi
 from pymunk._chipmunk import lib as _lib
 
-from teamgym.sim.chipmunk import _GET_BODIES, _MOTION_FIELDS
+from teamgym.sim.chipmunk import _GET_BODIES, _MOTION_FIELDS, body_ids
 
 __all__ = [
     "KernelError",
@@ -180,7 +181,7 @@ class SpaceLayout:
 
     @classmethod
     def of(cls, space: pymunk.Space) -> SpaceLayout:
-        return cls(_address(space._space), {body_id: row for row, body_id in enumerate(_body_ids(space))})
+        return cls(_address(space._space), {body_id: row for row, body_id in enumerate(body_ids(space))})
 
     def body_rows(self, bodies: Sequence[pymunk.Body]) -> np.ndarray:
         """Rows of ``bodies`` in the space's iteration order; ``KeyError`` for a body not in the space."""
@@ -275,21 +276,6 @@ def joint_handles(joints: Sequence[pymunk.Constraint]) -> np.ndarray:
     return np.array([_address(joint._constraint) for joint in joints], dtype=np.uint64)
 
 
-def _body_ids(space: pymunk.Space) -> list[int]:
-    """Ids of the space's bodies in Chipmunk's iteration order (the order of the batch iterators)."""
-    from pymunk import batch
-
-    from teamgym.sim.chipmunk import BatchArrays
-
-    arrays = BatchArrays()
-    data = _ffi.new("pmBatchedData *")
-    data.fields = batch.BodyFields.BODY_ID.value
-    data.floatArray = arrays._float_arr
-    data.intArray = arrays._int_arr
-    _lib.cpSpaceEachBody(space._space, _GET_BODIES, data)
-    return arrays.ints().tolist()
-
-
 def _self_test(step_worlds) -> bool:
     """Whether the compiled step leaves two scratch spaces as pymunk's own setters and step do (the ABI facts above)."""
     try:
@@ -345,4 +331,4 @@ def _pivot_of(space: pymunk.Space) -> pymunk.PivotJoint:
 def _body_rows(space: pymunk.Space) -> list[tuple]:
     """``(x, y, angle, vx, vy, ω)`` of the space's bodies in Chipmunk's iteration order."""
     order = {body.id: body for body in space.bodies}
-    return [(*b.position, b.angle, *b.velocity, b.angular_velocity) for b in (order[i] for i in _body_ids(space))]
+    return [(*b.position, b.angle, *b.velocity, b.angular_velocity) for b in (order[i] for i in body_ids(space))]

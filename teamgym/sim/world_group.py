@@ -304,9 +304,10 @@ class StepTogether:
             return None
         if not self._compiled_tried:
             self._compiled_tried = True
-            first = self.together[0][0]
-            if all(world.dt == first.dt and world.substeps == first.substeps for world, _ in self.together):
-                self._compiled = CompiledWorlds(self.together)  # (else the worlds step in Python)
+            try:
+                self._compiled = CompiledWorlds(self.together)
+            except ValueError:  # worlds with different dt or substeps step in Python
+                self._compiled = None
         return self._compiled
 
     def _plan_bounces(self, state: np.ndarray, dt: float) -> list[tuple[MovingPolygon, tuple]]:
