@@ -708,8 +708,12 @@ class TeamEnv(ParallelEnv):
         return self.cycles - (first[2] if first is not None and first[0] == "base" else 0)
 
     def _rebase_if_due(self) -> None:
-        """At a step boundary: re-base once ``rebase_cycles`` control cycles have passed since the last base."""
-        if self._cycles_since_base() >= self.rebase_cycles:
+        """At a step boundary: re-base once ``rebase_cycles`` control cycles have passed since the last base.
+
+        Not once the episode is over (no agent left): no step follows, and the snapshot would
+        cost its 1–4 ms for nothing (Navigation-v0's episodes end exactly at its ``rebase_cycles``).
+        """
+        if self.live_agents and self._cycles_since_base() >= self.rebase_cycles:
             self._rebase()
 
     def _rebase(self) -> None:
@@ -725,7 +729,6 @@ class TeamEnv(ParallelEnv):
         self._adopt_episode_state(snapshot.loads(data, external=[self, *fixed.objects]))
         self.world.adopt_fixed(fixed)
         self._log = [("base", data, self.cycles, fixed)]
-        self._pack_trails()  # the points so far, once: later pickles convert only newer ones
 
     def _restore_base(self, data: bytes, fixed: FixedRecord) -> None:
         """Take the state of a snapshot :meth:`_rebase` logged (where a copy starts)."""

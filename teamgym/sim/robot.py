@@ -188,6 +188,16 @@ def wheel_slip(commanded_left: float, commanded_right: float, actual_left: float
     return min(1.0, lost / commanded)
 
 
+def wheel_slips(rows: np.ndarray) -> np.ndarray:
+    """:func:`wheel_slip` of every row of ``rows`` ``(commanded left, commanded right, actual left, actual right, ...)``."""
+    commanded = np.abs(rows[:, 0]) + np.abs(rows[:, 1])
+    lost = np.abs(rows[:, 0] - rows[:, 2]) + np.abs(rows[:, 1] - rows[:, 3])
+    moving = commanded >= 1e-12
+    slip = np.zeros(len(rows))
+    np.divide(lost, commanded, out=slip, where=moving)
+    return np.minimum(slip, 1.0)
+
+
 class DiffDriveRobot(Entity):
     """A disc-shaped differential-drive robot with force-limited motors and wheel encoders.
 

@@ -201,3 +201,22 @@ def test_a_pickle_of_a_release_without_re_bases_still_loads():
     assert clone.trajectories() == env.trajectories()
     actions = {a: np.float32([0.1, 0.2]) for a in env.agents}
     assert outcome(clone, clone.step(dict(actions))) == outcome(env, env.step(dict(actions)))
+
+
+@pytest.mark.parametrize("env_id", ["Navigation-v0", "BoxPushing-v0"])
+def test_an_episode_that_ends_at_a_base_takes_no_snapshot_and_its_copies_still_match(monkeypatch, env_id):
+    """The step that ends the episode (here at the cycle limit, exactly ``rebase_cycles`` in) makes no base: no step follows it.
+
+    Pickles and deep copies of the finished env replay from the reset and end alike.
+    """
+    monkeypatch.setattr(teamgym.env_class(env_id), "rebase_cycles", 30)
+    env = teamgym.make(env_id, max_cycles=30)
+    _, infos = env.reset(seed=SEED)
+    rng = np.random.default_rng(5)
+    while env.agents:
+        result = env.step(random_actions(env, infos, rng))
+        infos = result[-1]
+    assert env.cycles == 30 and env._log[0][0] == "reset" and len(env._log) == 31
+    for clone in (pickled(env), copy.deepcopy(env)):
+        assert clone.cycles == 30 and not clone.agents and clone._log[0][0] == "reset"
+        assert np.array_equal(clone.state(), env.state())

@@ -4,6 +4,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from teamgym.sim import (
     Box,
@@ -219,3 +221,34 @@ def test_read_rows_checks_shapes(crowd):
         LightSensor((0, 0)).read_rows(world, robots, world.robot_states[:2], None, np.zeros((len(robots), 8)))
     with pytest.raises(ValueError, match="out must have shape"):
         WheelEncoders().read_rows(world, robots, world.robot_states, None, np.zeros((1, 4)))
+
+
+_wheel_value = st.floats(min_value=-40.0, max_value=40.0, allow_nan=False)
+_encoder_raw = st.tuples(*[_wheel_value] * 4, *[st.floats(min_value=-1e4, max_value=1e4)] * 2)
+
+
+@settings(max_examples=200, deadline=None, database=None)
+@given(
+    raw=st.lists(_encoder_raw, max_size=7),
+    noise_std=st.sampled_from([0.0, 0.05]),
+    resolution=st.sampled_from([0.0, 0.01, 2 * math.pi / 500]),
+    saturation=st.sampled_from([None, 0.5, 30.0]),
+    seed=st.integers(0, 3),
+)
+def test_wheel_encoders_in_one_pass_equal_the_robot_by_robot_formula(raw, noise_std, resolution, saturation, seed):
+    """``WheelEncoders.read_raw`` (a batch's robots in one pass) gives ``read_drawn``'s bits; ``wheel_slips`` too."""
+    from teamgym.sim.robot import wheel_slip, wheel_slips
+
+    class Robot:  # what read_drawn reads of a robot
+        def __init__(self, row):
+            self.encoder_row = row
+
+    encoders = WheelEncoders(noise_std=noise_std, resolution=resolution, saturation=saturation)
+    z = np.random.default_rng(seed).standard_normal((len(raw), 2)) if noise_std else None
+    rows = np.array(raw, dtype=float).reshape(len(raw), 6)
+    out = np.full((len(raw), 4), np.nan, dtype=np.float32)
+    encoders.read_raw(rows, z, out)
+    robot_by_robot = np.full((len(raw), 4), np.nan, dtype=np.float32)
+    encoders.read_drawn(None, [Robot(row) for row in raw], np.zeros((len(raw), 6)), z, robot_by_robot)
+    assert out.tobytes() == robot_by_robot.tobytes()
+    assert wheel_slips(rows).tolist() == [wheel_slip(*row[:4]) for row in raw]

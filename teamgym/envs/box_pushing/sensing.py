@@ -19,7 +19,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from teamgym.sim.robot import wheel_slip
+from teamgym.sim.robot import wheel_slip, wheel_slips
+from teamgym.sim.sensors import encoder_rows
 
 if TYPE_CHECKING:
     from teamgym.envs.box_pushing.env import BoxPushing
@@ -67,17 +68,19 @@ def read_sensors(sensed: list[tuple[BoxPushing, list[str]]]) -> None:
     if not light.blockers:
         light.shine_rows(at[:, :3].tolist(), block[:, slices["light"]])
     gains = team.light_gains[copies, rows] if light.gain_spread else None
-    parts = (ring, light, encoders)
+    raw = None if one else encoder_rows(robots)  # a batch: every robot's wheel rotations of the step in one array
     start = 0
-    for sensor, name, size in zip(parts, ("proximity", "light", "encoders"), sizes):
+    for sensor, name, size in zip((ring, light, encoders), ("proximity", "light", "encoders"), sizes):
         part = z[:, start : start + size] if size else None
-        if sensor is encoders:
+        if sensor is not encoders:
+            sensor.apply_noise(part, block[:, slices[name]], robots, gains if sensor is light else None)
+        elif raw is None:  # a lone env's few robots cost less robot by robot
             encoders.read_drawn(None, robots, at, part, block[:, slices[name]])
         else:
-            sensor.apply_noise(part, block[:, slices[name]], robots, gains if sensor is light else None)
+            encoders.read_raw(raw, part, block[:, slices[name]])
         start += size
-    stalled = [wheel_slip(*robot.encoder_row[:4]) > STALL_SLIP for robot in robots]
     if one:  # one copy (a lone env): its rows, robot after robot
+        stalled = [wheel_slip(*robot.encoder_row[:4]) > STALL_SLIP for robot in robots]
         k = copies[0]
         team.readings[k, rows] = block
         counts, runs = team.stalled[k], team.stall_run[k]
@@ -88,16 +91,15 @@ def read_sensors(sensed: list[tuple[BoxPushing, list[str]]]) -> None:
             else:
                 runs[i] = 0
     else:
+        stalled = wheel_slips(raw) > STALL_SLIP
         team.readings[copies, rows] = block
-        hits = np.array(stalled)
-        team.stalled[copies, rows] += hits
-        team.stall_run[copies, rows] = (team.stall_run[copies, rows] + 1) * hits
-    primitives = first._primitives
-    if primitives is not None:
+        team.stalled[copies, rows] += stalled
+        team.stall_run[copies, rows] = (team.stall_run[copies, rows] + 1) * stalled
+    if first._primitives is not None:
         proximity, wheels = block[:, slices["proximity"]], block[:, slices["encoders"]]
         j = 0
         for env, agents in sensed:
-            primitives = env._primitives
+            executors = env._primitives.executors
             for agent in agents:
-                primitives.observe(agent, proximity[j], wheels[j])
+                executors[agent].observe(proximity[j], wheels[j])  # PrimitiveAction.observe, without its call
                 j += 1
