@@ -3,8 +3,8 @@
 Wraps the batch's phases (:class:`teamgym.envs.step_loop.CopyPhases`: ``control``,
 ``physics``, ``after_physics``, ``end``, ``observe``) with timers; what is left of
 ``TeamBatch.step`` (action checks, masks, copying observations, auto-reset) is "batch".
-``--inner MODULE:NAME`` also times a function called inside a phase (shown indented, part of
-its phase), e.g. ``teamgym.envs.box_pushing.phases:read_sensors``. Actions as in
+``--inner MODULE:NAME`` (or ``MODULE:Class.method``) also times a function called inside a phase
+(shown indented, part of its phase), e.g. ``teamgym.envs.box_pushing.phases:read_sensors``. Actions as in
 ``bench_batch_every_env.py`` (uniform in a Box, the first admissible discrete action).
 Process CPU time; best of ``--rounds``. ``--lone`` also steps one lone env (``step(dict)``, the
 same action rule, ``--steps`` steps from a reset, resets when its episode ends) in each round and
@@ -84,11 +84,17 @@ def profile(
         return run
 
     restore = []
-    for target in inner:
-        module_name, name = target.split(":")
-        module = importlib.import_module(module_name)
-        restore.append((module, name, getattr(module, name)))
-        setattr(module, name, timed(f"  {name}", getattr(module, name)))
+    for target in inner:  # MODULE:NAME or MODULE:Class.method
+        module_name, path = target.split(":")
+        owner = importlib.import_module(module_name)
+        *classes, name = path.split(".")
+        for part in classes:
+            owner = getattr(owner, part)
+        original = owner.__dict__[name] if isinstance(owner, type) else getattr(owner, name)
+        restore.append((owner, name, original))
+        function = original.__func__ if isinstance(original, staticmethod) else original
+        wrapped = timed(f"  {path}", function)
+        setattr(owner, name, staticmethod(wrapped) if isinstance(original, staticmethod) else wrapped)
     try:
         batch = teamgym.make_batch(env_id, copies, auto_reset=True, **(config or {}))
         batch.reset(seed=0)
@@ -106,8 +112,8 @@ def profile(
             batch.step(_actions(batch, rng))
         total = clock() - start
     finally:
-        for module, name, function in restore:
-            setattr(module, name, function)
+        for owner, name, function in restore:
+            setattr(owner, name, function)
     per = {name: value / copy_steps for name, value in spent.items()}
     per["batch"] = (total - sum(v for k, v in spent.items() if not k.startswith(" "))) / copy_steps
     return total / copy_steps, per, agent_steps / total
