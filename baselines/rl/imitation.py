@@ -48,6 +48,7 @@ from pettingzoo.utils.wrappers.base_parallel import BaseParallelWrapper
 from baselines.episode import success_of
 from baselines.policy import Policy
 from baselines.registry import make_policy, policies, policy_class, required_config
+from baselines.rl.recurrent import AgentMemory, is_recurrent
 
 __all__ = [
     "DEFAULT_BC_EPOCHS",
@@ -189,6 +190,9 @@ class ExpertData:
     mean_return: float
     #: The action mask (bool, one row per transition) the env gave at each observation; None without masks.
     masks: np.ndarray | None = None
+    #: True at the first transition of each robot's episode (a robot's transitions are contiguous, in
+    #: order): the sequences a recurrent clone fits (:mod:`baselines.rl.recurrent_imitation`).
+    starts: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.observations)
@@ -203,6 +207,7 @@ class ExpertData:
             success_rate=other.success_rate,
             mean_return=other.mean_return,
             masks=None if self.masks is None or other.masks is None else np.concatenate([self.masks, other.masks]),
+            starts=None if self.starts is None or other.starts is None else np.concatenate([self.starts, other.starts]),
         )
 
 
@@ -252,19 +257,23 @@ def collect_learner_data(
     """
     wrapped = ExpertActions(env, expert, **policy_kwargs)
     maskable = _is_maskable(model.policy)
+    memory = AgentMemory(model) if is_recurrent(model) else None  # each robot's LSTM state through its episode
 
     def learner(
         observations: Mapping[str, Any], labels: Mapping[str, Any], masks: Mapping[str, np.ndarray | None]
     ) -> dict[str, Any]:
         live = list(labels)
         batch = np.stack([observations[a] for a in live])
-        if maskable and all(masks.get(a) is not None for a in live):
-            actions, _ = model.predict(batch, deterministic=True, action_masks=np.stack([masks[a] for a in live]))
+        allowed = np.stack([masks[a] for a in live]) if all(masks.get(a) is not None for a in live) else None
+        if memory is not None:
+            actions = memory.predict(live, batch, deterministic=True, masks=allowed)
+        elif maskable and allowed is not None:
+            actions, _ = model.predict(batch, deterministic=True, action_masks=allowed)
         else:
             actions, _ = model.predict(batch, deterministic=True)
         return {a: learner_action(wrapped.action_space(a), action) for a, action in zip(live, actions)}
 
-    return _labelled_rollouts(wrapped, steps, seed, gamma, learner)
+    return _labelled_rollouts(wrapped, steps, seed, gamma, learner, on_reset=None if memory is None else memory.reset)
 
 
 def _labelled_rollouts(
@@ -273,11 +282,13 @@ def _labelled_rollouts(
     seed: int,
     gamma: float,
     choose: Callable[[Mapping[str, Any], Mapping[str, Any], Mapping[str, np.ndarray | None]], dict[str, Any]],
+    on_reset: Callable[[], None] | None = None,
 ) -> ExpertData:
     """Whole episodes until ``steps`` agent transitions: ``choose(observations, labels, masks)`` acts, the expert labels.
 
     ``masks`` are the agents' ``infos[agent]["action_mask"]`` (None where the env gives none);
-    they are kept per transition when every transition has one.
+    they are kept per transition when every transition has one. ``on_reset`` is called at
+    every episode start (a recurrent learner forgets its robots' states).
     """
     if steps < 1:
         raise ValueError(f"steps must be >= 1, got {steps}")
@@ -285,10 +296,13 @@ def _labelled_rollouts(
     actions: list[Any] = []
     returns: list[float] = []
     masks: list[np.ndarray | None] = []
+    starts: list[bool] = []
     episodes = successes = 0
     totals: list[float] = []
     while len(observations) < steps:
         obs, infos = wrapped.reset(seed=seed if episodes == 0 else None)
+        if on_reset is not None:
+            on_reset()
         tracks: dict[str, list[tuple[np.ndarray, Any, float, np.ndarray | None]]] = {}
         done_infos = infos
         while wrapped.agents:
@@ -310,11 +324,12 @@ def _labelled_rollouts(
             for _, _, reward, _ in reversed(track):
                 to_go = reward + gamma * to_go
                 tail.append(to_go)
-            for (o, a, _, m), g in zip(track, reversed(tail)):
+            for t, ((o, a, _, m), g) in enumerate(zip(track, reversed(tail))):
                 observations.append(o)
                 actions.append(a)
                 returns.append(g)
                 masks.append(m)
+                starts.append(t == 0)
     kept = masks[:steps]
     return ExpertData(
         observations=np.stack(observations[:steps]),
@@ -324,6 +339,7 @@ def _labelled_rollouts(
         success_rate=successes / episodes,
         mean_return=float(np.mean(totals)),
         masks=np.stack(kept) if all(m is not None for m in kept) else None,
+        starts=np.asarray(starts[:steps], dtype=bool),
     )
 
 
@@ -369,10 +385,27 @@ def behaviour_clone(
 ) -> dict[str, Any]:
     """Fit ``model.policy`` (an SB3 ``ActorCriticPolicy``) to ``data`` in place; returns the final losses.
 
+    A recurrent policy (sb3-contrib's ``RecurrentPPO``, or the masked variant) is fitted on the
+    data's robot-episodes as sequences (:func:`baselines.rl.recurrent_imitation.behaviour_clone_recurrent`).
+
     See the module docstring for the losses and the Box ``log_std`` set afterwards (left
     alone with gSDE, ``use_sde=True``, whose noise has another parametrisation). Minibatches
     are shuffled with a torch generator seeded with ``seed`` (no global state).
     """
+    if is_recurrent(model):  # sequences, not single transitions
+        from baselines.rl.recurrent_imitation import behaviour_clone_recurrent
+
+        return behaviour_clone_recurrent(
+            model,
+            data,
+            epochs,
+            batch_size=batch_size,
+            learning_rate=learning_rate,
+            fit_value=fit_value,
+            std_fraction=std_fraction,
+            label_smoothing=label_smoothing,
+            seed=seed,
+        )
     import torch
     import torch.nn.functional as F
     from stable_baselines3.common.policies import ActorCriticPolicy

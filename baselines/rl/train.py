@@ -43,8 +43,9 @@ Research tooling (all off by default; see ``docs/training.md``):
   then a directory, default ``results/models/<env>_<algo>/``), one after the other or in
   ``--jobs`` processes; ``<out>/runs.json`` lists them.
 * ``--bc-expert NAME``: before training, behaviour-clone the scripted policy ``NAME``
-  (``--bc-steps`` expert transitions, ``--bc-epochs`` passes; PPO, A2C and MaskablePPO) into the new
-  model, value head included (:func:`baselines.rl.imitation.pretrain`); ``--bc-dagger R``
+  (``--bc-steps`` expert transitions, ``--bc-epochs`` passes; PPO, A2C, MaskablePPO, and the
+  recurrent algorithms on each robot's episode as a sequence, :mod:`baselines.rl.recurrent_imitation`)
+  into the new model, value head included (:func:`baselines.rl.imitation.pretrain`); ``--bc-dagger R``
   adds R rounds of DAgger (the clone drives, the expert labels, the clone is refitted on
   all data); a preset's ``bc.expert_kwargs`` are the expert's constructor arguments; the
   sidecar's ``bc`` records the settings and the expert's and the clone's success on the
@@ -88,7 +89,7 @@ from pathlib import Path
 from typing import Any
 
 from baselines.rl.imitation import DEFAULT_BC_EPOCHS, DEFAULT_BC_NOISE, DEFAULT_BC_STEPS
-from baselines.rl.recurrent import MASKED_RECURRENT
+from baselines.rl.recurrent import MASKED_RECURRENT, RECURRENT_ALGORITHMS
 
 __all__ = ["DEFAULT_EVAL_SEED", "Training", "build_parser", "default_hyperparameters", "main", "train", "train_seeds"]
 
@@ -335,9 +336,10 @@ class Training:
         if bc_expert is not None:  # an empty name is refused by make_expert below
             if self.resume:
                 raise ValueError("behaviour cloning (--bc-expert) pre-trains a new model; it cannot be combined with --resume")
-            if self.algo not in ("ppo", "a2c", "maskable_ppo"):
+            if self.algo not in ("ppo", "a2c", "maskable_ppo", *sorted(RECURRENT_ALGORITHMS)):
                 raise ValueError(
-                    f"behaviour cloning (--bc-expert) needs ppo, a2c or maskable_ppo (an actor-critic policy), not {self.algo}"
+                    "behaviour cloning (--bc-expert) needs an actor-critic policy (ppo, a2c, maskable_ppo, "
+                    f"recurrent_ppo or maskable_recurrent_ppo), not {self.algo}"
                 )
             if bc_steps < 1 or bc_epochs < 1:
                 raise ValueError(f"bc_steps and bc_epochs must be >= 1, got {bc_steps} and {bc_epochs}")

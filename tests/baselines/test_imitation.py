@@ -261,7 +261,10 @@ def one_line_error(err: str, needle: str) -> None:
         (["--bc-expert", "nope"], "unknown expert 'nope'"),
         (["--bc-expert", "sbs"], "policy 'sbs' does not fit Navigation-v0"),
         (["--bc-expert", "nash"], "--set action_type=heading"),
-        (["--bc-expert", "goto", "--algo", "sac"], "needs ppo, a2c or maskable_ppo"),
+        (
+            ["--bc-expert", "goto", "--algo", "sac"],
+            "needs an actor-critic policy (ppo, a2c, maskable_ppo, recurrent_ppo or maskable_recurrent_ppo), not sac",
+        ),
         (["--bc-steps", "100"], "need --bc-expert"),
         (["--bc-expert", "goto", "--bc-epochs", "0"], "--bc-epochs"),
         (["--bc-expert", "goto", "--resume", "somewhere.zip"], "cannot be combined with --resume"),
