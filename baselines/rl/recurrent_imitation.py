@@ -224,33 +224,23 @@ def _segment_start_states(policy: Any, obs: Any, flat_index: Any, segments: Segm
     from stable_baselines3.common.policies import ActorCriticPolicy
 
     layers, _, hidden = policy.lstm_hidden_state_shape
-    n = len(segments.index)
-    device = obs.device
-    pi_h, pi_c = (torch.zeros(layers, n, hidden, device=device) for _ in range(2))
-    vf_h, vf_c = (torch.zeros(layers, n, hidden, device=device) for _ in range(2))
-    critic = policy.lstm_critic
+    n, device = len(segments.index), obs.device
+    networks = [(policy.lstm_actor, policy.pi_features_extractor)]
+    if policy.lstm_critic is not None:
+        networks.append((policy.lstm_critic, policy.vf_features_extractor))
+    starts = []  # per network: (h, c) at every segment's start
     with torch.no_grad():
-        state_pi = (torch.zeros(layers, segments.count, hidden, device=device),) * 2
-        state_vf = (torch.zeros(layers, segments.count, hidden, device=device),) * 2
-        for position in range(int(segments.position.max()) + 1 if n else 0):
-            at = torch.as_tensor(np.flatnonzero(segments.position == position), device=device)
-            episodes = torch.as_tensor(segments.episode[at.cpu().numpy()], device=device)
-            pi_h[:, at], pi_c[:, at] = state_pi[0][:, episodes], state_pi[1][:, episodes]
-            vf_h[:, at], vf_c[:, at] = state_vf[0][:, episodes], state_vf[1][:, episodes]
-            rows = flat_index[at]  # (segments, steps); padding only in an episode's last segment, whose end state is unused
-            features = super(ActorCriticPolicy, policy).extract_features(obs[rows.reshape(-1)], policy.pi_features_extractor)
-            sequence = features.reshape(len(at), -1, policy.lstm_actor.input_size).swapaxes(0, 1)
-            _, (h, c) = policy.lstm_actor(sequence, (pi_h[:, at].contiguous(), pi_c[:, at].contiguous()))
-            new_pi = (state_pi[0].clone(), state_pi[1].clone())
-            new_pi[0][:, episodes], new_pi[1][:, episodes] = h, c
-            state_pi = new_pi
-            if critic is not None:
-                features = super(ActorCriticPolicy, policy).extract_features(obs[rows.reshape(-1)], policy.vf_features_extractor)
-                sequence = features.reshape(len(at), -1, critic.input_size).swapaxes(0, 1)
-                _, (h, c) = critic(sequence, (vf_h[:, at].contiguous(), vf_c[:, at].contiguous()))
-                new_vf = (state_vf[0].clone(), state_vf[1].clone())
-                new_vf[0][:, episodes], new_vf[1][:, episodes] = h, c
-                state_vf = new_vf
-    if critic is None:
-        return (pi_h, pi_c), (pi_h, pi_c)
-    return (pi_h, pi_c), (vf_h, vf_c)
+        for lstm, extractor in networks:
+            h0, c0 = (torch.zeros(layers, n, hidden, device=device) for _ in range(2))
+            h, c = (torch.zeros(layers, segments.count, hidden, device=device) for _ in range(2))  # per episode, so far
+            for position in range(int(segments.position.max()) + 1 if n else 0):
+                at = np.flatnonzero(segments.position == position)
+                episodes = torch.as_tensor(segments.episode[at], device=device)
+                at = torch.as_tensor(at, device=device)
+                h0[:, at], c0[:, at] = h[:, episodes], c[:, episodes]
+                rows = flat_index[at]  # (segments, steps); padding only in an episode's last segment, whose end state is unused
+                features = super(ActorCriticPolicy, policy).extract_features(obs[rows.reshape(-1)], extractor)
+                sequence = features.reshape(len(at), -1, lstm.input_size).swapaxes(0, 1)
+                _, (h[:, episodes], c[:, episodes]) = lstm(sequence, (h0[:, at].contiguous(), c0[:, at].contiguous()))
+            starts.append((h0, c0))
+    return starts[0], starts[-1]
