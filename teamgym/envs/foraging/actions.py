@@ -33,15 +33,22 @@ class GoToCellAction(ActionType):
         centres = grid.centres().reshape(-1, 2)
         clearance = np.minimum.reduce([centres[:, 0], grid.width - centres[:, 0], centres[:, 1], grid.height - centres[:, 1]])
         self.admissible = (clearance >= robot_radius + 0.01 - 1e-9).astype(np.int8)
-        self._commands: dict[str, tuple[float, float]] = {}
+        self._cells: dict[str, Any] = {}
+        self._commands: dict[str, tuple[float, float]] | None = None
 
     def space(self) -> MaskedDiscrete:
         return MaskedDiscrete(self.grid.n_cells)
 
     def start(self, env: Foraging, actions: dict[str, Any]) -> None:
-        self._commands = env.goto_commands({agent: int(cell) for agent, cell in actions.items()})
+        self._cells, self._commands = actions, None
 
     def act(self, env: Foraging, agent: str, action: Any) -> tuple[float, float]:
+        """The controller's command for ``agent``; every robot's are computed at the step's first call.
+
+        (A batch of copies computes them for all its copies at once and never calls this.)
+        """
+        if self._commands is None:
+            self._commands = env.goto_commands({name: int(cell) for name, cell in self._cells.items()})
         return self._commands[agent]
 
     def mask(self, env: Foraging, agent: str) -> np.ndarray:

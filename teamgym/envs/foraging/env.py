@@ -66,9 +66,9 @@ from teamgym.envs.config import ConfigError
 from teamgym.envs.foraging.actions import GoToCellAction
 from teamgym.envs.foraging.config import ForagingConfig
 from teamgym.envs.foraging.controller import GoToController
-from teamgym.envs.foraging.perception import ROBOT, SENDER, Odometry, VisionModel, landmark_positions, packet_bytes
+from teamgym.envs.foraging.perception import PACKET_KIND, ROBOT, SENDER, Odometry, VisionModel, landmark_positions, packet_bytes
 from teamgym.envs.foraging.phases import ForagingPhases
-from teamgym.envs.foraging.sensing import POLAR, TARGET_CELL, TUPLE, Cameras, Sightings, perceive
+from teamgym.envs.foraging.sensing import POLAR, TARGET_CELL, TUPLE, Cameras, Geometry, Sightings, perceive
 from teamgym.envs.foraging.state import ForagingArrays
 from teamgym.envs.infos import InfoKey, metrics, unknown
 from teamgym.envs.reset_input import scene_points
@@ -80,8 +80,6 @@ from teamgym.sim.world import World
 
 __all__ = ["Foraging", "env", "novelty", "packet_due", "parallel_env"]
 
-#: Channel message kind of the perception packets.
-PACKET_KIND = "perception"
 _PLACEMENT_TRIES = 2000
 
 
@@ -392,7 +390,7 @@ class Foraging(TeamEnv):
         goals = [self._cell_of_index[i] for i in index]  # (gx, gy) of each go-to cell
         pose, estimate, at, timer = self._pose.tolist(), self.odometry.estimate.tolist(), self._at.tolist(), self._timer.tolist()
         table = self._sightings.table
-        t, geometry = self.config.n_targets, self._geometry
+        t, geometry = self.config.n_targets, self._view_geometry()
         mate_d, mate_x, mate_y = ([row[t : t + len(pose)] for row in part] for part in geometry[:3])  # teammates, as seen
         if not everyone:
             picked = rows.tolist()
@@ -424,6 +422,13 @@ class Foraging(TeamEnv):
         commands = self.controller.command_pairs(estimate, pose, aim, homing, stop, self.grid_size, (mate_x, mate_y, mate_d))
         return dict(zip(agents, commands))
 
+    def _view_geometry(self) -> Geometry:
+        """The cameras' view of the true poses (:meth:`Cameras.look`), computed again when a batch's pass left it unset."""
+        geometry = self._geometry
+        if geometry is None:
+            geometry = self._geometry = self.cameras.look(self._pose, self._points)
+        return geometry
+
     def _update_state(self) -> None:
         """State phase: true poses, odometry, distance travelled, who is at which target."""
         before, after = self._pose.tolist(), self._read_pose_rows()
@@ -437,7 +442,7 @@ class Foraging(TeamEnv):
         """``_at[i]``: the live target robot i is within ``reach_radius`` of (nearest), −1 if none; ``_nearest_live``
         each robot's distance to its nearest live target."""
         live, reach, n_targets = self._live_targets, self.config.reach_radius, self.config.n_targets
-        gaps = [row[:n_targets] for row in self._geometry.distance]  # robots x targets
+        gaps = [row[:n_targets] for row in self._view_geometry().distance]  # robots x targets
         at = None
         if not len(live):
             self._nearest_live[:] = 0.0
@@ -510,7 +515,7 @@ class Foraging(TeamEnv):
             self.vision,
             self.odometry,
             self._pose.tolist(),
-            self._geometry,
+            self._view_geometry(),
             [True] * self.config.n_targets if self._persist else self.target_live.tolist(),
             self._live_mask().tolist(),
             self.n_detections,

@@ -41,6 +41,7 @@ import numpy as np
 from teamgym.envs.foraging.grid import GridSpec
 
 __all__ = [
+    "PACKET_KIND",
     "PV_TABLE",
     "ROBOT",
     "SENDER",
@@ -54,6 +55,8 @@ __all__ = [
     "visibility",
 ]
 
+#: Channel message kind of the perception packets.
+PACKET_KIND = "perception"
 #: Tuple classes (the first element of a perception tuple).
 TARGET, ROBOT, SENDER = 0, 1, 2
 
