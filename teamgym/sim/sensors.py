@@ -12,6 +12,7 @@ The older per-robot ``read`` methods remain and share the code of ``read_rows``.
 from __future__ import annotations
 
 import math
+import operator
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Protocol, runtime_checkable
@@ -341,9 +342,7 @@ class ProximityRing(NoisyRowSensor):
     ) -> None:
         """:meth:`read_many` through :mod:`teamgym.sim.kernel`: the same Chipmunk queries, made from one compiled loop each."""
         span = self.max_range
-        handles = kernel.space_handles(spaces)
-        words = np.array([kernel.filter_words(robot.sensor_filter) for robot in robots], dtype=np.uint64).reshape(-1, 2)
-        radius = np.array([robot.spec.radius for robot in robots])
+        handles, words, radius = self._compiled_targets(spaces, robots)
         near = kernel.shapes_within(handles, words[:, 0], words[:, 1], np.ascontiguousarray(poses[:, :2]), radius + span)
         reach = np.flatnonzero(near).tolist()
         if not reach:
@@ -351,6 +350,26 @@ class ProximityRing(NoisyRowSensor):
         ends = self._ray_ends(robots, reach, rows, poses).ravel()
         distances = kernel.first_hits(handles[reach], words[reach, 0], words[reach, 1], ends, len(self._cos), span)
         out[reach] = distances.reshape(len(reach), len(self._cos))
+
+    def _compiled_targets(
+        self, spaces: Sequence[pymunk.Space], robots: Sequence[DiffDriveRobot]
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The spaces' Chipmunk handles, the robots' filter words and radii; kept while the same spaces and robots
+        are read (a batch reads the same ones every step; a robot's sensor filter is fixed when it is made)."""
+        memo = self.__dict__.get("_memo")
+        same = memo is not None and len(memo[0]) == len(spaces) and len(memo[1]) == len(robots)
+        if same and all(map(operator.is_, memo[0], spaces)) and all(map(operator.is_, memo[1], robots)):
+            return memo[2]
+        handles = kernel.space_handles(spaces)
+        words = np.array([kernel.filter_words(robot.sensor_filter) for robot in robots], dtype=np.uint64).reshape(-1, 2)
+        radius = np.array([robot.spec.radius for robot in robots])
+        self._memo = (list(spaces), list(robots), (handles, words, radius))
+        return self._memo[2]
+
+    def __getstate__(self) -> dict:
+        state = self.__dict__.copy()
+        state.pop("_memo", None)  # Chipmunk handles: valid in this process only
+        return state
 
     def _ray_ends(self, robots: Sequence[DiffDriveRobot], reach: list[int], rows: list, poses: np.ndarray) -> np.ndarray:
         """``(len(reach), width, 4)``: each ray's ``x0, y0, x1, y1`` with the operations of :meth:`_cast_one`."""
