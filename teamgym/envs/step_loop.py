@@ -139,6 +139,11 @@ class CopyPhases:
                 elif truncations[agent]:
                     truncated[k, row[agent]] = True
 
+    def going_on(self, group: list[int]) -> list[int]:
+        """Positions in ``group`` of the copies whose stage goes on after this control step (:meth:`TeamEnv._stage_goes_on`)."""
+        copies = self.copies
+        return [i for i, k in enumerate(group) if copies[k]._stage_goes_on()]
+
     def observe(self, group: list[int], out: np.ndarray) -> None:
         """Rows ``out[k, i]`` of each copy ``k`` of ``group``: its live agents' observations, zeros elsewhere."""
         for k in group:
@@ -167,7 +172,7 @@ def step_group(phases: CopyPhases, group: list[int], actions: list[dict[str, Any
         phases.control(running, running_actions, running_rows)
         phases.physics(running)
         phases.after_physics(running)
-        going_on = [i for i, k in enumerate(running) if copies[k]._stage_goes_on()]
+        going_on = phases.going_on(running)
         if len(going_on) < len(running):
             running = [running[i] for i in going_on]
             running_actions = [running_actions[i] for i in going_on]

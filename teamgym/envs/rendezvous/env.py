@@ -315,6 +315,11 @@ class Rendezvous(TeamEnv):
                 self._on_arrival(target)
             elif time - starts[i] > self.move_timeouts[i, int(state.origin[k, i]), target]:
                 self._abandon_move(i)
+        self._note_contacts()
+
+    def _note_contacts(self) -> None:
+        """Contacts of the last control step; obstacles waiting for a way to clear are put in place."""
+        state, k = self._arrays, self._copy
         contacts = self.world.contacts
         if contacts:
             hits = self.world.contacts_per(self.possible_agents)

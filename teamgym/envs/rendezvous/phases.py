@@ -22,8 +22,10 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from teamgym.envs.rendezvous.group import FollowerRows, arrived, way_commands
 from teamgym.envs.rendezvous.state import RendezvousArrays
 from teamgym.envs.step_loop import ActionRows, CopyPhases
+from teamgym.sim.robot import set_commands
 
 if TYPE_CHECKING:
     from teamgym.envs.rendezvous.config import RendezvousConfig
@@ -50,17 +52,44 @@ class RendezvousPhases(CopyPhases):
         self._bind_to_shared_rows(self._shared)
 
     def control(self, group: list[int], actions: list[dict[str, Any]], rows: ActionRows | None) -> None:
-        """The acting robots' commands: the way-following controllers of ``next_place``, else the action type's ``act``.
+        """The acting robots' commands: the way-following controllers of ``next_place`` (every robot of a group's
+        copies in one pass, :func:`~teamgym.envs.rendezvous.group.way_commands`), else the action type's ``act``.
 
         Rendezvous has no ``_before_physics`` (no actuation delay), so that hook is not called.
         """
         copies = self.copies
-        motion = copies[group[0]].next_place
+        first = copies[group[0]]
+        motion = first.next_place
         if motion is None:
             super().control(group, actions, rows)
             return
-        for k, joint in zip(group, actions):
-            motion.drive(copies[k], joint)
+        n = first.config.n_robots
+        if len(group) == 1 or any(len(joint) != n for joint in actions):
+            for k, joint in zip(group, actions):
+                motion.drive(copies[k], joint)
+            return
+        team, ks = first._arrays, [copies[k]._copy for k in group]
+        span = [copies[k] for k in group]
+        poses = np.stack([env.world.robot_states[:, :3] for env in span])
+        commands = way_commands(self._followers(first), poses, team.origin[ks], team.target[ks], first.places_xy)
+        set_commands([robot for env in span for robot in env.robot_list], commands.reshape(-1, 2))
+
+    def _followers(self, first: Rendezvous) -> FollowerRows:
+        """The way followers' parameters per robot row and the move time-outs per (robot, from, to), made once."""
+        memo = self.__dict__.get("_follower_rows")
+        if memo is None or memo[0] is not first.followers:
+            rows = FollowerRows(first.followers)
+            n, places = first.config.n_robots, len(first.places)
+            rows.timeouts = np.full((n, places, places), np.inf)
+            for (i, a, b), limit in first.move_timeouts.items():
+                rows.timeouts[i, a, b] = limit
+            memo = self._follower_rows = (first.followers, rows)
+        return memo[1]
+
+    def __getstate__(self) -> dict:
+        state = self.__dict__.copy()
+        state.pop("_follower_rows", None)
+        return state
 
     def after_physics(self, group: list[int]) -> None:
         """Each copy's arrivals, give-ups, contacts and events; then goals, rewards and sensing over the group.
@@ -80,14 +109,15 @@ class RendezvousPhases(CopyPhases):
             first._sense()
             return
         span = [copies[k] for k in group]
-        for env in span:
-            env._update_state()
-            if events:
-                env._apply_events()
         team = first._arrays
         rows = np.array([env._copy for env in span])
         times = np.array([env.world.time for env in span])
-        distances, mean = pair_distances(np.stack([env.world.robot_states[:, :2] for env in span]))
+        points = np.stack([env.world.robot_states[:, :3] for env in span])
+        self._update_states(span, team, rows, points, times)
+        if events:
+            for env in span:
+                env._apply_events()
+        distances, mean = pair_distances(points[..., :2])
         self._check_goals(team, rows, distances, times, c.meet_distance)
         rewards = self._rewards(c, team, rows, mean, times)
         for env, reward in zip(span, rewards):
@@ -100,6 +130,54 @@ class RendezvousPhases(CopyPhases):
         for env in span:
             if team.blocked_order[env._copy]:
                 env._detect_blocked()
+
+    def _update_states(
+        self, span: list[Rendezvous], team: RendezvousArrays, rows: np.ndarray, poses: np.ndarray, times: np.ndarray
+    ) -> None:
+        """``Rendezvous._update_state`` of every copy: arrivals and time-outs found in one pass, then handled copy by
+        copy in robot order (places of standing robots, arrivals, give-ups), then contacts and waiting blockers."""
+        first = span[0]
+        followers = self._followers(first)
+        team.arrived_now[rows] = False
+        target, origin = team.target[rows], team.origin[rows]
+        moving = target >= 0
+        arrive = arrived(followers, poses, target, first.places_xy)
+        robot = np.arange(target.shape[1])
+        late = moving & ~arrive
+        if late.any():
+            limit = followers.timeouts[robot, np.maximum(origin, 0), np.maximum(target, 0)]
+            late &= times[:, None] - team.move_start[rows] > limit
+        busy = ~moving | arrive | late
+        for j in np.flatnonzero(busy.any(axis=1)).tolist():
+            env, k = span[j], int(rows[j])
+            place, poses_j = team.place[k], None
+            for i in np.flatnonzero(busy[j]).tolist():
+                if not moving[j, i]:
+                    if poses_j is None:
+                        poses_j = env._poses()
+                    place[i] = env._nearest_place(i, poses_j[i])
+                elif arrive[j, i]:
+                    goal = int(target[j, i])
+                    place[i], team.target[k, i] = goal, -1
+                    team.arrived_now[k, i] = True
+                    env._on_arrival(goal)
+                else:
+                    env._abandon_move(i)
+        for env in span:
+            env._note_contacts()
+
+    def going_on(self, group: list[int]) -> list[int]:
+        """Copies whose stage goes on (``NextPlaceAction.stage_over`` over the group's rows, and the cycle limit)."""
+        copies = self.copies
+        first = copies[group[0]]
+        if first.next_place is None or len(group) == 1:
+            return super().going_on(group)
+        team, rows = first._arrays, [copies[k]._copy for k in group]
+        over = team.met[rows] | (team.target[rows] < 0).all(axis=1)
+        if first.next_place.stage_end == "any":
+            over |= team.arrived_now[rows].any(axis=1)
+        limit = first.config.cycle_limit
+        return [i for i, (done, k) in enumerate(zip(over.tolist(), group)) if not done and copies[k].cycles < limit]
 
     @staticmethod
     def _check_goals(team: RendezvousArrays, rows: np.ndarray, distances: np.ndarray, times: np.ndarray, meet: float) -> None:
