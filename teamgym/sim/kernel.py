@@ -204,9 +204,19 @@ class WorldsKernel:
         self._step = function if function is not None else _compiled()
         if self._step is None:
             raise KernelError("the compiled step kernel is not available (see teamgym.sim.kernel.enabled)")
-        self.layouts = [s if isinstance(s, SpaceLayout) else SpaceLayout.of(s) for s in spaces]
-        self.handles = np.array([layout.handle for layout in self.layouts], dtype=np.uint64)
-        self.counts = np.array([len(layout.rows) for layout in self.layouts], dtype=np.int64)
+        layouts = [s if isinstance(s, SpaceLayout) else SpaceLayout.of(s) for s in spaces]
+        handles = np.array([layout.handle for layout in layouts], dtype=np.uint64)
+        self._allocate(layouts, handles, np.array([len(layout.rows) for layout in layouts], dtype=np.int64))
+
+    def subset(self, worlds: np.ndarray) -> WorldsKernel:
+        """A kernel over the worlds ``worlds`` (indices, ascending) of this one, with a buffer of its own."""
+        kernel = object.__new__(WorldsKernel)
+        kernel._step = self._step
+        kernel._allocate([self.layouts[m] for m in worlds.tolist()], self.handles[worlds], self.counts[worlds])
+        return kernel
+
+    def _allocate(self, layouts: list[SpaceLayout], handles: np.ndarray, counts: np.ndarray) -> None:
+        self.layouts, self.handles, self.counts = layouts, handles, counts
         self.offsets = np.concatenate([[0], np.cumsum(self.counts)]).astype(np.int64)
         total = int(self.offsets[-1])
         # Room for twice the bodies: a world that gains bodies is caught before the array would move.

@@ -140,6 +140,7 @@ class GroupPlans:
     def __init__(self, min_robots: int | None = None) -> None:
         self._plans: weakref.WeakKeyDictionary[World, tuple[list, GroupPlan | None]] = weakref.WeakKeyDictionary()
         self._together: StepTogether | None = None
+        self._whole: StepTogether | None = None  # the last group made from its worlds (subsets are picked from it)
         self._last: list[World] | None = None  # the worlds of the last step that stepped alone
         self._small = False  # whether those worlds hold too few robots to step together
         self._min_robots_given = min_robots  # kept by pickles (None: the default when unpickled)
@@ -173,13 +174,18 @@ class GroupPlans:
         if together is not None and together.same_worlds(worlds):
             plans = [self.plan_of(world) for world in worlds]
             if not together.matches(worlds, plans):
-                together = self._together = StepTogether(worlds, plans)
+                together = self._together = self._whole = StepTogether(worlds, plans)
             together.step(reuse_states)
             return
         if kernel.enabled():
             plans = [self.plan_of(world) for world in worlds]
+            part = self._part_of_whole(worlds, plans)
+            if part is not None:
+                self._together = part
+                part.step(reuse_states)
+                return
             if sum(len(plan.robots) for plan in plans if plan is not None) >= self.min_robots:
-                self._together = StepTogether(worlds, plans)
+                self._together = self._whole = StepTogether(worlds, plans)
                 self._together.step(reuse_states)
                 return
         elif self._last is not None and len(self._last) == len(worlds) and all(a is b for a, b in zip(self._last, worlds)):
@@ -194,6 +200,17 @@ class GroupPlans:
             self._last, self._small = list(worlds), False
         for world in worlds:
             world.step(reuse_states=reuse_states)
+
+    def _part_of_whole(self, worlds: Sequence[World], plans: list[GroupPlan | None]) -> StepTogether | None:
+        """The last whole group's :meth:`StepTogether.subset` for ``worlds`` when they are some of its worlds, in its
+        order, with the same plans and its compiled step (copies leaving a macro stage); else None."""
+        whole = self._whole
+        if whole is None or whole._compiled is None or len(worlds) >= len(whole.worlds):
+            return None
+        positions = whole.positions_of(worlds)
+        if positions is None or any(a is not whole.plans[m] for a, m in zip(plans, positions.tolist())):
+            return None
+        return whole.subset(positions)
 
     def __getstate__(self) -> dict:
         return {"min_robots": self._min_robots_given}  # plans are made again (they hold Chipmunk handles)
@@ -234,8 +251,52 @@ class StepTogether:
         self.wheel_radius = _joined([plan.wheel_radius for plan in plans_together])
         self.mover_radius = _joined([plan.mover_radius for plan in plans_together])
         self.mover_size = _joined([plan.mover_size for plan in plans_together], (0, 2))
+        #: Per world: its index in ``together`` (−1: it steps alone); per robot and obstacle: its world in ``together``.
+        self._pair_of = np.cumsum([plan is not None for plan in plans]) - 1
+        self._pair_of[[plan is None for plan in plans]] = -1
+        self._robot_world = np.repeat(np.arange(len(pairs)), [len(plan.robots) for plan in plans_together])
+        self._mover_world = np.repeat(np.arange(len(pairs)), [len(plan.movers) for plan in plans_together])
         self._compiled: CompiledWorlds | None = None
         self._compiled_tried = False
+        self._positions: dict[int, int] | None = None  # id(world) -> its position (made when first asked)
+
+    def positions_of(self, worlds: Sequence[World]) -> np.ndarray | None:
+        """Positions of ``worlds`` among this object's worlds if they are some of them in the same order, else None."""
+        if self._positions is None:
+            self._positions = {id(world): m for m, world in enumerate(self.worlds)}
+        get = self._positions.get
+        positions = [get(id(world), -1) for world in worlds]
+        if not positions or min(positions) < 0 or any(a >= b for a, b in zip(positions, positions[1:])):
+            return None
+        return np.array(positions, dtype=np.intp)
+
+    def subset(self, positions: np.ndarray) -> StepTogether:
+        """The same for the worlds at ``positions`` (ascending) only: arrays picked, nothing gathered again.
+
+        A batch whose copies leave a macro stage one by one steps a smaller group at every control step;
+        picking the group's rows from the whole group's costs a few array operations.
+        """
+        new = object.__new__(StepTogether)
+        picked = positions.tolist()
+        new.worlds, new.plans = [self.worlds[m] for m in picked], [self.plans[m] for m in picked]
+        pairs = self._pair_of[positions]
+        sel = pairs[pairs >= 0]
+        new.together = [self.together[m] for m in sel.tolist()]
+        rank = np.full(len(self.together), -1)
+        rank[sel] = np.arange(len(sel))
+        robots = np.flatnonzero(rank[self._robot_world] >= 0)
+        movers = np.flatnonzero(rank[self._mover_world] >= 0)
+        new.robots = [self.robots[r] for r in robots.tolist()]
+        new.movers = [self.movers[r] for r in movers.tolist()]
+        new.bounds = np.cumsum([0, *np.diff(self.bounds)[sel].tolist()]).tolist()
+        new.half_base, new.wheel_radius = self.half_base[robots], self.wheel_radius[robots]
+        new.mover_radius, new.mover_size = self.mover_radius[movers], self.mover_size[movers]
+        new._pair_of = np.where(pairs >= 0, rank[np.maximum(pairs, 0)], -1)
+        new._robot_world, new._mover_world = rank[self._robot_world[robots]], rank[self._mover_world[movers]]
+        new._compiled = None if self._compiled is None else self._compiled.subset(sel)
+        new._compiled_tried = self._compiled_tried
+        new._positions = None
+        return new
 
     def same_worlds(self, worlds: Sequence[World]) -> bool:
         """Whether ``worlds`` are the worlds this object was made for (in that order)."""
@@ -426,6 +487,69 @@ class CompiledWorlds:
         self.joint_plain = np.concatenate([part.joint_plain for part in parts])
         self.mover_controls = {key: handle for part in parts for key, handle in part.mover_controls.items()}
         self.states = None
+        self._handed = []
+        self._index_rows(
+            [len(part.state_rows) for part in parts],
+            [len(part.controls) for part in parts],
+            [len(part.mover_rows) for part in parts],
+            [len(part.joints) for part in parts],
+        )
+
+    def _index_rows(self, states: list[int], robots: list[int], movers: list[int], joints: list[int]) -> None:
+        """The world of every state row, robot, obstacle row and drive, and the rows within their world: what
+        :meth:`subset` picks by (``states`` … ``joints``: how many each world has)."""
+        worlds = np.arange(len(states))
+        self._state_world = np.repeat(worlds, states)
+        self._robot_world = np.repeat(worlds, robots)
+        self._mover_world = np.repeat(worlds, movers)
+        self._joint_world = np.repeat(worlds, joints)
+        self._sizes = np.array([self.kernel.counts, states, robots], dtype=np.int64).reshape(3, len(states))
+        before = np.cumsum(self._sizes, axis=1) - self._sizes  # each world's first body, state row and robot
+        self._local = (
+            self.state_rows - before[0][self._state_world],
+            self.robot_rows - before[1][self._robot_world],
+            self.mover_rows - before[1][self._mover_world],
+            self.joint_owner - before[2][self._joint_world],
+        )
+
+    def subset(self, worlds: np.ndarray) -> CompiledWorlds:
+        """The same over the worlds ``worlds`` (indices, ascending): rows offset anew, a kernel of their spaces.
+
+        Each picked world's last read starts its next step (as ``World.begin_step(reuse_states=True)``
+        takes it), so a step that may reuse them reads nothing again.
+        """
+        new = object.__new__(CompiledWorlds)
+        picked = worlds.tolist()
+        new.worlds, new._plans = [self.worlds[m] for m in picked], [self._plans[m] for m in picked]
+        new.dt, new.substeps = self.dt, self.substeps
+        new.kernel = self.kernel.subset(worlds)
+        rank = np.full(len(self.worlds), -1)
+        rank[worlds] = np.arange(len(picked))
+        sizes = self._sizes[:, worlds]
+        after = np.zeros((3, len(self.worlds)), dtype=np.int64)
+        after[:, worlds] = np.cumsum(sizes, axis=1) - sizes  # each picked world's first row in the subset
+        keep = rank >= 0
+        states, robots = np.flatnonzero(keep[self._state_world]), np.flatnonzero(keep[self._robot_world])
+        movers, joints = np.flatnonzero(keep[self._mover_world]), np.flatnonzero(keep[self._joint_world])
+        state_world, robot_world = self._state_world[states], self._robot_world[robots]
+        mover_world, joint_world = self._mover_world[movers], self._joint_world[joints]
+        local_states, local_robots, local_movers, local_owners = self._local
+        new.state_rows = local_states[states] + after[0][state_world]
+        new.robot_rows = local_robots[robots] + after[1][robot_world]
+        new.mover_rows = local_movers[movers] + after[1][mover_world]
+        new.joint_owner = local_owners[joints] + after[2][joint_world]
+        new.state_bounds = [0, *np.cumsum(sizes[1]).tolist()]
+        new.controls, new.joints = self.controls[robots], self.joints[joints]
+        new.joint_offset, new.joint_plain = self.joint_offset[joints], self.joint_plain[joints]
+        new.mover_controls = self.mover_controls
+        new._state_world, new._robot_world = rank[state_world], rank[robot_world]
+        new._mover_world, new._joint_world = rank[mover_world], rank[joint_world]
+        new._sizes = sizes
+        new._local = (local_states[states], local_robots[robots], local_movers[movers], local_owners[joints])
+        new._handed = [world.states for world in new.worlds]
+        fresh = all(states is not None and len(states) == size for states, size in zip(new._handed, sizes[1].tolist()))
+        new.states = np.concatenate(new._handed) if fresh else None
+        return new
 
     def _rejoin(self) -> None:
         """Bodies were added or removed behind the worlds' backs: make every world's part again."""

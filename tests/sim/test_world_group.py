@@ -86,3 +86,30 @@ def test_a_small_group_steps_world_by_world_and_a_large_one_together():
 def test_a_pickled_group_keeps_its_threshold():
     assert pickle.loads(pickle.dumps(GroupPlans(min_robots=5))).min_robots == 5
     assert pickle.loads(pickle.dumps(GroupPlans())).min_robots == GroupPlans().min_robots
+
+
+@pytest.mark.parametrize(("env_id", "config"), [("Navigation-v0", {}), ("BoxPushing-v1", {}), ("Rendezvous-v0", {})])
+def test_a_group_that_shrinks_steps_its_remaining_worlds_as_each_alone(env_id, config):
+    """Copies leaving a macro stage one by one: after a step of all worlds, changing subsets of them step (picked from
+    the whole group's arrays, :meth:`StepTogether.subset`) and every world still equals its twin stepped alone."""
+    from teamgym.sim import kernel
+
+    if not kernel.enabled():
+        pytest.skip("subsets are picked from the compiled group (teamgym[fast])")
+    envs, twins = envs_and_twins(env_id, 6, 300, **config)
+    grouped = GroupPlans(min_robots=0)
+    rng = np.random.default_rng(1)
+    subsets = [range(6), [0, 2, 3, 5], [2, 3, 5], [3], range(6), [1, 4], [0, 1, 2, 3, 4]]
+    picked = 0
+    for _ in range(4):
+        for members in subsets:
+            members = list(members)
+            command_both([envs[m] for m in members], [twins[m] for m in members], rng)
+            whole = grouped._whole
+            grouped.step([envs[m].world for m in members], reuse_states=True)
+            picked += grouped._whole is whole and len(members) < 6
+            for m in members:
+                twins[m].world.step(reuse_states=True)
+            for env, twin in zip(envs, twins):
+                assert _snapshot(env.world) == _snapshot(twin.world)
+    assert picked > 0
