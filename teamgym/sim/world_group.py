@@ -30,6 +30,7 @@ import numpy as np
 
 from teamgym.sim import kernel
 from teamgym.sim.entity import StepGroup
+from teamgym.sim.libm import libm
 from teamgym.sim.objects import BounceSteps, MovingPolygon
 from teamgym.sim.robot import DiffDriveRobot, RobotSteps, arc_motion, encoder_values
 from teamgym.sim.world import World, pending_work
@@ -619,13 +620,12 @@ def _end_robot_steps(
     """
     dx, dy = ends[:, 0] - starts[:, 0], ends[:, 1] - starts[:, 1]
     mid = 0.5 * (starts[:, 2] + ends[:, 2])
-    mids = mid.tolist()
-    ds = dx * np.array(list(map(math.cos, mids))) + dy * np.array(list(map(math.sin, mids)))
+    ds = dx * libm(math.cos, mid) + dy * libm(math.sin, mid)
     da = ends[:, 2] - starts[:, 2]
     previous = np.array([robot.encoder_totals for robot in robots], dtype=float).reshape(-1, 2)
     values = np.stack(
         encoder_values(commands[:, 0], commands[:, 1], ds, da, half_base, r, dt, previous[:, 0], previous[:, 1]), axis=1
     )
-    poses = starts[:, :3].tolist()
-    for robot, pose, row, step_x, step_y in zip(robots, poses, values.tolist(), dx.tolist(), dy.tolist()):
-        robot.finish_step((pose[0], pose[1], pose[2]), tuple(row), math.hypot(step_x, step_y))
+    distances = map(math.hypot, dx.tolist(), dy.tolist())
+    for robot, pose, row, distance in zip(robots, map(tuple, starts[:, :3].tolist()), map(tuple, values.tolist()), distances):
+        robot.finish_step(pose, row, distance)

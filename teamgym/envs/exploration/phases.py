@@ -10,9 +10,9 @@ sightings, places, the explored set, explore times and the team rewards in one n
 and the observations in another. Contacts, ray casts and the operator watchers run copy by
 copy (they query each copy's own pymunk space or Python controllers).
 
-The observation's heading ``remainder(θ, 2π)`` and forward speed ``vx cos θ + vy sin θ`` use
-``math`` row by row: numpy's ``remainder`` is a floored modulo and its SIMD ``cos``/``sin`` may
-differ from ``math``'s in the last bit. Everything else uses comparisons and ``+ − × √``,
+The observation's heading ``remainder(θ, 2π)`` and forward speed ``vx cos θ + vy sin θ`` take
+``math``'s bits (:mod:`teamgym.sim.libm`): numpy's ``remainder`` is a floored modulo and its SIMD
+``cos``/``sin`` may differ from ``math``'s in the last bit. Everything else uses comparisons and ``+ − × √``,
 which numpy rounds as Python does.
 """
 
@@ -27,6 +27,7 @@ from teamgym.control.watcher import WatcherState
 from teamgym.envs.base import TeamEnv
 from teamgym.envs.exploration.state import ExplorationArrays
 from teamgym.envs.step_loop import ActionRows, CopyPhases
+from teamgym.sim.libm import libm, remainder_tau
 
 if TYPE_CHECKING:
     from teamgym.envs.exploration.env import Exploration
@@ -129,13 +130,13 @@ class ExplorationPhases(CopyPhases):
         slices = first.layout.slices
         block = np.zeros((g, n, out.shape[-1]), dtype=out.dtype)
         flat = block.reshape(g * n, -1)
-        tau = 2 * math.pi
-        states = np.stack([env.world.robot_states[:, :6] for env in span]).ravel().tolist()  # flat: converts fastest
-        rows = [states[at : at + 6] for at in range(0, len(states), 6)]
-        motion = np.array([(x, y, math.remainder(t, tau), vx * math.cos(t) + vy * math.sin(t), w) for x, y, t, vx, vy, w in rows])
+        states = np.concatenate([env.world.robot_states[:, :6] for env in span])
+        heading = states[:, 2]
         pose, velocity = slices["pose"].start, slices["velocity"].start
-        flat[:, pose : pose + 3] = motion[:, :3]
-        flat[:, velocity : velocity + 2] = motion[:, 3:]
+        flat[:, pose : pose + 2] = states[:, :2]
+        flat[:, pose + 2] = remainder_tau(heading)
+        flat[:, velocity] = states[:, 3] * libm(math.cos, heading) + states[:, 4] * libm(math.sin, heading)
+        flat[:, velocity + 1] = states[:, 5]
         every = np.arange(g * n)
         sector, place = team.sector[ks], team.place[ks]
         flat[every, slices["sector"].start + sector.ravel()] = 1.0

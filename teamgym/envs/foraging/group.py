@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from typing import NamedTuple
 
 import numpy as np
@@ -43,6 +43,7 @@ from teamgym.envs.foraging.perception import (
     VisionModel,
 )
 from teamgym.envs.foraging.sensing import NO_CELL
+from teamgym.sim.libm import libm
 
 __all__ = [
     "CopyView",
@@ -55,18 +56,6 @@ __all__ = [
 
 _PI, _TWO_PI = math.pi, 2 * math.pi
 _PV = np.array(_PV_ROWS)
-
-
-def _libm(function: Callable[[float], float], values: np.ndarray) -> np.ndarray:
-    """``function`` (a one-argument ``math`` function) of every element, float64 of ``values``' shape."""
-    flat = values.ravel().tolist()
-    return np.fromiter(map(function, flat), dtype=float, count=len(flat)).reshape(values.shape)
-
-
-def _atan2(y: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """``math.atan2`` of every element pair (libm's, as the lone env's)."""
-    flat_y, flat_x = y.ravel().tolist(), x.ravel().tolist()
-    return np.fromiter(map(math.atan2, flat_y, flat_x), dtype=float, count=len(flat_y)).reshape(y.shape)
 
 
 def _wrap(angle: np.ndarray) -> np.ndarray:
@@ -103,9 +92,9 @@ def advance_odometry(
     """
     x0, y0, th0 = before[..., 0], before[..., 1], before[..., 2]
     dx, dy = after[..., 0] - x0, after[..., 1] - y0
-    c, s = _libm(math.cos, th0), _libm(math.sin, th0)
+    c, s = libm(math.cos, th0), libm(math.sin, th0)
     eth = estimate[..., 2]
-    ce, se = _libm(math.cos, eth), _libm(math.sin, eth)
+    ce, se = libm(math.cos, eth), libm(math.sin, eth)
     turn = _wrap(after[..., 2] - th0)
     forward, lateral = dx * c + dy * s, dy * c - dx * s
     moved = ((forward != 0.0) | (lateral != 0.0)).astype(float)
@@ -116,7 +105,7 @@ def advance_odometry(
     out[..., 0] = estimate[..., 0] + (forward * ce - lateral * se) * scale
     out[..., 1] = estimate[..., 1] + (lateral * ce + forward * se) * scale
     out[..., 2] = _wrap(heading)
-    return dx, dy, out, certainty * _libm(functools.partial(pow, pe), size)
+    return dx, dy, out, certainty * libm(functools.partial(pow, pe), size)
 
 
 class CopyView(NamedTuple):
@@ -198,7 +187,7 @@ def perceive_copies(
     kk, ii, jj = np.nonzero(candidate)  # row-major: per copy, per robot, by point
     distance = view.distance[kk, ii, jj]
     rel_x, rel_y = view.rel_x[kk, ii, jj], view.rel_y[kk, ii, jj]
-    bearing = _wrap(_atan2(rel_y, rel_x) - pose[kk, ii, 2])
+    bearing = _wrap(libm(math.atan2, rel_y, rel_x) - pose[kk, ii, 2])
     keep = np.abs(bearing) <= half
     if n > 1 and len(kk):
         teammates = view.distance[:, :, t : t + n] + np.where(np.eye(n, dtype=bool), np.inf, 0.0)
@@ -224,8 +213,8 @@ def perceive_copies(
     if len(fk):  # re-localise at the landmark: the truth plus the measurement error, Pl = Pv
         x, y, theta = pose[fk, fi, 0], pose[fk, fi, 1], pose[fk, fi, 2]
         ray, measured_ray = theta + fb, theta + fmb
-        estimate[fk, fi, 0] = x + (fd * _libm(math.cos, ray) - fmd * _libm(math.cos, measured_ray))
-        estimate[fk, fi, 1] = y + (fd * _libm(math.sin, ray) - fmd * _libm(math.sin, measured_ray))
+        estimate[fk, fi, 0] = x + (fd * libm(math.cos, ray) - fmd * libm(math.cos, measured_ray))
+        estimate[fk, fi, 1] = y + (fd * libm(math.sin, ray) - fmd * libm(math.sin, measured_ray))
         estimate[fk, fi, 2] = _wrap(theta + (fb - fmb))
         certainty[fk, fi] = fpv
     table[..., :] = 0.0
@@ -241,8 +230,8 @@ def perceive_copies(
         slot = np.arange(len(group)) - np.repeat(first, np.diff(np.r_[first, len(group)])) + 1
         ex, ey, eth = estimate[ok, oi, 0], estimate[ok, oi, 1], estimate[ok, oi, 2]
         heading = eth + mb
-        gx = _cells(_libm(math.cos, heading) * md + ex, cell_size, top[0])
-        gy = _cells(_libm(math.sin, heading) * md + ey, cell_size, top[1])
+        gx = _cells(libm(math.cos, heading) * md + ex, cell_size, top[0])
+        gy = _cells(libm(math.sin, heading) * md + ey, cell_size, top[1])
         robot = oj >= t
         rows = np.empty((len(ok), 8))
         rows[:, 0] = np.where(robot, float(ROBOT), float(TARGET))
@@ -395,15 +384,15 @@ def _commands(
     """:meth:`GoToController.command_pairs` of every robot of every copy: ``(v, ω)`` (K, n, 2)."""
     goal_x, goal_y = aim[..., 0] - estimate[..., 0], aim[..., 1] - estimate[..., 1]
     distance = np.hypot(goal_x, goal_y)
-    bearing = _atan2(goal_y, goal_x) - estimate[..., 2]
+    bearing = libm(math.atan2, goal_y, goal_x) - estimate[..., 2]
     homes = home_d == home_d  # not NaN
     distance = np.where(homes, home_d, distance)
     bearing = np.where(homes, home_b, bearing)
-    c, s = _libm(math.cos, pose[..., 2]), _libm(math.sin, pose[..., 2])
+    c, s = libm(math.cos, pose[..., 2]), libm(math.sin, pose[..., 2])
     push_x, push_y = _pushes(controller, pose, field_size, c, s)
-    error = _atan2(push_y + _libm(math.sin, bearing), push_x + _libm(math.cos, bearing))
+    error = libm(math.atan2, push_y + libm(math.sin, bearing), push_x + libm(math.cos, bearing))
     top, gain = controller.max_turn_rate, controller.turn_gain
-    v = controller.max_speed * np.maximum(0.0, _libm(math.cos, error)) * np.minimum(1.0, distance / controller.slow_distance)
+    v = controller.max_speed * np.maximum(0.0, libm(math.cos, error)) * np.minimum(1.0, distance / controller.slow_distance)
     omega = np.minimum(np.maximum(gain * error, -top), top)
     halt = stop | ((distance < controller.arrive_distance) & ~homes)
     out = np.empty((*distance.shape, 2))

@@ -13,31 +13,14 @@ the last bit; numpy has no IEEE ``remainder``).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
 from teamgym.control.way_following import WayFollower
+from teamgym.sim.libm import libm, remainder_tau
 
-__all__ = ["FollowerRows", "arrived", "near_ahead", "remainder_tau", "way_commands"]
-
-
-def _libm(function: Callable[..., float], *values: np.ndarray) -> np.ndarray:
-    """``function`` (a ``math`` function) of every element (of every tuple of elements), float64 of the first's shape."""
-    flat = [value.ravel().tolist() for value in values]
-    return np.fromiter(map(function, *flat), dtype=float, count=len(flat[0])).reshape(values[0].shape)
-
-
-def remainder_tau(values: np.ndarray) -> np.ndarray:
-    """``math.remainder(v, τ)`` of every element, bit for bit: CPython's algorithm (``fmod``, then the half-way
-    rule), whose every step is an exact or identically rounded IEEE operation in numpy too."""
-    tau = math.tau
-    absolute = np.abs(values)
-    m = np.fmod(absolute, tau)
-    c = tau - m
-    halfway = m - 2.0 * np.fmod(0.5 * (absolute - m), tau)
-    r = np.where(m < c, m, np.where(m > c, -c, halfway))
-    return np.copysign(1.0, values) * r
+__all__ = ["FollowerRows", "arrived", "near_ahead", "way_commands"]
 
 
 class FollowerRows:
@@ -57,7 +40,7 @@ class FollowerRows:
         if self._lengths is None or self._lengths[0] is not places:
             dx = places[None, :, 0] - places[:, None, 0]
             dy = places[None, :, 1] - places[:, None, 1]
-            self._lengths = (places, _libm(math.hypot, dx, dy))
+            self._lengths = (places, libm(math.hypot, dx, dy))
         return self._lengths[1]
 
 
@@ -71,10 +54,10 @@ def near_ahead(poses: np.ndarray, reach: np.ndarray) -> np.ndarray:
     i, j = np.nonzero(~np.eye(n, dtype=bool))  # ordered pairs, robot i looking at robot j
     x, y = poses[..., 0], poses[..., 1]
     dx, dy = x[:, j] - x[:, i], y[:, j] - y[:, i]  # (G, pairs)
-    near = _libm(math.hypot, dx, dy) < reach[i]
+    near = libm(math.hypot, dx, dy) < reach[i]
     if near.any():
         g, pair = np.nonzero(near)
-        bearing = remainder_tau(_libm(math.atan2, dy[g, pair], dx[g, pair]) - poses[g, i[pair], 2])
+        bearing = remainder_tau(libm(math.atan2, dy[g, pair], dx[g, pair]) - poses[g, i[pair], 2])
         ahead = np.abs(bearing) < math.pi / 3
         out[g[ahead], i[pair][ahead]] = True
     return out
@@ -92,7 +75,7 @@ def way_commands(rows: FollowerRows, poses: np.ndarray, origin: np.ndarray, targ
     x, y, theta = poses[g, i, 0], poses[g, i, 1], poses[g, i, 2]
     a, b = origin[g, i], target[g, i]
     start, end = places[a], places[b]
-    remaining = _libm(math.hypot, end[:, 0] - x, end[:, 1] - y)
+    remaining = libm(math.hypot, end[:, 0] - x, end[:, 1] - y)
     # the pure-pursuit point (WayFollower._aim)
     dx, dy = end[:, 0] - start[:, 0], end[:, 1] - start[:, 1]
     length = rows.way_lengths(places)[a, b]
@@ -102,10 +85,10 @@ def way_commands(rows: FollowerRows, poses: np.ndarray, origin: np.ndarray, targ
     t = np.minimum(length, np.maximum(0.0, t) + rows.lookahead[i])
     aim_x = np.where(degenerate, end[:, 0], start[:, 0] + dx * t / safe)
     aim_y = np.where(degenerate, end[:, 1], start[:, 1] + dy * t / safe)
-    error = remainder_tau(_libm(math.atan2, aim_y - y, aim_x - x) - theta)
+    error = remainder_tau(libm(math.atan2, aim_y - y, aim_x - x) - theta)
     top = rows.omega_max[i]
     omega = np.maximum(-top, np.minimum(top, rows.k_turn[i] * error))
-    v = rows.speed[i] * np.maximum(0.0, _libm(math.cos, error)) * np.minimum(1.0, remaining / rows.brake[i])
+    v = rows.speed[i] * np.maximum(0.0, libm(math.cos, error)) * np.minimum(1.0, remaining / rows.brake[i])
     halt = (remaining <= rows.arrive_tolerance[i]) | ahead
     out[g, i, 0] = np.where(halt, 0.0, v)
     out[g, i, 1] = np.where(halt, 0.0, omega)
@@ -118,5 +101,5 @@ def arrived(rows: FollowerRows, poses: np.ndarray, target: np.ndarray, places: n
     g, i = np.nonzero(target >= 0)
     if len(g):
         end = places[target[g, i]]
-        out[g, i] = _libm(math.hypot, end[:, 0] - poses[g, i, 0], end[:, 1] - poses[g, i, 1]) <= rows.arrive_tolerance[i]
+        out[g, i] = libm(math.hypot, end[:, 0] - poses[g, i, 0], end[:, 1] - poses[g, i, 1]) <= rows.arrive_tolerance[i]
     return out
