@@ -204,10 +204,13 @@ class GroupPlans:
 
     def _part_of_whole(self, worlds: Sequence[World], plans: list[GroupPlan | None]) -> StepTogether | None:
         """The last whole group's :meth:`StepTogether.subset` for ``worlds`` when they are some of its worlds, in its
-        order, with the same plans and its compiled step (copies leaving a macro stage); else None."""
+        order, with the same plans and its compiled step (copies leaving a macro stage), and hold ``min_robots``
+        robots; else None."""
         whole = self._whole
         if whole is None or whole._compiled is None or len(worlds) >= len(whole.worlds):
             return None
+        if sum(len(plan.robots) for plan in plans if plan is not None) < self.min_robots:
+            return None  # a small group steps world by world (see min_robots)
         positions = whole.positions_of(worlds)
         if positions is None or any(a is not whole.plans[m] for a, m in zip(plans, positions.tolist())):
             return None

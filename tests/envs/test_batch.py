@@ -20,6 +20,8 @@ from gymnasium import spaces
 import teamgym
 from teamgym.envs.base import EpisodeOverError
 from teamgym.envs.config import ConfigError
+from teamgym.envs.foraging.phases import ForagingPhases
+from teamgym.envs.rendezvous.phases import RendezvousPhases
 from teamgym.sim import world_group
 
 
@@ -87,6 +89,9 @@ def test_every_copy_steps_as_the_single_env_with_its_seed(env_id, config, monkey
     # Three copies hold fewer robots than a group needs to step its worlds together by default
     # (world_group.MIN_ROBOTS_TOGETHER); lower it so the batch takes that path from its second step.
     monkeypatch.setattr(world_group, "MIN_ROBOTS_TOGETHER", 0)
+    # Likewise the groups from which Foraging and Rendezvous run their phases as passes over copies.
+    monkeypatch.setattr(ForagingPhases, "min_group", 2)
+    monkeypatch.setattr(RendezvousPhases, "min_group", 2)
     K = 3
     batch = teamgym.make_batch(env_id, K, **config)
     lones = [teamgym.make(env_id, **config) for _ in range(K)]

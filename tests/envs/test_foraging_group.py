@@ -109,11 +109,14 @@ def compare(name: str, steps: int = 400) -> dict[str, int]:
         calls["occlusion checks"] += 1
         return occluded(*args, **kwargs)
 
+    smallest = phases_module.ForagingPhases.min_group
     phases_module.perceive_copies, group_module._occluded = counted_perceive, counted_occluded
+    phases_module.ForagingPhases.min_group = 2  # four copies: below the default, so lowered to take the group path
     try:
         _compare(config, name, steps, calls)
     finally:
         phases_module.perceive_copies, group_module._occluded = perceive, occluded
+        phases_module.ForagingPhases.min_group = smallest
     return calls
 
 

@@ -65,11 +65,14 @@ def compare(name: str, steps: int = 150) -> dict[str, int]:
         calls["group commands"] += 1
         return commands(*args, **kwargs)
 
+    smallest = phases_module.RendezvousPhases.min_group
     phases_module.way_commands = counted
+    phases_module.RendezvousPhases.min_group = 2  # five copies: below the default, so lowered to take the group path
     try:
         _compare(config, name, steps, calls)
     finally:
         phases_module.way_commands = commands
+        phases_module.RendezvousPhases.min_group = smallest
     return calls
 
 

@@ -58,9 +58,13 @@ class ForagingPhases(CopyPhases):
             env._use_rows(self._shared, k)
 
     # -- which path ------------------------------------------------------------------------
+    #: Copies from which a group runs as numpy passes: below it, each copy's scalar hooks cost less than the
+    #: passes' fixed cost (measured 2026-12-07, ``bench_batch_every_env.py``, see docs/simulator.md).
+    min_group = 6
+
     def _together(self, group: list[int]) -> bool:
-        """Whether the group runs as numpy passes: several copies sharing one ``ForagingArrays``, every robot live."""
-        if len(group) < 2:
+        """Whether the group runs as numpy passes: ``min_group`` copies sharing one ``ForagingArrays``, every robot live."""
+        if len(group) < self.min_group:
             return False
         copies, shared = self.copies, self._shared
         for k in group:
