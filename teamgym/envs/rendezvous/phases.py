@@ -99,13 +99,19 @@ class RendezvousPhases(CopyPhases):
 
         A group smaller than ``min_group`` (a lone env too) runs each copy's own hooks.
         """
-        if len(group) < self.min_group:
-            super().after_physics(group)
-            return
         copies = self.copies
         first = copies[group[0]]
         c = first.config
         events = bool(c.blockings) or c.block_rate > 0
+        if len(group) < self.min_group:
+            for env in (copies[k] for k in group):
+                env._update_state()
+                if events:  # a copy without scheduled or random blockings has none to apply
+                    env._apply_events()
+                env._check_goals()
+                env._accumulate_rewards(env._reward_total)
+                env._sense()
+            return
         span = [copies[k] for k in group]
         team = first._arrays
         rows = np.array([env._copy for env in span])
