@@ -13,17 +13,13 @@ group path and that the rare branches happened.
 
 from __future__ import annotations
 
-import os
-import subprocess
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 import teamgym
 from teamgym.envs.foraging import group as group_module
 from teamgym.envs.foraging import phases as phases_module
+from tests.batch_lockstep import lockstep, with_avx512_kernels
 
 CONFIGS = {
     "consume": {"n_robots": 2, "n_targets": 3, "consume_time": 0.5, "time_limit": 30.0},
@@ -78,19 +74,6 @@ def _policy(batch, rng: np.random.Generator):
     return cells
 
 
-def _lone_action(actions, k: int, i: int):
-    if isinstance(actions, dict):
-        return {key: value[k, i] for key, value in actions.items()}
-    value = actions[k, i]
-    return int(value) if np.ndim(value) == 0 else value
-
-
-def _same(a, b) -> bool:
-    if isinstance(a, dict):
-        return a.keys() == b.keys() and all(_same(a[key], b[key]) for key in a)
-    return np.array_equal(np.asarray(a), np.asarray(b), equal_nan=np.asarray(a).dtype.kind == "f")
-
-
 def compare(name: str, steps: int = 400) -> dict[str, int]:
     """Step a batch of four copies and four lone envs with ``CONFIGS[name]``, asserting every step is the same;
     returns how often the group path ran and its rare branches happened."""
@@ -121,37 +104,12 @@ def compare(name: str, steps: int = 400) -> dict[str, int]:
 
 
 def _compare(config: dict, name: str, steps: int, calls: dict[str, int]) -> None:
-    copies = 4
-    batch = teamgym.make_batch("Foraging-v0", copies, **config)
-    lones = [teamgym.make("Foraging-v0", **config) for _ in range(copies)]
-    batch.reset(seed=70)
-    for k, env in enumerate(lones):
-        env.reset(seed=70 + k)
     rng = np.random.default_rng(3)
-    for step in range(steps):
-        actions = _policy(batch, rng)
-        observations, rewards, terminated, truncated = batch.step(actions)
-        for k, env in enumerate(lones):
-            if not env.agents:
-                continue
-            obs, rew, term, trunc, infos = env.step({a: _lone_action(actions, k, env._row[a]) for a in env.agents})
-            batch_infos = batch.infos(k)
-            for agent in obs:
-                i = env._row[agent]
-                if isinstance(obs[agent], dict):
-                    batch_obs = {key: value[k, i] for key, value in observations.items()}
-                else:
-                    batch_obs = observations[k, i]
-                assert _same(batch_obs, obs[agent]), (name, step, k, agent)
-                assert (rew[agent], term[agent], trunc[agent]) == (rewards[k, i], terminated[k, i], truncated[k, i]), (step, k)
-                assert _same(batch_infos[agent], infos[agent]), (step, k, agent)
-            assert _same(batch.copies[k]._arrays.row(k), env._arrays.row(0)), (name, step, k)
-        calls["finished"] = max(calls["finished"], int(sum(np.count_nonzero(~env.target_live) for env in lones)))
-        for k, env in enumerate(lones):
-            if not env.agents:  # a new episode in this copy and its lone env, with the same seed
-                calls["episodes"] += 1
-                batch.reset_copy(k, seed=1000 + calls["episodes"])
-                env.reset(seed=1000 + calls["episodes"])
+
+    def finished(env) -> None:
+        calls["finished"] = max(calls["finished"], int(np.count_nonzero(~env.target_live)))
+
+    calls["episodes"] = lockstep("Foraging-v0", config, 4, 70, steps, lambda batch: _policy(batch, rng), finished)
 
 
 @pytest.mark.parametrize("name", list(CONFIGS))
@@ -168,10 +126,7 @@ def test_the_group_path_matches_with_numpy_avx512_kernels_on():
     """The suite runs numpy without its AVX-512 kernels (``tests/conftest.py``), under which numpy's ``arctan2`` and
     ``power`` equal libm's; users' runs may have them on. In a process with them on (where the CPU has them), the
     group path still matches the lone env: it takes transcendentals from ``math``, as the lone env does."""
-    environment = {key: value for key, value in os.environ.items() if key != "NPY_DISABLE_CPU_FEATURES"}
-    script = f"import sys; sys.path.insert(0, {str(Path(__file__).parent)!r}); import {Path(__file__).stem} as t; "
-    script += "print(t.compare('crowd', 150)); print(t.compare('consume', 150))"
-    result = subprocess.run([sys.executable, "-c", script], env=environment, capture_output=True, text=True, check=False)
+    result = with_avx512_kernels(__file__, "t.compare('crowd', 150); t.compare('consume', 150)")
     assert result.returncode == 0, result.stderr[-2000:]
 
 

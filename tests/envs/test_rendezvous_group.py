@@ -13,20 +13,16 @@ process with numpy's AVX-512 kernels on (the suite turns them off), where only `
 from __future__ import annotations
 
 import math
-import os
-import subprocess
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-import teamgym
 from teamgym.control.way_following import WayFollower
 from teamgym.envs.rendezvous import group as group_module
 from teamgym.envs.rendezvous import phases as phases_module
 from teamgym.envs.rendezvous.actions import nearest_ahead
 from teamgym.sim.libm import remainder_tau
+from tests.batch_lockstep import lockstep, with_avx512_kernels
 
 CONFIGS = {
     "paper-map": {"max_cycles": 3000},
@@ -40,18 +36,6 @@ CONFIGS = {
     },
     "all-arrive": {"stage_end": "all", "max_cycles": 3000},
 }
-
-
-def _same(a, b) -> bool:
-    if isinstance(a, dict):
-        return a.keys() == b.keys() and all(_same(a[key], b[key]) for key in a)
-    if isinstance(a, (list, tuple)):
-        return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b))
-    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
-        return np.array_equal(np.asarray(a), np.asarray(b), equal_nan=np.asarray(a).dtype.kind == "f")
-    if isinstance(a, float) and isinstance(b, float) and a != a and b != b:
-        return True
-    return a == b
 
 
 def compare(name: str, steps: int = 150) -> dict[str, int]:
@@ -77,36 +61,18 @@ def compare(name: str, steps: int = 150) -> dict[str, int]:
 
 
 def _compare(config: dict, name: str, steps: int, calls: dict[str, int]) -> None:
-    copies = 5
-    batch = teamgym.make_batch("Rendezvous-v0", copies, **config)
-    lones = [teamgym.make("Rendezvous-v0", **config) for _ in range(copies)]
-    batch.reset(seed=11)
-    for k, env in enumerate(lones):
-        env.reset(seed=11 + k)
     rng = np.random.default_rng(5)
-    for step in range(steps):
-        masks = batch.action_masks()
-        moves = np.array([[rng.choice(np.flatnonzero(m)) for m in rows] for rows in masks])
-        observations, rewards, terminated, truncated = batch.step(moves)
-        for k, env in enumerate(lones):
-            if not env.agents:
-                continue
-            obs, rew, term, trunc, infos = env.step({a: int(moves[k, env._row[a]]) for a in env.agents})
-            batch_infos = batch.infos(k)
-            for agent in obs:
-                i = env._row[agent]
-                assert _same(observations[k, i], obs[agent]), (name, step, k, agent)
-                assert (rew[agent], term[agent], trunc[agent]) == (rewards[k, i], terminated[k, i], truncated[k, i]), (step, k)
-                assert _same(batch_infos[agent], infos[agent]), (step, k, agent)
-            mine, theirs = batch.copies[k]._arrays.row(k), env._arrays.row(0)
-            assert list(mine.pop("blockers")) == list(theirs.pop("blockers")), (name, step, k)  # entities: by way
-            assert _same(mine, theirs), (name, step, k)
-        for k, env in enumerate(lones):
-            if not env.agents:
-                calls["give-ups"] += int(env._arrays.failed_moves[0].sum())
-                calls["episodes"] += 1
-                batch.reset_copy(k, seed=500 + calls["episodes"])
-                env.reset(seed=500 + calls["episodes"])
+
+    def moves(batch) -> np.ndarray:
+        return np.array([[rng.choice(np.flatnonzero(m)) for m in rows] for rows in batch.action_masks()])
+
+    def gave_up(env) -> None:
+        calls["give-ups"] += int(env._arrays.failed_moves[0].sum())
+
+    def by_way(row: dict) -> dict:  # the blocker entities are each env's own objects: compare which ways hold one
+        return {**row, "blockers": list(row["blockers"])}
+
+    calls["episodes"] = lockstep("Rendezvous-v0", config, 5, 11, steps, moves, gave_up, by_way)
 
 
 @pytest.mark.parametrize(("name", "steps"), [("paper-map", 150), ("blockings", 50), ("all-arrive", 150)])
@@ -120,10 +86,7 @@ def test_a_batch_group_steps_every_copy_as_its_lone_env(name, steps):
 
 def test_the_group_path_matches_with_numpy_avx512_kernels_on():
     """As ``tests/envs/test_foraging_group.py``: a process with numpy's AVX-512 kernels on (where the CPU has them)."""
-    environment = {key: value for key, value in os.environ.items() if key != "NPY_DISABLE_CPU_FEATURES"}
-    script = f"import sys; sys.path.insert(0, {str(Path(__file__).parent)!r}); import {Path(__file__).stem} as t; "
-    script += "print(t.compare('paper-map', 60)); print(t.compare('blockings', 30))"
-    result = subprocess.run([sys.executable, "-c", script], env=environment, capture_output=True, text=True, check=False)
+    result = with_avx512_kernels(__file__, "t.compare('paper-map', 60); t.compare('blockings', 30)")
     assert result.returncode == 0, result.stderr[-2000:]
 
 
