@@ -584,7 +584,8 @@ class BoxPushing(TeamEnv):
         read_sensors([(self, agents)])
 
     def _count_contacts(self) -> None:
-        self._arrays.collisions[self._copy] += self.world.contacts_per(self.possible_agents)
+        if self.world.contacts:  # contacts that began in this control step (none: every count is 0)
+            self._arrays.collisions[self._copy] += self.world.contacts_per(self.possible_agents)
 
     def _update_boxes(self) -> float:
         """Measure the boxes' gaps and deliveries anew (boxes moved by hand); returns the gaps' decrease (m), not counted."""
