@@ -365,20 +365,31 @@ class TeamEnv(ParallelEnv):
 
     def _end_step(self) -> StepOutcome:
         """End of a step: messages, joining robots, terminations, truncations, masks (agents leave in :meth:`_close_step`)."""
-        self._deliver_messages()
         total, row = self._reward_total, self._row
         rewards = {a: float(total[row[a]]) for a in self.live_agents}
-        for agent in self._joining:
+        joined, terminations, truncated = self._end_phase()
+        for agent in joined:
+            rewards[agent] = 0.0
+        truncations = {a: truncated and not terminations[a] for a in self.live_agents}
+        return rewards, terminations, truncations
+
+    def _end_phase(self) -> tuple[list[str], dict[str, bool], bool]:
+        """The end phase's work (a lone env's :meth:`_end_step` and a batch's ``CopyPhases.end`` around it): deliver
+        messages, admit joining robots (their reward this step is 0), decide terminations, refresh masks.
+
+        Returns the robots that joined, the terminations of every live robot and whether the cycle limit is reached.
+        """
+        self._deliver_messages()
+        joined = self._joining
+        for agent in joined:
             self.live_agents.append(agent)
             if self.records_trails:
                 self._trails[agent] = [self.robots[agent].position]
-            rewards[agent] = 0.0
         self._joining = []
         terminations = self._terminations()
         truncated = self.cycles >= self.config.cycle_limit
-        truncations = {a: truncated and not terminations[a] for a in self.live_agents}
         self._refresh_masks()
-        return rewards, terminations, truncations
+        return joined, terminations, truncated
 
     def _close_step(self, finished: list[str]) -> None:
         """The ``finished`` agents leave ``live_agents`` and their robots stop (after observations and infos were read)."""

@@ -129,14 +129,14 @@ class CopyPhases:
         """End phase of each copy of ``group`` (:meth:`TeamEnv._end_step`) into rows ``[k, i]`` of the arrays."""
         for k in group:
             env = self.copies[k]
+            rows = env._live_rows()  # before robots join (a joining robot's reward is 0)
+            rewards[k, rows] = env._reward_total[rows]
+            _, terminations, truncated_now = env._end_phase()
             row = env._row
-            step_rewards, terminations, truncations = env._end_step()
-            for agent, value in step_rewards.items():
-                rewards[k, row[agent]] = value
             for agent, value in terminations.items():
                 if value:
                     terminated[k, row[agent]] = True
-                elif truncations[agent]:
+                elif truncated_now:
                     truncated[k, row[agent]] = True
 
     def going_on(self, group: list[int]) -> list[int]:
