@@ -102,7 +102,7 @@ def test_way_commands_are_the_followers_commands_robot_by_robot():
     """Random poses near and far from their ways' ends (so arrivals, braking and stops all occur), three robots."""
     rng = np.random.default_rng(1)
     followers = [WayFollower(speed=0.1), WayFollower(speed=0.07, stop_distance=0.12), WayFollower(speed=0.13)]
-    rows = group_module.FollowerRows(followers)
+    rows = group_module.FollowerRows(followers, {}, 12)
     places = rng.uniform(0.0, 1.0, (12, 2))
     g = 400
     origin, target = rng.integers(0, 12, (g, 3)), rng.integers(-1, 12, (g, 3))

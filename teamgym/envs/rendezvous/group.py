@@ -24,9 +24,13 @@ __all__ = ["FollowerRows", "arrived", "near_ahead", "way_commands"]
 
 
 class FollowerRows:
-    """The :class:`WayFollower` parameters of each robot row, as arrays ``(n,)``."""
+    """The :class:`WayFollower` parameters of each robot row, as arrays ``(n,)``, and the move time-outs.
 
-    def __init__(self, followers: Sequence[WayFollower]) -> None:
+    ``timeouts``: ``{(robot, from place, to place): seconds}`` (``Rendezvous.move_timeouts``), kept as
+    an ``(n, P, P)`` array with ``inf`` where no way joins the places (``places``: how many there are).
+    """
+
+    def __init__(self, followers: Sequence[WayFollower], timeouts: dict[tuple[int, int, int], float], places: int) -> None:
         def column(name: str) -> np.ndarray:
             return np.array([getattr(follower, name) for follower in followers], dtype=float)
 
@@ -34,6 +38,9 @@ class FollowerRows:
         self.lookahead, self.brake = column("lookahead"), column("brake")
         self.arrive_tolerance, self.stop_distance = column("arrive_tolerance"), column("stop_distance")
         self._lengths: tuple[np.ndarray, np.ndarray] | None = None
+        self.timeouts = np.full((len(followers), places, places), np.inf)
+        for (i, a, b), limit in timeouts.items():
+            self.timeouts[i, a, b] = limit
 
     def way_lengths(self, places: np.ndarray) -> np.ndarray:
         """``(P, P)``: ``math.hypot`` of the offset from place ``a`` to place ``b`` (as ``WayFollower._aim`` measures it)."""

@@ -81,11 +81,7 @@ class RendezvousPhases(CopyPhases):
         """The way followers' parameters per robot row and the move time-outs per (robot, from, to), made once."""
         memo = self.__dict__.get("_follower_rows")
         if memo is None or memo[0] is not first.followers:
-            rows = FollowerRows(first.followers)
-            n, places = first.config.n_robots, len(first.places)
-            rows.timeouts = np.full((n, places, places), np.inf)
-            for (i, a, b), limit in first.move_timeouts.items():
-                rows.timeouts[i, a, b] = limit
+            rows = FollowerRows(first.followers, first.move_timeouts, len(first.places))
             memo = self._follower_rows = (first.followers, rows)
         return memo[1]
 
