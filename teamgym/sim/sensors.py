@@ -698,7 +698,8 @@ class WheelEncoders:
         actual = raw[:, 2:4]
         if self.resolution > 0:
             res, totals = self.resolution, raw[:, 4:6]
-            actual = (np.floor(totals / res) - np.floor((totals - actual) / res)) * res
+            # + 0.0: the per-robot form subtracts math.floor's ints, whose difference 0 is never −0.0
+            actual = ((np.floor(totals / res) - np.floor((totals - actual) / res)) + 0.0) * res
         if z is not None and self.noise_std > 0:
             actual = actual * (1.0 + self.noise_std * z)
         out[:, 2:4] = actual

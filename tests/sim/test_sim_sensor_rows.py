@@ -4,7 +4,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from teamgym.sim import (
@@ -228,6 +228,7 @@ _encoder_raw = st.tuples(*[_wheel_value] * 4, *[st.floats(min_value=-1e4, max_va
 
 
 @settings(max_examples=200, deadline=None, database=None)
+@example(raw=[(0.0, 0.0, 0.0, -0.0, 0.0, -0.0)], noise_std=0.0, resolution=0.01, saturation=None, seed=0)  # zero's sign
 @given(
     raw=st.lists(_encoder_raw, max_size=7),
     noise_std=st.sampled_from([0.0, 0.05]),
