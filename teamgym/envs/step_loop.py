@@ -57,6 +57,14 @@ class CopyPhases:
     def regroup(self) -> None:
         """The list of copies changed (a batch added, dropped or replaced copies)."""
 
+    def _rows(self, group: list[int]) -> tuple[Any, slice | np.ndarray]:
+        """The episode arrays of the copies ``group`` (a task's shared ones) and their rows: a slice when consecutive."""
+        copies = self.copies
+        first, last = copies[group[0]]._copy, copies[group[-1]]._copy
+        if last - first + 1 == len(group):
+            return copies[group[0]]._arrays, slice(first, last + 1)
+        return copies[group[0]]._arrays, np.array([copies[k]._copy for k in group])
+
     def _bind_to_shared_rows(self, shared: Any) -> None:
         """Bind copy ``k`` to row ``k`` of ``shared`` (a task's arrays with ``shrink``/``grow``/``row``/``set_row``),
         copying in the rows a copy held elsewhere; copies already bound there are left alone."""

@@ -9,7 +9,6 @@ pickling mid-episode, rendering one copy, and bad input refused before anything 
 from __future__ import annotations
 
 import copy
-import math
 import pickle
 import typing
 
@@ -23,6 +22,7 @@ from teamgym.envs.config import ConfigError
 from teamgym.envs.foraging.phases import ForagingPhases
 from teamgym.envs.rendezvous.phases import RendezvousPhases
 from teamgym.sim import world_group
+from tests.batch_lockstep import same
 
 
 def batch_cases():
@@ -66,16 +66,6 @@ def joint_arrays(batch, rng):
     else:
         arrays = np.array(rows)
     return arrays, rows
-
-
-def same(a, b) -> bool:
-    if isinstance(a, dict):
-        return set(a) == set(b) and all(same(a[key], b[key]) for key in a)
-    if isinstance(a, float) and isinstance(b, float) and math.isnan(a) and math.isnan(b):
-        return True
-    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
-        return np.array_equal(np.asarray(a), np.asarray(b), equal_nan=np.asarray(a).dtype.kind == "f")
-    return a == b
 
 
 def row_of(observations, k: int, i: int):

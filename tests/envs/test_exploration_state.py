@@ -20,6 +20,7 @@ import pytest
 
 import teamgym
 from teamgym.envs.exploration.state import ExplorationArrays
+from tests.batch_lockstep import same
 
 CONFIGS = {
     "velocity-doors": {"door_resample_period": 1.0, "sensor_noise": 0.005, "max_cycles": 120},
@@ -30,16 +31,6 @@ CONFIGS = {
     "velocity-dict-two": {"n_robots": 2, "obs_format": "dict", "max_cycles": 150},
 }
 K = 6
-
-
-def same(a, b) -> bool:
-    if isinstance(a, dict):
-        return set(a) == set(b) and all(same(a[key], b[key]) for key in a)
-    if isinstance(a, float) and isinstance(b, float) and math.isnan(a) and math.isnan(b):
-        return True
-    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
-        return np.array_equal(np.asarray(a), np.asarray(b), equal_nan=np.asarray(a).dtype.kind == "f")
-    return a == b
 
 
 def draw(batch, rng):

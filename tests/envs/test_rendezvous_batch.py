@@ -10,7 +10,6 @@ terminations, truncations and infos equal a lone env's with its seed and actions
 from __future__ import annotations
 
 import copy
-import math
 import pickle
 
 import numpy as np
@@ -18,6 +17,7 @@ import pytest
 
 import teamgym
 from teamgym.envs.rendezvous.state import RendezvousArrays
+from tests.batch_lockstep import same
 
 CONFIGS = {
     "meetings": {"map": "square4", "max_cycles": 4000},
@@ -32,16 +32,6 @@ CONFIGS = {
     "all-arrive": {"map": "square4", "stage_end": "all", "max_cycles": 1500},
     "messages": {"map": "square4", "protocol_messages": True, "message_len": 16, "max_cycles": 2000},
 }
-
-
-def same(a, b) -> bool:
-    if isinstance(a, dict):
-        return set(a) == set(b) and all(same(a[key], b[key]) for key in a)
-    if isinstance(a, float) and isinstance(b, float) and math.isnan(a) and math.isnan(b):
-        return True
-    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
-        return np.array_equal(np.asarray(a), np.asarray(b), equal_nan=np.asarray(a).dtype.kind == "f")
-    return a == b
 
 
 def moves(batch, rng) -> tuple[object, list[list[object]]]:

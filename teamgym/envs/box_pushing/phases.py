@@ -44,14 +44,6 @@ class BoxPushingPhases(CopyPhases):
             )
         self._bind_to_shared_rows(self._shared)
 
-    def _rows(self, group: list[int]) -> tuple[BoxPushingArrays, slice | np.ndarray]:
-        """The arrays and the rows of the copies ``group`` (a slice when they are consecutive)."""
-        copies = self.copies
-        first, last = copies[group[0]]._copy, copies[group[-1]]._copy
-        if last - first + 1 == len(group):
-            return copies[group[0]]._arrays, slice(first, last + 1)
-        return copies[group[0]]._arrays, np.array([copies[k]._copy for k in group])
-
     def control(self, group: list[int], actions: list[dict[str, Any]], rows: ActionRows | None) -> None:
         """Commands of the acting robots (the action type's vectorised ``commands`` when the batch has arrays), motor noise."""
         if not self._act_rows(rows):

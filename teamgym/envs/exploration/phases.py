@@ -60,14 +60,6 @@ class ExplorationPhases(CopyPhases):
         for k, env in enumerate(self.copies):  # growing replaced the arrays: the model's views follow
             env._use_rows(self._shared, k)
 
-    def _rows(self, group: list[int]) -> tuple[ExplorationArrays, slice | np.ndarray]:
-        """The arrays and the rows of the copies ``group`` (a slice when they are consecutive)."""
-        copies = self.copies
-        first, last = copies[group[0]]._copy, copies[group[-1]]._copy
-        if last - first + 1 == len(group):
-            return copies[group[0]]._arrays, slice(first, last + 1)
-        return copies[group[0]]._arrays, np.array([copies[k]._copy for k in group])
-
     def control(self, group: list[int], actions: list[dict[str, Any]], rows: ActionRows | None) -> None:
         """Commands of the acting robots (the action type's vectorised ``commands`` when the batch has arrays);
         door re-sampling (``_before_physics``) only when ``door_resample_period`` is set."""

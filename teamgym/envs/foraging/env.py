@@ -580,17 +580,10 @@ class Foraging(TeamEnv):
         out[:, plan.table_dst] = table.reshape(n, -1)[:, plan.table_src]
         (low_x, low_y), (high_x, high_y) = plan.low, plan.high
         slots, consume, room = range(self.n_detections), c.task == "consume", self.n_received
-        payloads, live = self.channel.inbox_payloads, self.live_agents
-        received, values = plan.received, []
-        for row, (agent, (x, y, theta), pl, m, j, time) in enumerate(zip(live, est, cert, count, at, timer)):
-            senders, start = [], 0
-            for sender, payload in payloads(agent, PACKET_KIND):  # the first n_received tuples, as _received gives them
-                k = min(len(payload) // 4, room - start)
-                if k <= 0:
-                    break
-                out[row, received.start + 4 * start : received.start + 4 * (start + k)] = payload[: 4 * k]
-                senders += [sender] * k
-                start += k
+        values = []
+        for row, (agent, (x, y, theta), pl, m, j, time) in enumerate(zip(self.live_agents, est, cert, count, at, timer)):
+            senders = self._write_received(agent, out[row])
+            start = len(senders)
             value = [min(max(x, low_x), high_x), min(max(y, low_y), high_y), theta, pl]
             value += [1.0 if slot < m else 0.0 for slot in slots]
             value.append(1.0 if j >= 0 else 0.0)
@@ -603,7 +596,7 @@ class Foraging(TeamEnv):
             values.append(value)
         out[:, plan.scalar_dst] = values
         if c.keeps_world_models:
-            for obs, agent, i in zip(out, live, rows.tolist()):
+            for obs, agent, i in zip(out, self.live_agents, rows.tolist()):
                 tuples, senders = self._received(agent)
                 model = self.models[agent]
                 m = int(self._sightings.count[i])
@@ -614,6 +607,21 @@ class Foraging(TeamEnv):
                     self.layout.view(obs, "world_model")[:] = model.fused()
                 if c.observe_novelty:
                     self.layout.view(obs, "novelty")[:] = novelty(self.world.time, model.last_seen, c.novelty_time)
+
+    def _write_received(self, agent: str, row: np.ndarray) -> list[int]:
+        """Write the tuples delivered to ``agent`` this step (the first ``n_received``, as :meth:`_received` gives them)
+        into the ``received`` field of its flat observation ``row``; returns each tuple's sender."""
+        room, at = self.n_received, self._observe_plan.received.start
+        senders: list[int] = []
+        start = 0
+        for sender, payload in self.channel.inbox_payloads(agent, PACKET_KIND):
+            k = min(len(payload) // 4, room - start)
+            if k <= 0:
+                break
+            row[at + 4 * start : at + 4 * (start + k)] = payload[: 4 * k]
+            senders += [sender] * k
+            start += k
+        return senders
 
     def _sector(self, i: int) -> np.ndarray:
         """Cells robot i sees now by its estimate: the camera's sector minus the shadows of the robots in view."""

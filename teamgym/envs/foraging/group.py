@@ -33,6 +33,7 @@ from typing import NamedTuple
 import numpy as np
 
 from teamgym.envs.foraging.controller import GoToController
+from teamgym.envs.foraging.grid import GridSpec
 from teamgym.envs.foraging.perception import (
     _PV_ROWS,
     BEARING_ERROR,
@@ -42,7 +43,7 @@ from teamgym.envs.foraging.perception import (
     TARGET,
     VisionModel,
 )
-from teamgym.envs.foraging.sensing import NO_CELL
+from teamgym.envs.foraging.sensing import NO_CELL, cells_of
 from teamgym.sim.libm import libm
 
 __all__ = [
@@ -52,25 +53,19 @@ __all__ = [
     "perceive_copies",
     "presence",
     "view_geometry",
+    "wrap_angle",
 ]
 
 _PI, _TWO_PI = math.pi, 2 * math.pi
 _PV = np.array(_PV_ROWS)
 
 
-def _wrap(angle: np.ndarray) -> np.ndarray:
+def wrap_angle(angle: np.ndarray) -> np.ndarray:
     """``(angle + π) % 2π − π`` (in place on ``angle``, which the caller owns)."""
     angle += _PI
     angle %= _TWO_PI
     angle -= _PI
     return angle
-
-
-def _cells(values: np.ndarray, cell_size: float, top: float) -> np.ndarray:
-    """The grid coordinate of each value, as ``sensing._cell``: ``min(max(⌊v / size + 10⁻⁹⌋, 0), top)``."""
-    cells = np.floor(values / cell_size + 1e-9)
-    np.maximum(cells, 0.0, out=cells)
-    return np.minimum(cells, top, out=cells)
 
 
 # -- state ------------------------------------------------------------------------------------
@@ -95,7 +90,7 @@ def advance_odometry(
     c, s = libm(math.cos, th0), libm(math.sin, th0)
     eth = estimate[..., 2]
     ce, se = libm(math.cos, eth), libm(math.sin, eth)
-    turn = _wrap(after[..., 2] - th0)
+    turn = wrap_angle(after[..., 2] - th0)
     forward, lateral = dx * c + dy * s, dy * c - dx * s
     moved = ((forward != 0.0) | (lateral != 0.0)).astype(float)
     scale = distance_noise * noise[:, 1] * moved + 1.0
@@ -104,7 +99,7 @@ def advance_odometry(
     out = np.empty_like(estimate)
     out[..., 0] = estimate[..., 0] + (forward * ce - lateral * se) * scale
     out[..., 1] = estimate[..., 1] + (lateral * ce + forward * se) * scale
-    out[..., 2] = _wrap(heading)
+    out[..., 2] = wrap_angle(heading)
     return dx, dy, out, certainty * libm(functools.partial(pow, pe), size)
 
 
@@ -168,8 +163,7 @@ def perceive_copies(
     vision: VisionModel,
     robot_radius: float,
     clear_distance: float,
-    cell_size: float,
-    top: tuple[int, int],
+    grid: GridSpec,
     table: np.ndarray,
 ) -> Sensed:
     """:func:`~teamgym.envs.foraging.sensing.perceive` of every copy, every robot live; writes ``table`` (K, n, 1 + D, 8).
@@ -187,7 +181,7 @@ def perceive_copies(
     kk, ii, jj = np.nonzero(candidate)  # row-major: per copy, per robot, by point
     distance = view.distance[kk, ii, jj]
     rel_x, rel_y = view.rel_x[kk, ii, jj], view.rel_y[kk, ii, jj]
-    bearing = _wrap(libm(math.atan2, rel_y, rel_x) - pose[kk, ii, 2])
+    bearing = wrap_angle(libm(math.atan2, rel_y, rel_x) - pose[kk, ii, 2])
     keep = np.abs(bearing) <= half
     if n > 1 and len(kk):
         teammates = view.distance[:, :, t : t + n] + np.where(np.eye(n, dtype=bool), np.inf, 0.0)
@@ -215,13 +209,12 @@ def perceive_copies(
         ray, measured_ray = theta + fb, theta + fmb
         estimate[fk, fi, 0] = x + (fd * libm(math.cos, ray) - fmd * libm(math.cos, measured_ray))
         estimate[fk, fi, 1] = y + (fd * libm(math.sin, ray) - fmd * libm(math.sin, measured_ray))
-        estimate[fk, fi, 2] = _wrap(theta + (fb - fmb))
+        estimate[fk, fi, 2] = wrap_angle(theta + (fb - fmb))
         certainty[fk, fi] = fpv
     table[..., :] = 0.0
     table[..., 6:8] = NO_CELL
     table[:, :, 0, 0] = SENDER
-    table[:, :, 0, 1] = _cells(estimate[..., 0], cell_size, top[0])
-    table[:, :, 0, 2] = _cells(estimate[..., 1], cell_size, top[1])
+    table[:, :, 0, 1:3] = cells_of(grid, estimate[..., :2])
     table[:, :, 0, 3] = certainty
     group = ok * n + oi
     count = np.bincount(group, minlength=k_copies * n).reshape(k_copies, n)
@@ -230,8 +223,8 @@ def perceive_copies(
         slot = np.arange(len(group)) - np.repeat(first, np.diff(np.r_[first, len(group)])) + 1
         ex, ey, eth = estimate[ok, oi, 0], estimate[ok, oi, 1], estimate[ok, oi, 2]
         heading = eth + mb
-        gx = _cells(libm(math.cos, heading) * md + ex, cell_size, top[0])
-        gy = _cells(libm(math.sin, heading) * md + ey, cell_size, top[1])
+        seen = np.stack([libm(math.cos, heading) * md + ex, libm(math.sin, heading) * md + ey], axis=-1)
+        gx, gy = cells_of(grid, seen).T
         robot = oj >= t
         rows = np.empty((len(ok), 8))
         rows[:, 0] = np.where(robot, float(ROBOT), float(TARGET))

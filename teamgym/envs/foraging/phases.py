@@ -21,8 +21,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from teamgym.envs.foraging.actions import GoToCellAction
-from teamgym.envs.foraging.group import advance_odometry, goto_copies, perceive_copies, presence, view_geometry
-from teamgym.envs.foraging.perception import PACKET_KIND
+from teamgym.envs.foraging.group import advance_odometry, goto_copies, perceive_copies, presence, view_geometry, wrap_angle
 from teamgym.envs.foraging.sensing import Sightings
 from teamgym.envs.foraging.state import ForagingArrays
 from teamgym.envs.step_loop import ActionRows, CopyPhases
@@ -76,14 +75,6 @@ class ForagingPhases(CopyPhases):
                 return False
         return True
 
-    def _rows(self, group: list[int]) -> slice | np.ndarray:
-        """The shared rows of the copies ``group`` (a slice when they are consecutive)."""
-        copies = self.copies
-        first, last = copies[group[0]]._copy, copies[group[-1]]._copy
-        if last - first + 1 == len(group):
-            return slice(first, last + 1)
-        return np.array([copies[k]._copy for k in group])
-
     # -- phases ----------------------------------------------------------------------------
     def control(self, group: list[int], actions: list[dict[str, Any]], rows: ActionRows | None) -> None:
         """Commands: the go-to controller of every copy in one pass (a group), else each robot's action type."""
@@ -96,7 +87,7 @@ class ForagingPhases(CopyPhases):
             self.copies[k]._before_physics()
 
     def _goto(self, group: list[int], actions: list[dict[str, Any]], rows: ActionRows | None) -> None:
-        copies, arrays, ks = self.copies, self._shared, self._rows(group)
+        (arrays, ks), copies = self._rows(group), self.copies
         first = copies[group[0]]
         names = first.possible_agents
         if rows is not None and len(rows[2]) == len(group) * len(names):  # every robot of every copy, in order
@@ -125,16 +116,14 @@ class ForagingPhases(CopyPhases):
         if not self._together(group):
             super().after_physics(group)
             return
-        copies, arrays, ks = self.copies, self._shared, self._rows(group)
+        (arrays, ks), copies = self._rows(group), self.copies
         span = [copies[k] for k in group]
         first = span[0]
         c, n = first.config, first.config.n_robots
         # state: true poses, odometry (eq. 2), distance travelled, the cameras' view, who is at which target
         before = arrays.pose[ks]
         after = np.stack([env.world.robot_states[:, :3] for env in span])
-        after[..., 2] += math.pi
-        after[..., 2] %= 2 * math.pi
-        after[..., 2] -= math.pi
+        wrap_angle(after[..., 2])  # θ in [−π, π), as Foraging._read_pose_rows
         noise = np.stack([env.np_random.standard_normal((2, n)) for env in span])
         odometry = first.odometry
         dx, dy, estimate, certainty = advance_odometry(
@@ -159,7 +148,7 @@ class ForagingPhases(CopyPhases):
         table = np.empty_like(arrays.table[ks])
         sensed = perceive_copies(
             view, after, visible, estimate, certainty, [env.np_random for env in span], first.vision, first.spec.radius,
-            first.cameras.clear_distance, first.grid.cell_size, (first.grid.nx - 1, first.grid.ny - 1), table,
+            first.cameras.clear_distance, first.grid, table,
         )  # fmt: skip
         arrays.estimate[ks], arrays.certainty[ks] = sensed.estimate, sensed.certainty
         arrays.table[ks], arrays.count[ks], arrays.any_target[ks] = table, sensed.count, sensed.any_target
@@ -177,7 +166,7 @@ class ForagingPhases(CopyPhases):
         if first.config.keeps_world_models or not self._together(group):
             super().observe(group, out)
             return
-        copies, arrays, ks = self.copies, self._shared, self._rows(group)
+        (arrays, ks), copies = self._rows(group), self.copies
         span = [copies[k] for k in group]
         c, plan = first.config, first._observe_plan
         n, slots, room = c.n_robots, first.n_detections, first.n_received
@@ -198,21 +187,13 @@ class ForagingPhases(CopyPhases):
         senders = np.full((len(group), n, room), -1.0)
         received = np.zeros((len(group), n, room))
         scalars += [senders, received]
-        tuples = plan.received.start
         for j, env in enumerate(span):
             if not env.channel.busy:
                 continue
-            payloads = env.channel.inbox_payloads
             for i, agent in enumerate(env.possible_agents):
-                start = 0
-                for sender, payload in payloads(agent, PACKET_KIND):  # the first n_received tuples, as _received gives them
-                    k = min(len(payload) // 4, room - start)
-                    if k <= 0:
-                        break
-                    block[j, i, tuples + 4 * start : tuples + 4 * (start + k)] = payload[: 4 * k]
-                    senders[j, i, start : start + k] = sender
-                    start += k
-                received[j, i, :start] = 1.0
+                sent_by = env._write_received(agent, block[j, i])
+                senders[j, i, : len(sent_by)] = sent_by
+                received[j, i, : len(sent_by)] = 1.0
         block[:, :, plan.scalar_dst] = np.concatenate(scalars, axis=-1, dtype=float)
         if c.comm_dim:
             for j, env in enumerate(span):

@@ -71,7 +71,7 @@ class RendezvousPhases(CopyPhases):
             for k, joint in zip(group, actions):
                 motion.drive(copies[k], joint)
             return
-        team, ks = first._arrays, [copies[k]._copy for k in group]
+        team, ks = self._rows(group)
         span = [copies[k] for k in group]
         poses = np.stack([env.world.robot_states[:, :3] for env in span])
         commands = way_commands(self._followers(first), poses, team.origin[ks], team.target[ks], first.places_xy)
@@ -95,19 +95,13 @@ class RendezvousPhases(CopyPhases):
 
         A group smaller than ``min_group`` (a lone env too) runs each copy's own hooks.
         """
+        if len(group) < self.min_group:
+            super().after_physics(group)
+            return
         copies = self.copies
         first = copies[group[0]]
         c = first.config
         events = bool(c.blockings) or c.block_rate > 0
-        if len(group) < self.min_group:
-            for env in (copies[k] for k in group):
-                env._update_state()
-                if events:  # a copy without scheduled or random blockings has none to apply
-                    env._apply_events()
-                env._check_goals()
-                env._accumulate_rewards(env._reward_total)
-                env._sense()
-            return
         span = [copies[k] for k in group]
         team = first._arrays
         rows = np.array([env._copy for env in span])
@@ -172,7 +166,7 @@ class RendezvousPhases(CopyPhases):
         first = copies[group[0]]
         if first.next_place is None or len(group) < self.min_group:
             return super().going_on(group)
-        team, rows = first._arrays, [copies[k]._copy for k in group]
+        team, rows = self._rows(group)
         over = team.met[rows] | (team.target[rows] < 0).all(axis=1)
         if first.next_place.stage_end == "any":
             over |= team.arrived_now[rows].any(axis=1)
