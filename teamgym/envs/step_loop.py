@@ -147,6 +147,18 @@ class CopyPhases:
                 elif truncated_now:
                     truncated[k, row[agent]] = True
 
+    def _live_mask(self, group: list[int]) -> np.ndarray:
+        """``(len(group), N)``: the live robots of each copy of ``group`` (columns in ``possible_agents`` order)."""
+        copies = self.copies
+        n = len(copies[group[0]].possible_agents)
+        live = np.ones((len(group), n), dtype=bool)
+        for j, k in enumerate(group):
+            env = copies[k]
+            if len(env.live_agents) != n:
+                live[j] = False
+                live[j, env._live_rows()] = True
+        return live
+
     def going_on(self, group: list[int]) -> list[int]:
         """Positions in ``group`` of the copies whose stage goes on after this control step (:meth:`TeamEnv._stage_goes_on`)."""
         copies = self.copies

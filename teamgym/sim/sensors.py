@@ -24,6 +24,7 @@ from teamgym.sim import kernel
 from teamgym.sim.categories import OPAQUE, Category
 from teamgym.sim.chipmunk import RayCaster
 from teamgym.sim.entity import Entity
+from teamgym.sim.libm import libm
 from teamgym.sim.robot import DiffDriveRobot
 
 if TYPE_CHECKING:
@@ -64,12 +65,17 @@ class Sensor(Protocol):
 
 def _check_rows(sensor: Sensor, robots: Sequence[DiffDriveRobot], poses: np.ndarray, out: np.ndarray) -> list[list[float]]:
     """The poses as lists ``[x, y, θ]``, after checking the shapes of ``poses`` and ``out``."""
+    _check_shapes(sensor, robots, poses, out)
+    return poses[:, :3].tolist()
+
+
+def _check_shapes(sensor: Sensor, robots: Sequence[DiffDriveRobot], poses: np.ndarray, out: np.ndarray) -> None:
+    """Raise unless ``poses`` has a row ``(x, y, θ, …)`` and ``out`` a row of the sensor's width per robot."""
     k = len(robots)
     if out.shape != (k, sensor.width):
         raise ValueError(f"{type(sensor).__name__}.read_rows: out must have shape {(k, sensor.width)}, got {out.shape}")
     if poses.ndim != 2 or poses.shape[0] != k or poses.shape[1] < 3:
         raise ValueError(f"{type(sensor).__name__}.read_rows: poses must have shape ({k}, 3), got {poses.shape}")
-    return poses[:, :3].tolist()
 
 
 class NoisyRowSensor:
@@ -319,11 +325,13 @@ class ProximityRing(NoisyRowSensor):
         robot, and the ray ends of every robot with something within reach in one numpy pass with
         the operations of :meth:`_cast_one` (``math``'s cos and sin of the headings, then ``+ − ×``).
         """
+        if kernel.enabled():
+            _check_shapes(self, robots, poses, out)
+            out.fill(self.max_range)
+            self._read_many_compiled(spaces, robots, poses, out)
+            return
         rows = _check_rows(self, robots, poses, out)
         out.fill(self.max_range)
-        if kernel.enabled():
-            self._read_many_compiled(spaces, robots, rows, poses, out)
-            return
         caster, span = self._caster, self.max_range
         reach = [
             m
@@ -332,30 +340,29 @@ class ProximityRing(NoisyRowSensor):
         ]
         if not reach:
             return
-        ends = self._ray_ends(robots, reach, rows, poses).ravel().tolist()
+        radius = np.array([robots[m].spec.radius for m in reach])
+        ends = self._ray_ends(poses[reach], radius).ravel().tolist()
         filters = [robots[m].sensor_filter for m in reach]
         distances = caster.ray_distances([spaces[m] for m in reach], ends, filters, len(self._cos), span)
         out[reach] = np.array(distances).reshape(len(reach), len(self._cos))
 
     def _read_many_compiled(
-        self, spaces: Sequence[pymunk.Space], robots: Sequence[DiffDriveRobot], rows: list, poses: np.ndarray, out: np.ndarray
+        self, spaces: Sequence[pymunk.Space], robots: Sequence[DiffDriveRobot], poses: np.ndarray, out: np.ndarray
     ) -> None:
         """:meth:`read_many` through :mod:`teamgym.sim.kernel`: the same Chipmunk queries, made from one compiled loop each."""
-        span = self.max_range
-        handles, words, radius = self._compiled_targets(spaces, robots)
-        near = kernel.shapes_within(handles, words[:, 0], words[:, 1], np.ascontiguousarray(poses[:, :2]), radius + span)
-        reach = np.flatnonzero(near).tolist()
-        if not reach:
+        handles, groups, bits, radius, reach_of = self._compiled_targets(spaces, robots)
+        near = kernel.shapes_within(handles, groups, bits, np.ascontiguousarray(poses[:, :2]), reach_of)
+        reach = np.flatnonzero(near)
+        if not len(reach):
             return
-        ends = self._ray_ends(robots, reach, rows, poses).ravel()
-        distances = kernel.first_hits(handles[reach], words[reach, 0], words[reach, 1], ends, len(self._cos), span)
+        ends = self._ray_ends(poses[reach], radius[reach]).ravel()
+        distances = kernel.first_hits(handles[reach], groups[reach], bits[reach], ends, len(self._cos), self.max_range)
         out[reach] = distances.reshape(len(reach), len(self._cos))
 
-    def _compiled_targets(
-        self, spaces: Sequence[pymunk.Space], robots: Sequence[DiffDriveRobot]
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The spaces' Chipmunk handles, the robots' filter words and radii; kept while the same spaces and robots
-        are read (a batch reads the same ones every step; a robot's sensor filter is fixed when it is made)."""
+    def _compiled_targets(self, spaces: Sequence[pymunk.Space], robots: Sequence[DiffDriveRobot]) -> tuple[np.ndarray, ...]:
+        """The spaces' Chipmunk handles, the robots' filter words (group, then category and mask), radii and reaches
+        (radius + range); kept while the same spaces and robots are read (a batch reads the same ones every step; a
+        robot's sensor filter is fixed when it is made)."""
         memo = self.__dict__.get("_memo")
         same = memo is not None and len(memo[0]) == len(spaces) and len(memo[1]) == len(robots)
         if same and all(map(operator.is_, memo[0], spaces)) and all(map(operator.is_, memo[1], robots)):
@@ -363,23 +370,24 @@ class ProximityRing(NoisyRowSensor):
         handles = kernel.space_handles(spaces)
         words = np.array([kernel.filter_words(robot.sensor_filter) for robot in robots], dtype=np.uint64).reshape(-1, 2)
         radius = np.array([robot.spec.radius for robot in robots])
-        self._memo = (list(spaces), list(robots), (handles, words, radius))
-        return self._memo[2]
+        targets = (handles, np.ascontiguousarray(words[:, 0]), np.ascontiguousarray(words[:, 1]), radius, radius + self.max_range)
+        self._memo = (list(spaces), list(robots), targets)
+        return targets
 
     def __getstate__(self) -> dict:
         state = self.__dict__.copy()
         state.pop("_memo", None)  # Chipmunk handles: valid in this process only
         return state
 
-    def _ray_ends(self, robots: Sequence[DiffDriveRobot], reach: list[int], rows: list, poses: np.ndarray) -> np.ndarray:
-        """``(len(reach), width, 4)``: each ray's ``x0, y0, x1, y1`` with the operations of :meth:`_cast_one`."""
+    def _ray_ends(self, picked: np.ndarray, radius: np.ndarray) -> np.ndarray:
+        """``(robots, width, 4)``: each ray's ``x0, y0, x1, y1`` from the robots' poses ``picked`` (rows ``x, y, θ, …``)
+        and radii, with the operations of :meth:`_cast_one` (``math``'s cos and sin of the headings, then ``+ − ×``)."""
         span = self.max_range
-        theta = [rows[m][2] for m in reach]
-        c, s = np.array([math.cos(t) for t in theta])[:, None], np.array([math.sin(t) for t in theta])[:, None]
+        theta = picked[:, 2]
+        c, s = libm(math.cos, theta)[:, None], libm(math.sin, theta)[:, None]
         ca, sa = np.array(self._cos), np.array(self._sin)
         dx, dy = c * ca - s * sa, s * ca + c * sa
-        r = np.array([robots[m].spec.radius for m in reach])[:, None]
-        picked = poses[reach]
+        r = radius[:, None]
         start_x, start_y = picked[:, 0, None] + r * dx, picked[:, 1, None] + r * dy
         return np.stack([start_x, start_y, start_x + span * dx, start_y + span * dy], axis=-1)
 

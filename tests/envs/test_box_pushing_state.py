@@ -84,11 +84,18 @@ def test_the_env_keeps_no_episode_state_outside_its_arrays():
     assert set(env.executors) == set(env.possible_agents)  # the action type's, one per robot
 
 
-@pytest.mark.parametrize("env_id", ["BoxPushing-v0", "BoxPushing-v1"])  # v1: noisy sensors and motors, light gains
-def test_batch_copies_with_events_step_as_lone_envs_and_share_one_arrays(env_id):
+@pytest.mark.parametrize(
+    ("env_id", "extra"),
+    [
+        ("BoxPushing-v0", {}),
+        ("BoxPushing-v1", {}),  # noisy sensors and motors, light gains
+        ("BoxPushing-v1", {"light_shadows": True}),  # the light's line-of-sight queries, copy by copy
+    ],
+)
+def test_batch_copies_with_events_step_as_lone_envs_and_share_one_arrays(env_id, extra):
     K = 3
-    batch = teamgym.make_batch(env_id, K, **CONFIG)
-    lones = [teamgym.make(env_id, **CONFIG) for _ in range(K)]
+    batch = teamgym.make_batch(env_id, K, **CONFIG, **extra)
+    lones = [teamgym.make(env_id, **CONFIG, **extra) for _ in range(K)]
     batch.reset(seed=11)
     for k, env in enumerate(lones):
         env.reset(seed=11 + k)

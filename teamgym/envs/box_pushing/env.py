@@ -595,8 +595,11 @@ class BoxPushing(TeamEnv):
 
     def _box_poses(self) -> np.ndarray:
         """``(B, 3)``: ``(x, y, angle)`` of every box slot (zeros for empty slots)."""
-        poses = [(*box.body.position, box.body.angle) if box is not None else _NO_POSE for box in self.boxes]
-        return np.array(poses).reshape(-1, 3)
+        return np.array(self._box_pose_rows()).reshape(-1, 3)
+
+    def _box_pose_rows(self) -> list[tuple[float, float, float]]:
+        """:meth:`_box_poses` as a list of tuples (a batch makes one array of every copy's)."""
+        return [(*box.body.position, box.body.angle) if box is not None else _NO_POSE for box in self.boxes]
 
     # -- state and rendering ----------------------------------------------------------------
     def state(self) -> np.ndarray:

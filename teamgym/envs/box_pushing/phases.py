@@ -17,6 +17,7 @@ import numpy as np
 from teamgym.envs.box_pushing.sensing import read_sensors
 from teamgym.envs.box_pushing.state import BoxPushingArrays
 from teamgym.envs.step_loop import ActionRows, CopyPhases
+from teamgym.sim.robot import set_commands
 
 if TYPE_CHECKING:
     from teamgym.envs.box_pushing.env import BoxPushing
@@ -33,6 +34,12 @@ class BoxPushingPhases(CopyPhases):
     def __init__(self, copies: list[BoxPushing]) -> None:
         super().__init__(copies)
         self._shared: BoxPushingArrays | None = None  # a batch's (made by regroup)
+        self._sensed: dict[int, tuple] = {}  # read_sensors' lists of each world's sensed robots
+
+    def __getstate__(self) -> dict:
+        state = self.__dict__.copy()
+        state["_sensed"] = {}  # keyed by the worlds' ids: valid in this process only
+        return state
 
     def regroup(self) -> None:
         """Bind copy ``k`` to row ``k`` of one shared ``BoxPushingArrays`` (its rows so far are copied in)."""
@@ -48,8 +55,23 @@ class BoxPushingPhases(CopyPhases):
         """Commands of the acting robots (the action type's vectorised ``commands`` when the batch has arrays), motor noise."""
         if not self._act_rows(rows):
             self._act(group, actions)
-        for k in group:
-            self.copies[k]._before_physics()
+        span = [self.copies[k] for k in group]
+        noise = span[0].config.noise_level("motor_noise")
+        if noise <= 0:  # BoxPushing._before_physics does nothing
+            return
+        if len(span) == 1:
+            span[0]._before_physics()
+            return
+        robots, gains = [], []
+        for env in span:  # each copy's draws from its own stream, as its _before_physics makes them
+            gains.append(env.np_random.normal(1.0, noise, size=(len(env.live_agents), 2)))
+            robots += [env.robots[a] for a in env.live_agents]
+        scale = np.concatenate(gains)
+        commands = np.array([robot.command for robot in robots], dtype=float).reshape(-1, 2)
+        base = span[0].spec_robot.wheel_base
+        half = 0.5 * base * commands[:, 1]  # wheel_speeds, body_command and set_command over every robot at once
+        left, right = (commands[:, 0] - half) * scale[:, 0], (commands[:, 0] + half) * scale[:, 1]
+        set_commands(robots, np.stack([0.5 * (left + right), (right - left) / base], axis=1))
 
     def after_physics(self, group: list[int]) -> None:
         """Contacts and box gaps, events, success, the team rewards, then the sensors (the order of ``TeamEnv.step``)."""
@@ -59,7 +81,9 @@ class BoxPushingPhases(CopyPhases):
         if len(span) == 1:  # a lone env: no stacking
             poses, cycles = span[0]._box_poses()[None], span[0].cycles
         else:
-            poses, cycles = np.stack([env._box_poses() for env in span]), np.array([env.cycles for env in span])
+            poses = np.array([pose for env in span for pose in env._box_pose_rows()])
+            poses = poses.reshape(len(span), span[0].box_capacity, 3)
+            cycles = np.array([env.cycles for env in span])
         for env in span:
             env._count_contacts()
         team.update_boxes(ks, span[0].goal, poses)
@@ -67,9 +91,35 @@ class BoxPushingPhases(CopyPhases):
             for env in span:
                 env._apply_events()
         team.check_goals(ks, cycles)
+        n = len(span[0].possible_agents)
         for env, reward in zip(span, team.rewards(ks).tolist()):
-            env._reward_total[env._live_rows()] += reward
-        read_sensors([(env, env._going_on()) for env in span])
+            total = env._reward_total
+            if len(env.live_agents) == n:
+                total += reward
+            else:
+                total[env._live_rows()] += reward
+        read_sensors([(env, env._going_on()) for env in span], self._sensed)
+
+    def end(self, group: list[int], rewards: np.ndarray, terminated: np.ndarray, truncated: np.ndarray) -> None:
+        """The end phase as arrays (as :meth:`TeamEnv._end_step` per copy): success terminates, the cycle limit truncates.
+
+        Copy by copy (the default) where a robot joins or leaves or the action type has masks.
+        """
+        copies = self.copies
+        team, ks = self._rows(group)
+        span = [copies[k] for k in group]
+        if len(span) == 1 or span[0].action_type.has_masks or team.leaving[ks].any() or any(env._joining for env in span):
+            super().end(group, rewards, terminated, truncated)
+            return
+        for env in span:
+            env._deliver_messages()
+        live = self._live_mask(group)
+        at = group if len(group) != group[-1] - group[0] + 1 else slice(group[0], group[-1] + 1)
+        rewards[at] = np.where(live, np.stack([env._reward_total for env in span]), rewards[at])
+        success = team.success[ks][:, None]
+        terminated[at] = live & success
+        limit = span[0].config.cycle_limit
+        truncated[at] = live & ~success & (np.array([env.cycles for env in span]) >= limit)[:, None]
 
     def observe(self, group: list[int], out: np.ndarray) -> None:
         """Every robot row of the copies ``group`` in one pass; rows of robots not live are zeroed."""
@@ -81,7 +131,7 @@ class BoxPushingPhases(CopyPhases):
         span = [copies[k] for k in group]
         first = span[0]
         block = np.empty((len(group), *out.shape[1:]), dtype=out.dtype)
-        busy = np.stack([env._busy_rows() for env in span])
+        busy = self._busy_rows(span)
         team.observe(ks, first.layout, busy, first.stall_cap, block)
         live = np.zeros(block.shape[:2], dtype=bool)
         for j, env in enumerate(span):
@@ -94,3 +144,15 @@ class BoxPushingPhases(CopyPhases):
         first.layout.clip(block)
         block[~live] = 0.0
         out[group] = block
+
+    @staticmethod
+    def _busy_rows(span: list[BoxPushing]) -> np.ndarray:
+        """``(copies, N)``: :meth:`BoxPushing._busy_rows` of every copy of ``span`` (one array of flags)."""
+        n = len(span[0].possible_agents)
+        if span[0]._primitives is None or any(len(env.live_agents) != n for env in span):
+            return np.stack([env._busy_rows() for env in span])
+        flags = [busy for env in span for busy in env._primitives.busy(env.live_agents)]
+        rows = np.array([env._row[a] for env in span for a in env.live_agents]).reshape(len(span), n)
+        busy = np.zeros((len(span), n))
+        np.put_along_axis(busy, rows, np.array(flags, dtype=float).reshape(len(span), n), axis=1)
+        return busy

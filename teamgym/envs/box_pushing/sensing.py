@@ -31,8 +31,11 @@ __all__ = ["STALL_SLIP", "read_sensors"]
 STALL_SLIP = 0.9
 
 
-def read_sensors(sensed: list[tuple[BoxPushing, list[str]]]) -> None:
-    """Readings of the robots ``agents`` of each ``(env, agents)`` (copies sharing one ``BoxPushingArrays``)."""
+def read_sensors(sensed: list[tuple[BoxPushing, list[str]]], memo: dict[int, tuple] | None = None) -> None:
+    """Readings of the robots ``agents`` of each ``(env, agents)`` (copies sharing one ``BoxPushingArrays``).
+
+    ``memo``: a batch's per-world lists of the sensed robots, kept between steps (:func:`_sensed_rows`).
+    """
     sensed = [(env, agents) for env, agents in sensed if agents]
     if not sensed:
         return
@@ -41,27 +44,38 @@ def read_sensors(sensed: list[tuple[BoxPushing, list[str]]]) -> None:
     encoders, slices = first.sensors.sensors["encoders"], first.sensors.slices
     sizes = (ring.noise_size, light.noise_size, encoders.noise_size)
     drawn = sum(sizes)
-    copies, rows, robots, blocks, poses, noise, spaces = [], [], [], [], [], [], []
     one = len(sensed) == 1
-    for env, agents in sensed:
-        world, row = env.world, env._row
-        mine = [env.robots[a] for a in agents]
+    if one:
+        env, agents = sensed[0]
+        world = env.world
+        robots = [env.robots[a] for a in agents]
         at = world.robot_states[[world.robot_rows[a] for a in agents]]
         block = np.empty((len(agents), first.sensors.width), dtype=np.float32)
-        if one:
-            env.ring.read_values(world, mine, at, block[:, slices["proximity"]], None)
-        else:
-            spaces += [world.space] * len(agents)
+        env.ring.read_values(world, robots, at, block[:, slices["proximity"]], None)
         if light.blockers:  # shadows: line-of-sight queries in the copy's space
-            env.light.read_values(world, mine, at, block[:, slices["light"]], None)
-        if drawn:
-            noise.append(env.np_random.standard_normal((len(agents), drawn)))
-        copies += [env._copy] * len(agents)
-        rows += [row[a] for a in agents]
-        robots += mine
-        blocks.append(block)
-        poses.append(at)
-    block, at = (blocks[0], poses[0]) if one else (np.concatenate(blocks), np.concatenate(poses))
+            env.light.read_values(world, robots, at, block[:, slices["light"]], None)
+        noise = [env.np_random.standard_normal((len(agents), drawn))] if drawn else []
+        copies, rows = [env._copy] * len(agents), [env._row[a] for a in agents]
+    else:
+        copies, rows, robots, poses, noise, spaces = [], [], [], [], [], []
+        for env, agents in sensed:
+            mine, own_rows, index = _sensed_rows(env, agents, memo)
+            states = env.world.robot_states
+            poses.append(states if index is None else states[index])
+            spaces += [env.world.space] * len(agents)
+            if drawn:
+                noise.append(env.np_random.standard_normal((len(agents), drawn)))
+            copies += [env._copy] * len(agents)
+            rows += own_rows
+            robots += mine
+        at = np.concatenate(poses)
+        block = np.empty((len(robots), first.sensors.width), dtype=np.float32)
+        if light.blockers:
+            j = 0
+            for env, agents in sensed:
+                part = block[j : j + len(agents), slices["light"]]
+                env.light.read_values(env.world, robots[j : j + len(agents)], at[j : j + len(agents)], part, None)
+                j += len(agents)
     if not one:  # every copy's rings in one pass (ProximityRing.read_many: the same bits as robot by robot)
         ring.read_many(spaces, robots, at, block[:, slices["proximity"]])
     z = (noise[0] if one else np.concatenate(noise)) if drawn else None
@@ -103,3 +117,18 @@ def read_sensors(sensed: list[tuple[BoxPushing, list[str]]]) -> None:
             for agent in agents:
                 executors[agent].observe(proximity[j], wheels[j])  # PrimitiveAction.observe, without its call
                 j += 1
+
+
+def _sensed_rows(env: BoxPushing, agents: list[str], memo: dict[int, tuple] | None) -> tuple[list, list[int], list[int] | None]:
+    """``agents``' robots, their rows in ``possible_agents`` order and in the world's robot states (``None``: all of
+    them in order), kept in ``memo`` while the same world, robots and agents come back (a batch's every step)."""
+    world = env.world
+    known = memo.get(id(world)) if memo is not None else None
+    if known is not None and known[0] is world and known[1] is world.robot_rows and known[2] == agents:
+        return known[3]
+    index = [world.robot_rows[a] for a in agents]
+    whole = index == list(range(len(world.robot_states)))
+    found = ([env.robots[a] for a in agents], [env._row[a] for a in agents], None if whole else index)
+    if memo is not None:
+        memo[id(world)] = (world, world.robot_rows, list(agents), found)
+    return found
