@@ -134,9 +134,18 @@ class CopyPhases:
             env._sense()
 
     def end(self, group: list[int], rewards: np.ndarray, terminated: np.ndarray, truncated: np.ndarray) -> None:
-        """End phase of each copy of ``group`` (:meth:`TeamEnv._end_step`) into rows ``[k, i]`` of the arrays."""
+        """End phase of each copy of ``group`` (:meth:`TeamEnv._end_step`) into rows ``[k, i]`` of the arrays.
+
+        Where the task says which copies' teams ended (:meth:`_team_ended`), no robot joins and the
+        action type has no masks, as arrays over the group (:meth:`_end_together`); else copy by copy.
+        """
+        copies = self.copies
+        ended = self._team_ended(group) if len(group) > 1 else None
+        if ended is not None and not copies[group[0]].action_type.has_masks and not any(copies[k]._joining for k in group):
+            self._end_together(group, ended, rewards, terminated, truncated)
+            return
         for k in group:
-            env = self.copies[k]
+            env = copies[k]
             rows = env._live_rows()  # before robots join (a joining robot's reward is 0)
             rewards[k, rows] = env._reward_total[rows]
             _, terminations, truncated_now = env._end_phase()
@@ -146,6 +155,27 @@ class CopyPhases:
                     terminated[k, row[agent]] = True
                 elif truncated_now:
                     truncated[k, row[agent]] = True
+
+    def _team_ended(self, group: list[int]) -> np.ndarray | None:
+        """``(len(group),)``: whether each copy's episode ended for every live robot at once (its ``_terminations``,
+        which then change nothing), or ``None`` when a task's terminations must run copy by copy (the default)."""
+        return None
+
+    def _end_together(
+        self, group: list[int], ended: np.ndarray, rewards: np.ndarray, terminated: np.ndarray, truncated: np.ndarray
+    ) -> None:
+        """:meth:`TeamEnv._end_phase` of every copy of ``group`` as arrays: messages delivered copy by copy, then the
+        team's end terminates every live robot and the cycle limit truncates the others (no robot joins, no masks)."""
+        copies = self.copies
+        span = [copies[k] for k in group]
+        for env in span:
+            env._deliver_messages()
+        live = self._live_mask(group)
+        at = slice(group[0], group[-1] + 1) if group[-1] - group[0] + 1 == len(group) else group
+        rewards[at] = np.where(live, np.stack([env._reward_total for env in span]), rewards[at])
+        over = np.array([env.cycles for env in span]) >= span[0].config.cycle_limit
+        terminated[at] = live & ended[:, None]
+        truncated[at] = live & ~ended[:, None] & over[:, None]
 
     def _live_mask(self, group: list[int]) -> np.ndarray:
         """``(len(group), N)``: the live robots of each copy of ``group`` (columns in ``possible_agents`` order)."""

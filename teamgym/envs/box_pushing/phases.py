@@ -100,26 +100,10 @@ class BoxPushingPhases(CopyPhases):
                 total[env._live_rows()] += reward
         read_sensors([(env, env._going_on()) for env in span], self._sensed)
 
-    def end(self, group: list[int], rewards: np.ndarray, terminated: np.ndarray, truncated: np.ndarray) -> None:
-        """The end phase as arrays (as :meth:`TeamEnv._end_step` per copy): success terminates, the cycle limit truncates.
-
-        Copy by copy (the default) where a robot joins or leaves or the action type has masks.
-        """
-        copies = self.copies
+    def _team_ended(self, group: list[int]) -> np.ndarray | None:
+        """The team's success per copy; ``None`` (copy by copy) while a robot leaves (its status is recorded)."""
         team, ks = self._rows(group)
-        span = [copies[k] for k in group]
-        if len(span) == 1 or span[0].action_type.has_masks or team.leaving[ks].any() or any(env._joining for env in span):
-            super().end(group, rewards, terminated, truncated)
-            return
-        for env in span:
-            env._deliver_messages()
-        live = self._live_mask(group)
-        at = group if len(group) != group[-1] - group[0] + 1 else slice(group[0], group[-1] + 1)
-        rewards[at] = np.where(live, np.stack([env._reward_total for env in span]), rewards[at])
-        success = team.success[ks][:, None]
-        terminated[at] = live & success
-        limit = span[0].config.cycle_limit
-        truncated[at] = live & ~success & (np.array([env.cycles for env in span]) >= limit)[:, None]
+        return None if team.leaving[ks].any() else team.success[ks]
 
     def observe(self, group: list[int], out: np.ndarray) -> None:
         """Every robot row of the copies ``group`` in one pass; rows of robots not live are zeroed."""
@@ -133,14 +117,14 @@ class BoxPushingPhases(CopyPhases):
         block = np.empty((len(group), *out.shape[1:]), dtype=out.dtype)
         busy = self._busy_rows(span)
         team.observe(ks, first.layout, busy, first.stall_cap, block)
-        live = np.zeros(block.shape[:2], dtype=bool)
-        for j, env in enumerate(span):
-            rows = env._live_rows()
-            live[j, rows] = True
-            if env.config.comm_dim and len(rows):
-                inbox = block[j, rows]
-                env._observe_inbox(inbox)
-                block[j, rows] = inbox
+        live = self._live_mask(group)
+        if first.config.comm_dim:
+            for j, env in enumerate(span):
+                rows = env._live_rows()
+                if len(rows):
+                    inbox = block[j, rows]
+                    env._observe_inbox(inbox)
+                    block[j, rows] = inbox
         first.layout.clip(block)
         block[~live] = 0.0
         out[group] = block

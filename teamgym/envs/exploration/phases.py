@@ -82,14 +82,17 @@ class ExplorationPhases(CopyPhases):
         points = np.stack([env.world.robot_states[:, :2] for env in span])
         team.update_places(ks, points, first._bounds_array, first._discs_array, first.goal)
         for env in span:
-            env._count_contacts()
+            if env.world.contacts or team.any_hits.item(env._copy):  # else Exploration._count_contacts changes nothing
+                env._count_contacts()
         if type(first)._apply_events is not TeamEnv._apply_events:
             for env in span:
                 env._apply_events()
         team.check_goals(ks, np.array([env.cycles for env in span]), c.dt)
-        for env, reward in zip(span, team.team_rewards(ks, c.explore_reward, c.time_penalty).tolist()):
+        hit = team.any_hits[ks].tolist()
+        for env, reward, penalised in zip(span, team.team_rewards(ks, c.explore_reward, c.time_penalty).tolist(), hit):
             env._reward_total += reward
-            env._contact_penalties(env._reward_total)
+            if penalised:  # else Exploration._contact_penalties changes nothing
+                env._contact_penalties(env._reward_total)
         self._sense(team, ks, span)
 
     @staticmethod
@@ -107,6 +110,11 @@ class ExplorationPhases(CopyPhases):
                 rows = block[j * n : (j + 1) * n]
                 ring.apply_noise(env.np_random.standard_normal((n, size)) if size else None, rows, env.robot_list)
         team.proximity[ks] = block.reshape(len(span), n, ring.width)
+
+    def _team_ended(self, group: list[int]) -> np.ndarray:
+        """Every goal sector explored, per copy (``Exploration._terminations``)."""
+        team, ks = self._rows(group)
+        return team.explored_all[ks]
 
     def observe(self, group: list[int], out: np.ndarray) -> None:
         """Every robot row of the copies ``group`` in one pass (``Exploration._observe``'s fields); rows not live are zeroed."""
@@ -154,14 +162,14 @@ class ExplorationPhases(CopyPhases):
                 status, tasks = env._operators.task_rows()
                 block[j, np.arange(n), status_at + np.array(status)] = 1.0
                 block[j, :, task_at] = tasks
-        live = np.zeros((g, n), dtype=bool)
-        for j, env in enumerate(span):
-            rows = env._live_rows()
-            live[j, rows] = True
-            if env.config.comm_dim and len(rows):
-                inbox = block[j, rows]
-                env._observe_inbox(inbox)
-                block[j, rows] = inbox
+        live = self._live_mask(group)
+        if first.config.comm_dim:
+            for j, env in enumerate(span):
+                rows = env._live_rows()
+                if len(rows):
+                    inbox = block[j, rows]
+                    env._observe_inbox(inbox)
+                    block[j, rows] = inbox
         first.layout.clip(block)
         block[~live] = 0.0
         out[group] = block

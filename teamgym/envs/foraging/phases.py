@@ -160,6 +160,11 @@ class ForagingPhases(CopyPhases):
                 env._first_seen = env.world.time
             env._send_packets()
 
+    def _team_ended(self, group: list[int]) -> np.ndarray:
+        """Every target finished, per copy (``Foraging._terminations``)."""
+        team, ks = self._rows(group)
+        return team.success[ks]
+
     def observe(self, group: list[int], out: np.ndarray) -> None:
         """Every robot row of a group's copies in one pass (``Foraging._observe``); the received tuples copy by copy."""
         first = self.copies[group[0]]

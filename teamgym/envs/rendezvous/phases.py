@@ -209,3 +209,8 @@ def pair_distances(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     if n == 2:
         return distances, distances[:, 0, 1].copy()
     return distances, np.array([block.sum() / (n * (n - 1)) for block in distances])
+
+    def _team_ended(self, group: list[int]) -> np.ndarray:
+        """The robots met, per copy (``Rendezvous._terminations``)."""
+        team, ks = self._rows(group)
+        return team.met[ks]
