@@ -12,7 +12,7 @@ The world keeps no list of entity types: it groups entities by what they declare
 from __future__ import annotations
 
 from bisect import bisect_right
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 
 import numpy as np
 import pymunk
@@ -495,9 +495,22 @@ class World:
 
 def pending_work(space: pymunk.Space) -> bool:
     """Whether ``pymunk.Space.step`` has work besides Chipmunk's step (pymunk 7's private lists of deferred work)."""
-    return bool(
-        space._bodies_to_check or space._add_later or space._remove_later or space._post_step_callbacks or space._removed_shapes
-    ) or getattr(space, "threaded", False)
+    return pending_work_in((space,))
+
+
+def pending_work_in(spaces: Iterable[pymunk.Space]) -> bool:
+    """Whether any of ``spaces`` has :func:`pending_work` (one call for a batch's spaces)."""
+    for space in spaces:
+        if (
+            space._bodies_to_check
+            or space._add_later
+            or space._remove_later
+            or space._post_step_callbacks
+            or space._removed_shapes
+            or getattr(space, "threaded", False)
+        ):
+            return True
+    return False
 
 
 class FixedRecord:

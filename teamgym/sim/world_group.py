@@ -22,6 +22,7 @@ step; any other world steps alone (``World.step``), so the result never depends 
 from __future__ import annotations
 
 import math
+import operator
 import weakref
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -33,7 +34,7 @@ from teamgym.sim.entity import StepGroup
 from teamgym.sim.libm import libm
 from teamgym.sim.objects import BounceSteps, MovingPolygon
 from teamgym.sim.robot import DiffDriveRobot, RobotSteps, arc_motion, encoder_values
-from teamgym.sim.world import World, pending_work
+from teamgym.sim.world import World, pending_work_in
 
 __all__ = [
     "MIN_ROBOTS_TOGETHER",
@@ -173,6 +174,9 @@ class GroupPlans:
         """
         together = self._together
         if together is not None and together.same_worlds(worlds):
+            if together.same_step_plans():  # then plan_of would give every world the plan it has in ``together``
+                together.step(reuse_states)
+                return
             plans = [self.plan_of(world) for world in worlds]
             if not together.matches(worlds, plans):
                 together = self._together = self._whole = StepTogether(worlds, plans)
@@ -247,6 +251,8 @@ class StepTogether:
         self.worlds, self.plans = list(worlds), list(plans)
         pairs = [(world, plan) for world, plan in zip(worlds, plans) if plan is not None]
         self.together = pairs
+        self._spaces = [world.space for world, _ in pairs]
+        self._step_plans = [world.step_plan() for world in self.worlds]  # what ``plans`` were made from
         self.robots = [robot for _, plan in pairs for robot in plan.robots]
         self.movers = [mover for _, plan in pairs for mover in plan.movers]
         self.bounds = np.cumsum([0] + [len(plan.robots) for _, plan in pairs]).tolist()
@@ -286,6 +292,8 @@ class StepTogether:
         pairs = self._pair_of[positions]
         sel = pairs[pairs >= 0]
         new.together = [self.together[m] for m in sel.tolist()]
+        new._spaces = [self._spaces[m] for m in sel.tolist()]
+        new._step_plans = [self._step_plans[m] for m in picked]
         rank = np.full(len(self.together), -1)
         rank[sel] = np.arange(len(sel))
         robots = np.flatnonzero(rank[self._robot_world] >= 0)
@@ -305,6 +313,10 @@ class StepTogether:
     def same_worlds(self, worlds: Sequence[World]) -> bool:
         """Whether ``worlds`` are the worlds this object was made for (in that order)."""
         return len(worlds) == len(self.worlds) and all(a is b for a, b in zip(worlds, self.worlds))
+
+    def same_step_plans(self) -> bool:
+        """Whether every world keeps the step plan this object's ``plans`` were made from (no entity added or removed)."""
+        return all(map(operator.is_, [world.step_plan() for world in self.worlds], self._step_plans))
 
     def matches(self, worlds: Sequence[World], plans: Sequence[GroupPlan | None]) -> bool:
         """Whether these are the worlds and plans this object was made for."""
@@ -326,7 +338,7 @@ class StepTogether:
     def _step_together(self, reuse_states: bool) -> None:
         together, robots = self.together, self.robots
         compiled = self._compiled_worlds()
-        if compiled is not None and not any(pending_work(world.space) for world, _ in together):
+        if compiled is not None and not pending_work_in(self._spaces):
             states = compiled.start(reuse_states)
             starts, mover_states = states[compiled.robot_rows], states[compiled.mover_rows]
         else:

@@ -85,21 +85,21 @@ def test_the_env_keeps_no_episode_state_outside_its_arrays():
 
 
 @pytest.mark.parametrize(
-    ("env_id", "extra"),
+    ("env_id", "extra", "K"),
     [
-        ("BoxPushing-v0", {}),
-        ("BoxPushing-v1", {}),  # noisy sensors and motors, light gains
-        ("BoxPushing-v1", {"light_shadows": True}),  # the light's line-of-sight queries, copy by copy
+        ("BoxPushing-v0", {}, 3),
+        ("BoxPushing-v1", {}, 3),  # noisy sensors and motors, light gains
+        ("BoxPushing-v1", {"light_shadows": True}, 3),  # the light's line-of-sight queries, copy by copy
+        ("BoxPushing-v0", {}, 7),  # 21+ robots: the worlds step together, their plans change with the events
     ],
 )
-def test_batch_copies_with_events_step_as_lone_envs_and_share_one_arrays(env_id, extra):
-    K = 3
+def test_batch_copies_with_events_step_as_lone_envs_and_share_one_arrays(env_id, extra, K):
     batch = teamgym.make_batch(env_id, K, **CONFIG, **extra)
     lones = [teamgym.make(env_id, **CONFIG, **extra) for _ in range(K)]
     batch.reset(seed=11)
     for k, env in enumerate(lones):
         env.reset(seed=11 + k)
-    assert len({id(env._arrays) for env in batch.copies}) == 1 and [env._copy for env in batch.copies] == [0, 1, 2]
+    assert len({id(env._arrays) for env in batch.copies}) == 1 and [env._copy for env in batch.copies] == list(range(K))
     rng = np.random.default_rng(3)
     for step in range(14):
         if step == 10:  # copy 1 ends early: the copies stepped are rows 0 and 2 only
@@ -108,6 +108,8 @@ def test_batch_copies_with_events_step_as_lone_envs_and_share_one_arrays(env_id,
                     env.remove_robot(agent)
         _step_both(batch, lones, _actions(batch, rng))
     assert not batch.active[1].any() and batch.active[[0, 2]].any()
+    if K > 3:  # the events changed the worlds' plans while their group stepped together
+        assert batch._phases._group_plans._together is not None
     if env_id == "BoxPushing-v1":
         assert not np.all(batch.copies[0]._arrays.light_gains == 1.0)  # calibrated rows, not the default
 
