@@ -91,6 +91,18 @@ class BatchArrays:
 _GET_BODIES = _ffi.addressof(_lib, "pmSpaceBodyGetIteratorFuncBatched")
 
 
+def body_poses(bodies: list[pymunk.Body]) -> list[tuple[float, float, float]]:
+    """``(x, y, angle)`` of each body through Chipmunk's getters (the doubles ``body.position`` and ``body.angle``
+    give, without a ``Vec2d`` per body)."""
+    get_position, get_angle = _lib.cpBodyGetPosition, _lib.cpBodyGetAngle
+    poses = []
+    for body in bodies:
+        handle = body._body
+        p = get_position(handle)
+        poses.append((p.x, p.y, get_angle(handle)))
+    return poses
+
+
 def body_ids(space: pymunk.Space) -> list[int]:
     """Ids of the space's bodies in Chipmunk's iteration order (the order of pymunk's batch iterators)."""
     arrays = BatchArrays()

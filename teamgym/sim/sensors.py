@@ -491,6 +491,18 @@ class LightSensor(NoisyRowSensor):
             over = gain[:, 0] > self.saturation
             out[over] = np.minimum(out[over], self.saturation)
 
+    def shine_array(self, poses: np.ndarray, out: np.ndarray) -> None:
+        """:meth:`shine_rows` of the rows ``(x, y, θ, …)`` of an array, element-wise ``math`` (:func:`libm`): the same bits."""
+        lx, ly = self.lamp
+        dx, dy = lx - poses[:, 0], ly - poses[:, 1]
+        bearings = libm(math.atan2, dy, dx) - poses[:, 2]
+        gains = self.intensity / libm(math.pow, np.maximum(libm(math.hypot, dx, dy), self.min_distance), np.full(len(dx), 2.0))
+        gain = gains[:, None]
+        np.maximum(np.cos(bearings[:, None] - self.angles) * gain, 0.0, out=out, casting="unsafe")
+        if self.saturation is not None and len(gains) and gains.max() > self.saturation:
+            over = gains > self.saturation
+            out[over] = np.minimum(out[over], self.saturation)
+
     def _shine(
         self, robot: DiffDriveRobot, space: pymunk.Space, lamp: Point, x: float, y: float, theta: float, out: np.ndarray
     ) -> None:

@@ -6,7 +6,7 @@ import numpy as np
 import pymunk
 import pytest
 
-from teamgym.sim.chipmunk import BodyReader, RayCaster, set_kinematic_motion, set_pivot_anchor_a, space_step
+from teamgym.sim.chipmunk import BodyReader, RayCaster, body_poses, set_kinematic_motion, set_pivot_anchor_a, space_step
 
 
 def test_set_kinematic_motion_equals_public_setters():
@@ -35,6 +35,14 @@ def moving_space():
         space.add(body, pymunk.Circle(body, 0.1))
         bodies.append(body)
     return space, bodies
+
+
+def test_body_poses_equal_the_public_getters():
+    space, bodies = moving_space()
+    for _ in range(3):
+        space.step(0.05)
+    assert body_poses(bodies[::-1]) == [(*body.position, body.angle) for body in bodies[::-1]]
+    assert body_poses([]) == []
 
 
 def test_body_reader_rows_follow_the_given_order():

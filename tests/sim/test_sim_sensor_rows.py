@@ -132,6 +132,26 @@ def test_unshadowed_light_rows_in_one_pass_equal_reads_one_robot_after_the_other
     np.testing.assert_array_equal(by_rows(noiseless, world, robots, 0)[0], single)
 
 
+@given(
+    poses=st.lists(
+        st.tuples(*(st.floats(-2.0, 3.0, allow_nan=False),) * 2, st.floats(-20.0, 20.0, allow_nan=False)), min_size=1, max_size=40
+    ),
+    saturation=st.sampled_from([None, 5.0, 400.0]),
+    at_lamp=st.booleans(),
+)
+@settings(max_examples=60, deadline=None)
+def test_light_of_a_pose_array_equals_the_rows_of_its_lists(poses, saturation, at_lamp):
+    """``shine_array`` (element-wise ``math``) gives :meth:`LightSensor.shine_rows`'s bits, at the lamp too."""
+    light = LightSensor((0.4, 0.7), blockers=0, saturation=saturation)
+    array = np.array(poses, dtype=float)
+    if at_lamp:
+        array[0, :2] = light.lamp  # within min_distance: the distance is clamped
+    expected, actual = (np.empty((len(array), light.width), dtype=np.float32) for _ in range(2))
+    light.shine_rows(array.tolist(), expected)
+    light.shine_array(array, actual)
+    assert np.array_equal(expected.view(np.uint32), actual.view(np.uint32))
+
+
 def test_light_follows_a_moving_lamp():
     world = World((2.0, 2.0))
     robot = world.add(DiffDriveRobot("r", (0.5, 1.0), 0.0))

@@ -73,6 +73,7 @@ from teamgym.envs.box_pushing.state import LEAVING, BoxPushingArrays
 from teamgym.envs.infos import InfoKey, metrics, unknown
 from teamgym.envs.spaces import Field, ObservationLayout
 from teamgym.sim.categories import OPAQUE, Category
+from teamgym.sim.chipmunk import body_poses
 from teamgym.sim.objects import Box, Lamp
 from teamgym.sim.render import Overlay
 from teamgym.sim.robot import DiffDriveRobot, RobotSpec, body_command, wheel_speeds
@@ -599,7 +600,11 @@ class BoxPushing(TeamEnv):
 
     def _box_pose_rows(self) -> list[tuple[float, float, float]]:
         """:meth:`_box_poses` as a list of tuples (a batch makes one array of every copy's)."""
-        return [(*box.body.position, box.body.angle) if box is not None else _NO_POSE for box in self.boxes]
+        present = body_poses([box.body for box in self.boxes if box is not None])
+        if len(present) == len(self.boxes):
+            return present
+        poses = iter(present)
+        return [next(poses) if box is not None else _NO_POSE for box in self.boxes]
 
     # -- state and rendering ----------------------------------------------------------------
     def state(self) -> np.ndarray:
