@@ -114,14 +114,23 @@ class CopyPhases:
         """Physics phase: each copy's world steps Δt (several together: :func:`~teamgym.sim.world_group.step_worlds`); trails."""
         reuse, copies = self.reuse_states, self.copies
         if len(group) > 1:
-            self._group_plans.step([copies[k].world for k in group], reuse)
+            self._robot_states = (group, self._group_plans.step([copies[k].world for k in group], reuse))
         else:
+            self._robot_states = (group, None)
             copies[group[0]].world.step(reuse_states=reuse)
         for k in group:
             env = copies[k]
             env.cycles += 1
             if env.records_trails:
                 env._record_trails()
+
+    def _robot_states_of(self, group: list[int]) -> np.ndarray:
+        """``(len(group), robots, 6)``: each copy's ``world.robot_states`` after this control step's physics, from the
+        group's step when it gave them as one array (no copy's robots changed since), else stacked copy by copy."""
+        stepped, states = self.__dict__.get("_robot_states", (None, None))
+        if stepped is group and states is not None:
+            return states
+        return np.stack([self.copies[k].world.robot_states for k in group])
 
     def after_physics(self, group: list[int]) -> None:
         """State, events, goals, rewards and sensing phases of each copy, in that order."""

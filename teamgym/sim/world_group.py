@@ -162,7 +162,7 @@ class GroupPlans:
             self._plans[world] = known
         return known[1]
 
-    def step(self, worlds: Sequence[World], reuse_states: bool = False) -> None:
+    def step(self, worlds: Sequence[World], reuse_states: bool = False) -> np.ndarray | None:
         """Step ``worlds`` one control step: together (:class:`StepTogether`) when they hold at least
         ``min_robots`` robots — with the compiled kernel from a group's first step, else once the
         same worlds step twice in a row.
@@ -171,40 +171,44 @@ class GroupPlans:
         stage one by one) gathers its robots anew every step. In Python that costs more than it
         saves, so a new group steps its worlds alone the first time; the kernel joins the
         worlds' arrays made once per step plan (:class:`CompiledPart`), which costs little.
+
+        Returns the group's :attr:`StepTogether.robot_states` (every world's ``robot_states`` after the
+        step as one ``(worlds, robots, 6)`` array) when it gives them, else ``None``.
         """
         together = self._together
         if together is not None and together.same_worlds(worlds):
             if together.same_step_plans():  # then plan_of would give every world the plan it has in ``together``
                 together.step(reuse_states)
-                return
+                return together.robot_states
             plans = [self.plan_of(world) for world in worlds]
             if not together.matches(worlds, plans):
                 together = self._together = self._whole = StepTogether(worlds, plans)
             together.step(reuse_states)
-            return
+            return together.robot_states
         if kernel.enabled():
             plans = [self.plan_of(world) for world in worlds]
             part = self._part_of_whole(worlds, plans)
             if part is not None:
                 self._together = part
                 part.step(reuse_states)
-                return
+                return part.robot_states
             if sum(len(plan.robots) for plan in plans if plan is not None) >= self.min_robots:
                 self._together = self._whole = StepTogether(worlds, plans)
                 self._together.step(reuse_states)
-                return
+                return self._together.robot_states
         elif self._last is not None and len(self._last) == len(worlds) and all(a is b for a, b in zip(self._last, worlds)):
             if not self._small:
                 plans = [self.plan_of(world) for world in worlds]
                 if sum(len(plan.robots) for plan in plans if plan is not None) >= self.min_robots:
                     self._together = StepTogether(worlds, plans)
                     self._together.step(reuse_states)
-                    return
+                    return self._together.robot_states
                 self._small = True
         else:
             self._last, self._small = list(worlds), False
         for world in worlds:
             world.step(reuse_states=reuse_states)
+        return None
 
     def _part_of_whole(self, worlds: Sequence[World], plans: list[GroupPlan | None]) -> StepTogether | None:
         """The last whole group's :meth:`StepTogether.subset` for ``worlds`` when they are some of its worlds, in its
@@ -253,6 +257,7 @@ class StepTogether:
         self.together = pairs
         self._spaces = [world.space for world, _ in pairs]
         self._step_plans = [world.step_plan() for world in self.worlds]  # what ``plans`` were made from
+        self._note_robot_rows()
         self.robots = [robot for _, plan in pairs for robot in plan.robots]
         self.movers = [mover for _, plan in pairs for mover in plan.movers]
         self.bounds = np.cumsum([0] + [len(plan.robots) for _, plan in pairs]).tolist()
@@ -294,6 +299,7 @@ class StepTogether:
         new.together = [self.together[m] for m in sel.tolist()]
         new._spaces = [self._spaces[m] for m in sel.tolist()]
         new._step_plans = [self._step_plans[m] for m in picked]
+        new._note_robot_rows()
         rank = np.full(len(self.together), -1)
         rank[sel] = np.arange(len(sel))
         robots = np.flatnonzero(rank[self._robot_world] >= 0)
@@ -314,6 +320,16 @@ class StepTogether:
         """Whether ``worlds`` are the worlds this object was made for (in that order)."""
         return len(worlds) == len(self.worlds) and all(a is b for a, b in zip(worlds, self.worlds))
 
+    def _note_robot_rows(self) -> None:
+        """Whether the robots stepped together are every world's robots, the same number in each (then :attr:`robot_states`
+        can hold them as one ``(worlds, robots, 6)`` array)."""
+        counts = {len(plan.robots) if plan is not None and len(plan.robots) == len(world.robots) else -1
+                  for world, plan in zip(self.worlds, self.plans)}  # fmt: skip
+        self._robots_each = counts.pop() if len(counts) == 1 and -1 not in counts else None
+        #: Every world's ``robot_states`` after the last step, ``(worlds, robots, 6)``, when every world stepped in the
+        #: group and each holds the same number of robots; else ``None``.
+        self.robot_states: np.ndarray | None = None
+
     def same_step_plans(self) -> bool:
         """Whether every world keeps the step plan this object's ``plans`` were made from (no entity added or removed)."""
         return all(map(operator.is_, [world.step_plan() for world in self.worlds], self._step_plans))
@@ -329,13 +345,17 @@ class StepTogether:
     def step(self, reuse_states: bool) -> None:
         """One control step of every world (the ones without a plan or with a delay alone)."""
         delayed = any(robot.actuation_delay > 0.0 for robot in self.robots)
+        self.robot_states = None
         for world, plan in zip(self.worlds, self.plans):
             if plan is None or delayed:
                 world.step(reuse_states=reuse_states)
         if self.together and not delayed:
-            self._step_together(reuse_states)
+            ends = self._step_together(reuse_states)
+            if self._robots_each is not None:
+                self.robot_states = ends.reshape(len(self.worlds), self._robots_each, ends.shape[1])
 
-    def _step_together(self, reuse_states: bool) -> None:
+    def _step_together(self, reuse_states: bool) -> np.ndarray:
+        """The robots' arc motions, the substeps (compiled or world by world), their encoders; their state rows after."""
         together, robots = self.together, self.robots
         compiled = self._compiled_worlds()
         if compiled is not None and not pending_work_in(self._spaces):
@@ -352,6 +372,7 @@ class StepTogether:
         bounced = self._plan_bounces(mover_states, dt)
         ends = self._step_in_python(motion, anchors, bounced) if compiled is None else compiled.step(motion, anchors, bounced)
         _end_robot_steps(robots, commands, starts, ends, dt, self.half_base, self.wheel_radius)
+        return ends
 
     def _step_in_python(self, motion: np.ndarray, anchors: np.ndarray, bounced: list[tuple[MovingPolygon, tuple]]) -> np.ndarray:
         """Write the control bodies, anchors and bounces world by world, integrate, read: the robots' end rows."""

@@ -79,7 +79,8 @@ class ExplorationPhases(CopyPhases):
         span = [copies[k] for k in group]
         first = span[0]
         c = first.config
-        points = np.stack([env.world.robot_states[:, :2] for env in span])
+        states = self._robot_states_of(group)
+        points = states[..., :2]
         team.update_places(ks, points, first._bounds_array, first._discs_array, first.goal)
         for env in span:
             if env.world.contacts or team.any_hits.item(env._copy):  # else Exploration._count_contacts changes nothing
@@ -93,17 +94,17 @@ class ExplorationPhases(CopyPhases):
             env._reward_total += reward
             if penalised:  # else Exploration._contact_penalties changes nothing
                 env._contact_penalties(env._reward_total)
-        self._sense(team, ks, span)
+        self._sense(team, ks, span, states.reshape(-1, states.shape[-1]))
 
     @staticmethod
-    def _sense(team: ExplorationArrays, ks: slice | np.ndarray, span: list[Exploration]) -> None:
+    def _sense(team: ExplorationArrays, ks: slice | np.ndarray, span: list[Exploration], poses: np.ndarray) -> None:
         """Every copy's proximity rings: the rays of all robots of the group at once (``ProximityRing.read_many``),
         then each copy's noise from its own stream (the draws ``read_rows`` makes for it)."""
         ring, n = span[0].ring, span[0].config.n_robots
         spaces = [env.world.space for env in span for _ in range(n)]
         robots = [robot for env in span for robot in env.robot_list]
         block = np.empty((len(span) * n, ring.width), dtype=team.proximity.dtype)
-        ring.read_many(spaces, robots, np.concatenate([env.world.robot_states for env in span]), block)
+        ring.read_many(spaces, robots, poses, block)
         size = ring.noise_size
         if size or not ring.noiseless:
             for j, env in enumerate(span):
@@ -130,7 +131,7 @@ class ExplorationPhases(CopyPhases):
         slices = first.layout.slices
         block = np.zeros((g, n, out.shape[-1]), dtype=out.dtype)
         flat = block.reshape(g * n, -1)
-        states = np.concatenate([env.world.robot_states[:, :6] for env in span])
+        states = self._robot_states_of(group).reshape(g * n, -1)
         heading = states[:, 2]
         pose, velocity = slices["pose"].start, slices["velocity"].start
         flat[:, pose : pose + 2] = states[:, :2]
