@@ -127,10 +127,13 @@ class CopyPhases:
     def _robot_states_of(self, group: list[int]) -> np.ndarray:
         """``(len(group), robots, 6)``: each copy's ``world.robot_states`` after this control step's physics, from the
         group's step when it gave them as one array (no copy's robots changed since), else stacked copy by copy."""
+        states = self._group_robot_states(group)
+        return np.stack([self.copies[k].world.robot_states for k in group]) if states is None else states
+
+    def _group_robot_states(self, group: list[int]) -> np.ndarray | None:
+        """The ``(len(group), robots, 6)`` robot states the group's physics step gave as one array, or ``None``."""
         stepped, states = self.__dict__.get("_robot_states", (None, None))
-        if stepped is group and states is not None:
-            return states
-        return np.stack([self.copies[k].world.robot_states for k in group])
+        return states if stepped is group else None
 
     def after_physics(self, group: list[int]) -> None:
         """State, events, goals, rewards and sensing phases of each copy, in that order."""

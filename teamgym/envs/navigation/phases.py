@@ -58,7 +58,10 @@ class NavigationPhases(CopyPhases):
         """``(len(ks), N)``: the live robots of the copies of ``group`` (rows of other copies False)."""
         if len(self.copies) == 1:
             return self.copies[0]._live_mask()
-        live = np.zeros((ks.stop - ks.start, self.copies[0].config.n_robots), dtype=bool)
+        n = self.copies[0].config.n_robots
+        if len(group) == ks.stop - ks.start and all(len(self.copies[k].live_agents) == n for k in group):
+            return np.ones((len(group), n), dtype=bool)  # every robot of every copy
+        live = np.zeros((ks.stop - ks.start, n), dtype=bool)
         for k in group:
             live[k - group[0], self.copies[k]._live_rows()] = True
         return live
@@ -82,10 +85,11 @@ class NavigationPhases(CopyPhases):
         copies = self.copies
         team, ks = self._rows(group)
         span = self._span(group, ks)
+        together = self._group_robot_states(group) if len(span) == len(group) > 1 else None
         robots, movers = [], []
         for env in span:
             world = env.world
-            if len(world.robot_states) != len(env.robot_list):
+            if together is None and len(world.robot_states) != len(env.robot_list):
                 world.read_states()
             robots.append(world.robot_states)
             movers.append(world.mover_states)
@@ -96,9 +100,12 @@ class NavigationPhases(CopyPhases):
             hits = span[0].world.contacts_per(names)[None]
             times: np.ndarray | float = span[0].cycles * dt
         else:
-            poses = np.stack(robots)
+            poses = np.stack(robots) if together is None else together
             team.read(ks, poses, np.stack(movers))
-            hits = np.array([env.world.contacts_per(names) for env in span])
+            hits = np.zeros((len(span), len(names)), dtype=np.int64)
+            for j, env in enumerate(span):
+                if env.world.contacts:  # else every count is 0
+                    hits[j] = env.world.contacts_per(names)
             times = np.array([env.cycles for env in span]) * dt
         team.update_distances(ks)
         live = self._live
