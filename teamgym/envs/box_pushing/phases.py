@@ -53,9 +53,12 @@ class BoxPushingPhases(CopyPhases):
 
     def control(self, group: list[int], actions: list[dict[str, Any]], rows: ActionRows | None) -> None:
         """Commands of the acting robots (the action type's vectorised ``commands`` when the batch has arrays), motor noise."""
-        if not self._act_rows(rows):
-            self._act(group, actions)
         span = [self.copies[k] for k in group]
+        if not self._act_rows(rows):
+            if len(span) > 1 and span[0].action_type is span[0]._primitives:
+                self._act_primitives(span, actions)
+            else:
+                self._act(group, actions)
         noise = span[0].config.noise_level("motor_noise")
         if noise <= 0:  # BoxPushing._before_physics does nothing
             return
@@ -72,6 +75,18 @@ class BoxPushingPhases(CopyPhases):
         half = 0.5 * base * commands[:, 1]  # wheel_speeds, body_command and set_command over every robot at once
         left, right = (commands[:, 0] - half) * scale[:, 0], (commands[:, 0] + half) * scale[:, 1]
         set_commands(robots, np.stack([0.5 * (left + right), (right - left) / base], axis=1))
+
+    @staticmethod
+    def _act_primitives(span: list[BoxPushing], actions: list[dict[str, Any]]) -> None:
+        """Each acting robot's executor command (:meth:`PrimitiveAction.act`, copy after copy with its own stream),
+        then every robot's ``set_command`` in one pass (:func:`~teamgym.sim.robot.set_commands`: the same bits)."""
+        robots, commands = [], []
+        for env, joint in zip(span, actions):
+            executors, own, rng = env._primitives.executors, env.robots, env.np_random
+            for agent, action in joint.items():
+                robots.append(own[agent])
+                commands.append(executors[agent].command(int(action), rng))
+        set_commands(robots, np.array(commands, dtype=float).reshape(-1, 2))
 
     def after_physics(self, group: list[int]) -> None:
         """Contacts and box gaps, events, success, the team rewards, then the sensors (the order of ``TeamEnv.step``)."""
