@@ -80,7 +80,10 @@ def read_sensors(sensed: list[tuple[BoxPushing, list[str]]], memo: dict[int, tup
         ring.read_many(spaces, robots, at, block[:, slices["proximity"]])
     z = (noise[0] if one else np.concatenate(noise)) if drawn else None
     if not light.blockers:
-        light.shine_array(at, block[:, slices["light"]])
+        if one:  # a lone env's few robots: the per-robot math costs less than the array calls
+            light.shine_rows(at[:, :3].tolist(), block[:, slices["light"]])
+        else:
+            light.shine_array(at, block[:, slices["light"]])
     gains = team.light_gains[copies, rows] if light.gain_spread else None
     raw = None if one else encoder_rows(robots)  # a batch: every robot's wheel rotations of the step in one array
     start = 0
