@@ -299,7 +299,10 @@ class StepTogether:
         new.together = [self.together[m] for m in sel.tolist()]
         new._spaces = [self._spaces[m] for m in sel.tolist()]
         new._step_plans = [self._step_plans[m] for m in picked]
-        new._note_robot_rows()
+        if self._robots_each is None:
+            new._note_robot_rows()
+        else:  # every world of the whole group holds the same number of robots, all stepped together: so do these
+            new._robots_each, new.robot_states = self._robots_each, None
         rank = np.full(len(self.together), -1)
         rank[sel] = np.arange(len(sel))
         robots = np.flatnonzero(rank[self._robot_world] >= 0)
