@@ -189,6 +189,24 @@ class CopyPhases:
         terminated[at] = live & ended[:, None]
         truncated[at] = live & ~ended[:, None] & over[:, None]
 
+    def _write_rows(self, group: list[int], block: np.ndarray, out: np.ndarray) -> None:
+        """The end of a task's ``observe`` over copies: ``block`` (``(len(group), N, width)``, every robot row) gets each
+        live robot's inbox of learned messages, the clip to the layout's bounds and zeros in rows not live; then
+        it goes into ``out[group]``."""
+        copies = self.copies
+        first = copies[group[0]]
+        if first.config.comm_dim:
+            for j, k in enumerate(group):
+                env = copies[k]
+                rows = env._live_rows()
+                if len(rows):
+                    inbox = block[j, rows]
+                    env._observe_inbox(inbox)
+                    block[j, rows] = inbox
+        first.layout.clip(block)
+        block[~self._live_mask(group)] = 0.0
+        out[group] = block
+
     def _live_mask(self, group: list[int]) -> np.ndarray:
         """``(len(group), N)``: the live robots of each copy of ``group`` (columns in ``possible_agents`` order)."""
         copies = self.copies

@@ -132,17 +132,7 @@ class BoxPushingPhases(CopyPhases):
         block = np.empty((len(group), *out.shape[1:]), dtype=out.dtype)
         busy = self._busy_rows(span)
         team.observe(ks, first.layout, busy, first.stall_cap, block)
-        live = self._live_mask(group)
-        if first.config.comm_dim:
-            for j, env in enumerate(span):
-                rows = env._live_rows()
-                if len(rows):
-                    inbox = block[j, rows]
-                    env._observe_inbox(inbox)
-                    block[j, rows] = inbox
-        first.layout.clip(block)
-        block[~live] = 0.0
-        out[group] = block
+        self._write_rows(group, block, out)
 
     @staticmethod
     def _busy_rows(span: list[BoxPushing]) -> np.ndarray:

@@ -163,14 +163,4 @@ class ExplorationPhases(CopyPhases):
                 status, tasks = env._operators.task_rows()
                 block[j, np.arange(n), status_at + np.array(status)] = 1.0
                 block[j, :, task_at] = tasks
-        live = self._live_mask(group)
-        if first.config.comm_dim:
-            for j, env in enumerate(span):
-                rows = env._live_rows()
-                if len(rows):
-                    inbox = block[j, rows]
-                    env._observe_inbox(inbox)
-                    block[j, rows] = inbox
-        first.layout.clip(block)
-        block[~live] = 0.0
-        out[group] = block
+        self._write_rows(group, block, out)
