@@ -17,6 +17,7 @@ import pytest
 
 import teamgym
 from teamgym.envs.box_pushing.state import LEAVING, BoxPushingArrays
+from teamgym.sim.world_group import GroupPlans
 
 EVENTS = (
     (3, "add_robot"),
@@ -97,6 +98,8 @@ def test_batch_copies_with_events_step_as_lone_envs_and_share_one_arrays(env_id,
     batch = teamgym.make_batch(env_id, K, **CONFIG, **extra)
     lones = [teamgym.make(env_id, **CONFIG, **extra) for _ in range(K)]
     batch.reset(seed=11)
+    if K > 3:  # step the worlds together with or without the compiled kernel (thresholds: 16 robots compiled, 128 in Python)
+        batch._phases._group_plans = GroupPlans(min_robots=8)
     for k, env in enumerate(lones):
         env.reset(seed=11 + k)
     assert len({id(env._arrays) for env in batch.copies}) == 1 and [env._copy for env in batch.copies] == list(range(K))
