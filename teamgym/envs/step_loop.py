@@ -103,12 +103,22 @@ class CopyPhases:
         return True
 
     def _act(self, group: list[int], actions: list[dict[str, Any]]) -> None:
-        """Each acting robot's body command from its action type's ``act``."""
+        """Each acting robot's body command from its action type's ``act``: set robot by robot in one copy, over
+        several copies in one pass (:func:`~teamgym.sim.robot.set_commands`, the same bits)."""
+        if len(group) == 1:
+            env = self.copies[group[0]]
+            act, robots = env.action_type.act, env.robots
+            for agent, action in actions[0].items():
+                robots[agent].set_command(*act(env, agent, action))
+            return
+        acting, commands = [], []
         for k, joint in zip(group, actions):
             env = self.copies[k]
             act, robots = env.action_type.act, env.robots
             for agent, action in joint.items():
-                robots[agent].set_command(*act(env, agent, action))
+                acting.append(robots[agent])
+                commands.append(act(env, agent, action))
+        set_commands(acting, np.array(commands, dtype=float).reshape(-1, 2))
 
     def physics(self, group: list[int]) -> None:
         """Physics phase: each copy's world steps Δt (several together: :func:`~teamgym.sim.world_group.step_worlds`); trails."""

@@ -152,6 +152,16 @@ def set_commands(robots: Sequence[DiffDriveRobot], commands: np.ndarray) -> None
         robot.command = (v_i, omega_i) if robot.enabled else (0.0, 0.0)
 
 
+def scale_wheel_speeds(robots: Sequence[DiffDriveRobot], scale: np.ndarray) -> None:
+    """Scale each robot's commanded wheel speeds by its row ``(left, right)`` of ``scale`` (motor noise): its
+    command through :func:`wheel_speeds`, the scaled speeds back through :func:`body_command`, then
+    :func:`set_commands` — the operations of the scalar functions on arrays, the same bits."""
+    commands = np.array([robot.command for robot in robots], dtype=float).reshape(-1, 2)
+    base = np.array([robot.spec.wheel_base for robot in robots])
+    left, right = wheel_speeds(commands[:, 0], commands[:, 1], base)
+    set_commands(robots, np.stack(body_command(left * scale[:, 0], right * scale[:, 1], base), axis=1))
+
+
 @dataclass
 class EncoderReading:
     """Wheel rotation over the last control step, in radians of wheel angle.

@@ -239,7 +239,7 @@ class BoxPushing(TeamEnv):
             return
         base = self.spec_robot.wheel_base
         draws = self.np_random.normal(1.0, noise, size=(len(self.live_agents), 2))
-        for agent, (a, b) in zip(self.live_agents, draws.tolist()):
+        for agent, (a, b) in zip(self.live_agents, draws.tolist()):  # scale_wheel_speeds robot by robot (cheaper for a few)
             robot = self.robots[agent]
             left, right = wheel_speeds(*robot.command, base)
             robot.set_command(*body_command(left * a, right * b, base))

@@ -17,7 +17,7 @@ import numpy as np
 from teamgym.envs.box_pushing.sensing import read_sensors
 from teamgym.envs.box_pushing.state import BoxPushingArrays
 from teamgym.envs.step_loop import ActionRows, CopyPhases
-from teamgym.sim.robot import set_commands
+from teamgym.sim.robot import scale_wheel_speeds
 
 if TYPE_CHECKING:
     from teamgym.envs.box_pushing.env import BoxPushing
@@ -55,10 +55,7 @@ class BoxPushingPhases(CopyPhases):
         """Commands of the acting robots (the action type's vectorised ``commands`` when the batch has arrays), motor noise."""
         span = [self.copies[k] for k in group]
         if not self._act_rows(rows):
-            if len(span) > 1 and span[0].action_type is span[0]._primitives:
-                self._act_primitives(span, actions)
-            else:
-                self._act(group, actions)
+            self._act(group, actions)
         noise = span[0].config.noise_level("motor_noise")
         if noise <= 0:  # BoxPushing._before_physics does nothing
             return
@@ -69,24 +66,7 @@ class BoxPushingPhases(CopyPhases):
         for env in span:  # each copy's draws from its own stream, as its _before_physics makes them
             gains.append(env.np_random.normal(1.0, noise, size=(len(env.live_agents), 2)))
             robots += [env.robots[a] for a in env.live_agents]
-        scale = np.concatenate(gains)
-        commands = np.array([robot.command for robot in robots], dtype=float).reshape(-1, 2)
-        base = span[0].spec_robot.wheel_base
-        half = 0.5 * base * commands[:, 1]  # wheel_speeds, body_command and set_command over every robot at once
-        left, right = (commands[:, 0] - half) * scale[:, 0], (commands[:, 0] + half) * scale[:, 1]
-        set_commands(robots, np.stack([0.5 * (left + right), (right - left) / base], axis=1))
-
-    @staticmethod
-    def _act_primitives(span: list[BoxPushing], actions: list[dict[str, Any]]) -> None:
-        """Each acting robot's executor command (:meth:`PrimitiveAction.act`, copy after copy with its own stream),
-        then every robot's ``set_command`` in one pass (:func:`~teamgym.sim.robot.set_commands`: the same bits)."""
-        robots, commands = [], []
-        for env, joint in zip(span, actions):
-            executors, own, rng = env._primitives.executors, env.robots, env.np_random
-            for agent, action in joint.items():
-                robots.append(own[agent])
-                commands.append(executors[agent].command(int(action), rng))
-        set_commands(robots, np.array(commands, dtype=float).reshape(-1, 2))
+        scale_wheel_speeds(robots, np.concatenate(gains))
 
     def after_physics(self, group: list[int]) -> None:
         """Contacts and box gaps, events, success, the team rewards, then the sensors (the order of ``TeamEnv.step``)."""

@@ -83,17 +83,14 @@ class ExplorationPhases(CopyPhases):
         points = states[..., :2]
         team.update_places(ks, points, first._bounds_array, first._discs_array, first.goal)
         for env in span:
-            if env.world.contacts or team.any_hits.item(env._copy):  # else Exploration._count_contacts changes nothing
-                env._count_contacts()
+            env._count_contacts()
         if type(first)._apply_events is not TeamEnv._apply_events:
             for env in span:
                 env._apply_events()
         team.check_goals(ks, np.array([env.cycles for env in span]), c.dt)
-        hit = team.any_hits[ks].tolist()
-        for env, reward, penalised in zip(span, team.team_rewards(ks, c.explore_reward, c.time_penalty).tolist(), hit):
+        for env, reward in zip(span, team.team_rewards(ks, c.explore_reward, c.time_penalty).tolist()):
             env._reward_total += reward
-            if penalised:  # else Exploration._contact_penalties changes nothing
-                env._contact_penalties(env._reward_total)
+            env._contact_penalties(env._reward_total)
         self._sense(team, ks, span, states.reshape(-1, states.shape[-1]))
 
     @staticmethod

@@ -54,14 +54,13 @@ class NavigationPhases(CopyPhases):
         copies = self.copies
         return copies[group[0]]._arrays, slice(copies[group[0]]._copy, copies[group[-1]]._copy + 1)
 
-    def _live_mask(self, group: list[int], ks: slice) -> np.ndarray:
-        """``(len(ks), N)``: the live robots of the copies of ``group`` (rows of other copies False)."""
+    def _span_live_mask(self, group: list[int], ks: slice) -> np.ndarray:
+        """``(len(ks), N)``: the live robots of the copies of ``group`` (rows of the other copies of the span False)."""
         if len(self.copies) == 1:
             return self.copies[0]._live_mask()
-        n = self.copies[0].config.n_robots
-        if len(group) == ks.stop - ks.start and all(len(self.copies[k].live_agents) == n for k in group):
-            return np.ones((len(group), n), dtype=bool)  # every robot of every copy
-        live = np.zeros((ks.stop - ks.start, n), dtype=bool)
+        if len(group) == ks.stop - ks.start:  # the span is the group
+            return self._live_mask(group)
+        live = np.zeros((ks.stop - ks.start, self.copies[0].config.n_robots), dtype=bool)
         for k in group:
             live[k - group[0], self.copies[k]._live_rows()] = True
         return live
@@ -72,7 +71,7 @@ class NavigationPhases(CopyPhases):
         team, ks = self._rows(group)
         if not self._act_rows(rows):
             self._act(group, actions)
-        self._live = live = self._live_mask(group, ks)
+        self._live = live = self._span_live_mask(group, ks)
         span = self._span(group, ks)
         team.command(ks, live, np.array([[robot.command for robot in env.robot_list] for env in span], dtype=float))
         if span[0].config.actuation_delay > 0:
