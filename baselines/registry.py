@@ -28,6 +28,7 @@ _POLICIES: dict[str, tuple[str, dict[str, Any]]] = {
     "astar-protocol": ("baselines.rendezvous.protocol:RendezvousProtocol", {"planner": "astar"}),
     "bidir-astar-eager": ("baselines.rendezvous.protocol:RendezvousProtocol", {"planner": "bidir-astar", "execution": "eager"}),
     "centralized": ("baselines.rendezvous.centralized:CentralizedRendezvous", {}),
+    "place-beacon": ("baselines.rendezvous.place_beacon:PlaceBeacon", {}),
     "dmaps": ("baselines.foraging.dmaps:DMAPS", {}),
     "dmaps-nocomm": ("baselines.foraging.dmaps:DMAPS", {"communication": False}),
     "random-walk": ("baselines.foraging.random_walk:RandomWalk", {}),

@@ -22,7 +22,10 @@ design and measurements in ``docs/training.md``):
    ``MaskableActorCriticPolicy`` (MaskablePPO; cross-entropy of the masked logits) with Adam for
    ``epochs`` passes: Box actions by the squared error of the Gaussian's mean, each
    dimension divided by the expert actions' standard deviation; Discrete ones by
-   cross-entropy with label smoothing (no action gets probability 1); the value head by the
+   cross-entropy with label smoothing (no action gets probability 1), MultiDiscrete ones by
+   the sum of their parts' (a learned motion ⊕ message action, e.g.: with
+   :class:`~baselines.rl.message_actions.FlatMessageActions` below :class:`ExpertActions`, the
+   expert's ``Dict`` actions are encoded into the flat action and its masks too); the value head by the
    squared error to the Monte-Carlo returns (weighted by the algorithm's ``vf_coef``), so
    that PPO's first advantages are not those of a random critic. Then Box ``log_std`` is set
    to ``log(max(std_fraction · half range, residual std))``: PPO starts from the expert's
@@ -114,6 +117,9 @@ class ExpertActions(BaseParallelWrapper):
 
     def __init__(self, env: ParallelEnv, policy_name: str, **policy_kwargs: Any) -> None:
         super().__init__(env)
+        #: A learner's flat motion ⊕ message action (:class:`~baselines.rl.message_actions.FlatMessageActions`
+        #: below this wrapper): labels are encoded with it and ``action_mask`` is the flat action's.
+        self.codec = getattr(env, "codec", None)
         self.policy_name = policy_name
         self.policy = make_expert(policy_name, env, **policy_kwargs)
         self.policy_seeds = np.random.default_rng()
@@ -138,6 +144,8 @@ class ExpertActions(BaseParallelWrapper):
         seen = copy.deepcopy({a: observations[a] for a in live})
         with _rngs_kept(self.env):
             actions = self.policy.act(seen, {a: dict(info) for a, info in infos.items()})
+        if self.codec is not None:
+            return {a: self.codec.encode(actions[a]) for a in live}
         return {a: learner_action(self.env.action_space(a), actions[a]) for a in live}
 
     def _label(self, observations: dict, infos: dict) -> dict[str, dict[str, Any]]:
@@ -145,6 +153,12 @@ class ExpertActions(BaseParallelWrapper):
         labelled = {agent: dict(info) for agent, info in infos.items()}
         for agent, action in expert.items():
             labelled.setdefault(agent, {})["expert_action"] = action
+        if self.codec is not None:
+            key = self.codec.motion_key
+            for info in labelled.values():
+                mask = info.get("action_mask")
+                if isinstance(mask, Mapping):
+                    info["action_mask"] = self.codec.mask(mask.get(key))
         return labelled
 
 
@@ -415,26 +429,31 @@ def behaviour_clone(
     if not isinstance(policy, ActorCriticPolicy) and not maskable:
         raise ValueError(f"behaviour cloning needs an actor-critic policy (PPO, A2C, MaskablePPO), not {type(policy).__name__}")
     space = policy.action_space
-    if not isinstance(space, (spaces.Box, spaces.Discrete)) or (maskable and not isinstance(space, spaces.Discrete)):
-        kinds = "Discrete" if maskable else "Box and Discrete"
+    discrete = (spaces.Discrete, spaces.MultiDiscrete)
+    if not isinstance(space, (spaces.Box, *discrete)) or (maskable and not isinstance(space, discrete)):
+        kinds = "Discrete and MultiDiscrete" if maskable else "Box, Discrete and MultiDiscrete"
         raise ValueError(f"behaviour cloning of a {type(policy).__name__} supports {kinds} actions, not {space}")
     if epochs < 1:
         raise ValueError(f"epochs must be >= 1, got {epochs}")
+    parts = action_parts(space)
     masks = data.masks if maskable else None
-    if masks is not None and masks.shape != (len(data), int(space.n)):
-        raise ValueError(f"data.masks must have shape {(len(data), int(space.n))}, got {masks.shape}")
+    if masks is not None and masks.shape != (len(data), sum(parts)):
+        raise ValueError(f"data.masks must have shape {(len(data), sum(parts))}, got {masks.shape}")
     device = policy.device
     obs = torch.as_tensor(data.observations, dtype=torch.float32, device=device)
     returns = torch.as_tensor(data.returns, dtype=torch.float32, device=device)
-    box = isinstance(space, spaces.Box)
+    box, multi = isinstance(space, spaces.Box), isinstance(space, spaces.MultiDiscrete)
     if box:
         target = torch.as_tensor(data.actions, dtype=torch.float32, device=device).reshape(len(obs), -1)
         half = torch.as_tensor((space.high - space.low) / 2, dtype=torch.float32, device=device).reshape(1, -1)
         scale = torch.maximum(target.std(dim=0, keepdim=True), 1e-3 * half) if len(obs) > 1 else half
+    elif multi:
+        start = torch.as_tensor(np.asarray(space.start).reshape(1, -1), dtype=torch.long, device=device)
+        target = torch.as_tensor(data.actions, dtype=torch.long, device=device).reshape(len(obs), -1) - start
     else:
         target = torch.as_tensor(data.actions, dtype=torch.long, device=device).reshape(-1) - int(space.start)
     allowed = None if masks is None else torch.as_tensor(masks, dtype=torch.bool, device=device)
-    if allowed is not None and not bool(allowed[torch.arange(len(obs), device=device), target].all()):
+    if allowed is not None and not labels_admissible(target, allowed, parts):
         raise ValueError("an expert label is an action its own action mask forbids; the data are inconsistent")
     vf_coef = float(getattr(model, "vf_coef", 0.5))
     parameters = [p for name, p in policy.named_parameters() if name != "log_std"]
@@ -447,7 +466,11 @@ def behaviour_clone(
         sums = [0.0, 0.0]
         for start in range(0, len(obs), batch_size):
             index = order[start : start + batch_size]
-            if allowed is not None:
+            if multi:
+                given = {} if allowed is None else {"action_masks": allowed[index]}
+                logits = part_logits(policy.get_distribution(obs[index], **given))
+                loss_pi = parts_cross_entropy(logits, target[index], None if allowed is None else allowed[index], label_smoothing)
+            elif allowed is not None:
                 log_p = policy.get_distribution(obs[index], action_masks=allowed[index]).distribution.logits
                 loss_pi = _masked_cross_entropy(log_p, target[index], allowed[index], label_smoothing)
             elif box:
@@ -493,6 +516,49 @@ def _masked_cross_entropy(log_p: Any, target: Any, allowed: Any, label_smoothing
     one_hot = torch.nn.functional.one_hot(target, log_p.shape[1]).float()
     weights = (1.0 - label_smoothing) * one_hot + smooth
     return -(weights * torch.where(allowed, log_p, torch.zeros_like(log_p))).sum(dim=1).mean()
+
+
+def action_parts(space: spaces.Space) -> list[int]:
+    """The sizes of a discrete action's parts (``[n]`` for ``Discrete``, ``nvec`` for ``MultiDiscrete``; [] otherwise)."""
+    if isinstance(space, spaces.Discrete):
+        return [int(space.n)]
+    if isinstance(space, spaces.MultiDiscrete):
+        return [int(n) for n in np.asarray(space.nvec).ravel()]
+    return []
+
+
+def labels_admissible(target: Any, allowed: Any, parts: list[int]) -> bool:
+    """Whether every label (``(N,)`` or ``(N, parts)``, zero-based) is admissible under its mask (MaskablePPO's layout)."""
+    import torch
+
+    labels = target.reshape(len(target), -1)
+    offsets = torch.as_tensor(np.concatenate([[0], np.cumsum(parts)[:-1]]), dtype=torch.long, device=labels.device)
+    rows = torch.arange(len(labels), device=labels.device).reshape(-1, 1)
+    return bool(allowed[rows, labels + offsets.reshape(1, -1)].all())
+
+
+def part_logits(distribution: Any) -> list[Any]:
+    """The logits of each part of an SB3 (or sb3-contrib) categorical distribution, masked ones as the policy set them."""
+    parts = getattr(distribution, "distributions", None)  # sb3-contrib's masked multi-categorical
+    if parts is None:
+        parts = distribution.distribution
+    return [part.logits for part in (parts if isinstance(parts, (list, tuple)) else [parts])]
+
+
+def parts_cross_entropy(logits: list[Any], target: Any, allowed: Any | None, label_smoothing: float) -> Any:
+    """The sum over the action's parts of each part's (masked) cross-entropy, smoothed as :func:`_masked_cross_entropy`."""
+    import torch
+    import torch.nn.functional as F
+
+    widths = [int(part.shape[1]) for part in logits]
+    masks = [None] * len(logits) if allowed is None else torch.split(allowed, widths, dim=1)
+    total = torch.zeros((), device=target.device)
+    for j, (logit, mask) in enumerate(zip(logits, masks)):
+        if mask is None:
+            total = total + F.cross_entropy(logit, target[:, j], label_smoothing=label_smoothing)
+        else:
+            total = total + _masked_cross_entropy(logit, target[:, j], mask, label_smoothing)
+    return total
 
 
 def clone_defaults() -> dict[str, Any]:

@@ -18,7 +18,7 @@ in evaluation). The losses are those of the feed-forward clone over the steps of
 (padding excluded): the squared error of the Gaussian's mean per dimension divided by the
 expert actions' standard deviation (Box), cross-entropy with label smoothing (Discrete; over
 the admissible actions for the masked variant, whose observation carries the mask, as in
-training), and the value head's squared error to the Monte-Carlo returns weighted by
+training; MultiDiscrete: the sum over its parts), and the value head's squared error to the Monte-Carlo returns weighted by
 ``vf_coef``. Box ``log_std`` is set afterwards as in the feed-forward clone.
 """
 
@@ -99,18 +99,18 @@ def behaviour_clone_recurrent(
     import torch
     import torch.nn.functional as F
 
-    from baselines.rl.imitation import _masked_cross_entropy
+    from baselines.rl.imitation import _masked_cross_entropy, action_parts, labels_admissible, part_logits, parts_cross_entropy
 
     policy = model.policy
     space = policy.action_space
     mask_width = int(getattr(policy, "mask_width", 0))
-    if not isinstance(space, (spaces.Box, spaces.Discrete)):
-        raise ValueError(f"behaviour cloning of a recurrent policy supports Box and Discrete actions, not {space}")
+    if not isinstance(space, (spaces.Box, spaces.Discrete, spaces.MultiDiscrete)):
+        raise ValueError(f"behaviour cloning of a recurrent policy supports Box, Discrete and MultiDiscrete actions, not {space}")
     if epochs < 1:
         raise ValueError(f"epochs must be >= 1, got {epochs}")
     if data.starts is None or len(data.starts) != len(data):
         raise ValueError("recurrent behaviour cloning needs the data's episode starts (ExpertData.starts)")
-    box = isinstance(space, spaces.Box)
+    box, multi = isinstance(space, spaces.Box), isinstance(space, spaces.MultiDiscrete)
     device = policy.device
     observations = np.asarray(data.observations, dtype=np.float32)
     masks = None
@@ -136,13 +136,16 @@ def behaviour_clone_recurrent(
         half = torch.as_tensor((space.high - space.low) / 2, dtype=torch.float32, device=device).reshape(1, -1)
         real = target_all[:-1]
         scale = torch.maximum(real.std(dim=0, keepdim=True), 1e-3 * half) if len(real) > 1 else half
+    elif multi:
+        labels = np.asarray(data.actions, dtype=np.int64).reshape(len(data), -1) - np.asarray(space.start).reshape(1, -1)
+        target_all = torch.as_tensor(np.vstack([labels, np.zeros((1, labels.shape[1]), np.int64)]), device=device)
     else:
         labels = np.asarray(data.actions, dtype=np.int64).reshape(-1) - int(space.start)
         target_all = torch.as_tensor(np.append(labels, 0), device=device)
     allowed_all = None
     if masks is not None:
         allowed_all = torch.as_tensor(np.vstack([masks, np.ones((1, mask_width), bool)]), device=device)
-        if not bool(allowed_all[torch.arange(len(data), device=device), target_all[:-1]].all()):
+        if not labels_admissible(target_all[:-1], allowed_all[:-1], action_parts(space)):
             raise ValueError("an expert label is an action its own action mask forbids; the data are inconsistent")
 
     vf_coef = float(getattr(model, "vf_coef", 0.5))
@@ -168,6 +171,10 @@ def behaviour_clone_recurrent(
             if box:
                 error = ((distribution.distribution.mean - target_all[rows]) / scale) ** 2
                 loss_pi = error[keep].mean()
+            elif multi:
+                logits = [part[keep] for part in part_logits(distribution)]
+                given = None if allowed_all is None else allowed_all[rows][keep]
+                loss_pi = parts_cross_entropy(logits, target_all[rows][keep], given, label_smoothing)
             elif allowed_all is not None:
                 log_p = distribution.distribution.logits
                 loss_pi = _masked_cross_entropy(log_p[keep], target_all[rows][keep], allowed_all[rows][keep], label_smoothing)

@@ -374,8 +374,6 @@ class Training:
             if is_message_space(action_space):  # comm_dim / protocol_messages: one flat action of motion ⊕ message
                 self.codec = MessageCodec(action_space, settings)
                 action_space = self.codec.space
-                if bc_expert is not None:
-                    raise ValueError("behaviour cloning (--bc-expert) does not support motion ⊕ message actions yet")
             elif settings.given():
                 raise ValueError(
                     f"--message-levels/--message-tokens/--message-vocab flatten a motion ⊕ message action (comm_dim > 0, "
@@ -401,6 +399,8 @@ class Training:
         def make_copy() -> Any:
             env = teamgym.make(env_id, **self.config)
             return FlatMessageActions(env, settings) if self.codec is not None else env
+
+        self.make_copy = make_copy  # the training env of one copy (behaviour cloning plays in it too)
 
         if self.workers == 1:
             self.venv = self.methods.make_venv(make_copy, self.n_envs)
@@ -594,14 +594,13 @@ class Training:
 
     def _pretrain(self) -> None:
         """Behaviour-clone the expert into the new model (before its first rollout; wall time counts in the sidecar)."""
-        import teamgym
         from baselines.rl.imitation import pretrain
 
         assert self.bc is not None
         bc = self.bc
         record = pretrain(
             self.model,
-            lambda: teamgym.make(self.env_id, **self.config),
+            self.make_copy,
             bc["expert"],
             bc["steps"],
             bc["epochs"],
