@@ -63,6 +63,7 @@ SCRIPTED: dict[str, list[tuple[str, str]]] = {
         ("bidir-astar (paper 003)", "bidir-astar"),
         ("bidir-astar-opt", "bidir-astar-opt"),
         ("centralized", "centralized"),
+        ("place-beacon (learned channel)", "place-beacon"),
         ("random", "random"),
     ],
     "Foraging-v0": [

@@ -92,3 +92,40 @@ def test_shipped_agent_plays_the_aims_task_with_its_messages_and_with_the_channe
         assert set(result.returns) == set(env.possible_agents) and result.length >= 1
         delivered = sum(m["messages_delivered"] for m in result.metrics.values())
         assert (delivered > 0) == (throughput > 0)
+
+
+BEACON = "rendezvous-beacon-dagger-recurrent-ppo"
+
+
+def test_beacon_preset_builds_the_aims_task_with_three_message_values_and_place_beacon_as_teacher():
+    preset = load_preset(BEACON)
+    assert (preset.env, preset.algo, preset.message_actions) == ("Rendezvous-v0", "maskable_recurrent_ppo", {"levels": 9})
+    assert preset.bc["expert"] == "place-beacon" and preset.bc["noise"] == 0.0 and preset.bc["dagger_rounds"] == 4
+    env = teamgym.make(preset.env, **preset.config)
+    try:
+        c = env.config
+        assert (c.block_rate, c.comm_throughput, c.comm_dim, c.max_cycles) == (0.096, 0.5, 3, 6000)
+    finally:
+        env.close()
+    for key in (*preset.config, "message_actions", "algo", "bc", "policy_kwargs"):
+        assert any(key in documented for documented in preset.changes), f"{key} is not explained"
+
+
+def test_beacon_preset_clones_and_trains_end_to_end_with_the_messages_in_the_channel(tmp_path):
+    from baselines.evaluate import main as evaluate_main
+
+    out = tmp_path / "m.zip"
+    args = ["--preset", BEACON, "--timesteps", "64", "--n-envs", "1", "--verbose", "0", "--set", "max_cycles=300"]
+    args += ["--hp", "n_steps=32", "--hp", "batch_size=64", "--hp", 'policy_kwargs={"lstm_hidden_size": 16, "net_arch": [16]}']
+    args += ["--bc-expert", "place-beacon", "--bc-steps", "200", "--bc-epochs", "2", "--bc-dagger", "1"]
+    args += ["--bc-dagger-steps", "60", "--bc-dagger-epochs", "1"]
+    args += ["--eval-every", "0", "--out", str(out)]
+    assert train_main(args) == 0
+    sidecar = json.loads(out.with_suffix(".json").read_text())
+    assert sidecar["preset"] == BEACON and sidecar["bc"]["expert"] == "place-beacon"
+    assert sidecar["bc"]["dagger_transitions"] == 260 and sidecar["message_actions"]["levels"] == 9
+    where = tmp_path / "ev"
+    command = ["--policy", f"sb3:{out}", "--episodes", "2", "--seed", "31000", "--quiet", "--no-plot", "--out", str(where)]
+    assert evaluate_main(command) == 0
+    summary = json.loads((where / "summary.json").read_text())
+    assert summary["mean_bytes_sent"] > 0 and summary["mean_messages_delivered"] > 0
