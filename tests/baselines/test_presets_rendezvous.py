@@ -129,3 +129,18 @@ def test_beacon_preset_clones_and_trains_end_to_end_with_the_messages_in_the_cha
     assert evaluate_main(command) == 0
     summary = json.loads((where / "summary.json").read_text())
     assert summary["mean_bytes_sent"] > 0 and summary["mean_messages_delivered"] > 0
+
+
+def test_shipped_beacon_agent_meets_through_the_channel():
+    from baselines.episode import run_episode
+    from baselines.registry import make_policy
+    from baselines.rl.sb3_policy import read_sidecar, resolve_model, shipped_agents
+
+    assert BEACON in shipped_agents()
+    sidecar = read_sidecar(resolve_model(BEACON))
+    assert sidecar["preset"] == BEACON and sidecar["bc"]["expert"] == "place-beacon"
+    env = teamgym.make("Rendezvous-v0", **sidecar["config"])
+    policy = make_policy(f"sb3:{BEACON}", env)
+    results = [run_episode(env, policy, seed, record_trajectories=False) for seed in (31001, 31002)]
+    assert all(result.success for result in results)  # both met (100 % and 99 % of 31000-31099 for the shipped seed)
+    assert all(sum(m["messages_delivered"] for m in result.metrics.values()) > 0 for result in results)
