@@ -85,6 +85,7 @@ def test_training_in_worker_processes_records_workers_and_padding(tmp_path):
         "navigation-forces-dagger-ppo",
         "exploration-maskable-ppo",
         "rendezvous-comm-maskable-ppo",
+        "rendezvous-beacon-dagger-recurrent-ppo",
         "exploration-nash-dagger-ppo",
         "foraging-dagger-maskable-ppo",
     ],
