@@ -239,7 +239,7 @@ def collect_expert_data(
     The first episode is reset with ``seed``, later ones continue the env's random stream.
     ``noise > 0`` executes perturbed actions (Box: Gaussian with std ``noise`` · half range;
     Discrete: a random action with probability ``noise``, an admissible one where the env
-    gives action masks; from a generator seeded with ``seed``) while the labels stay the
+    gives action masks; MultiDiscrete: so each part; from a generator seeded with ``seed``) while the labels stay the
     expert's, so the data cover states next to the expert's path. ``returns`` are each agent's
     discounted rewards from that step on.
     """
@@ -382,6 +382,15 @@ def _perturb(space: spaces.Space, action: Any, noise: float, rng: np.random.Gene
         if mask is not None and mask.any():  # a random admissible action: a masked one would be refused
             return int(space.start + rng.choice(np.flatnonzero(mask)))
         return int(space.start + rng.integers(space.n))
+    if isinstance(space, spaces.MultiDiscrete):  # each part on its own: a random admissible value with probability noise
+        out = np.array(action, dtype=np.int64).reshape(-1)
+        parts = action_parts(space)
+        masks = np.split(mask, np.cumsum(parts)[:-1]) if mask is not None else [None] * len(parts)
+        for j, (n, allowed) in enumerate(zip(parts, masks)):
+            if rng.random() < noise:
+                choices = np.flatnonzero(allowed) if allowed is not None and allowed.any() else np.arange(n)
+                out[j] = int(rng.choice(choices))
+        return (out + np.asarray(space.start).reshape(-1)).reshape(np.shape(action))
     return action
 
 

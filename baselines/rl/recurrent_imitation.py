@@ -18,8 +18,8 @@ in evaluation). The losses are those of the feed-forward clone over the steps of
 (padding excluded): the squared error of the Gaussian's mean per dimension divided by the
 expert actions' standard deviation (Box), cross-entropy with label smoothing (Discrete; over
 the admissible actions for the masked variant, whose observation carries the mask, as in
-training; MultiDiscrete: the sum over its parts), and the value head's squared error to the Monte-Carlo returns weighted by
-``vf_coef``. Box ``log_std`` is set afterwards as in the feed-forward clone.
+training; MultiDiscrete: the sum over its parts), and the value head's squared error to the
+Monte-Carlo returns weighted by ``vf_coef``. Box ``log_std`` is set afterwards as in the feed-forward clone.
 """
 
 from __future__ import annotations

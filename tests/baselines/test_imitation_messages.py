@@ -113,3 +113,19 @@ def test_command_line_clones_place_beacon_into_a_message_policy(tmp_path):
     sidecar = json.loads(out.with_suffix(".json").read_text())
     assert sidecar["bc"]["expert"] == "place-beacon" and sidecar["bc"]["dagger_transitions"] == 260
     assert sidecar["message_actions"]["levels"] == 9 and np.isfinite(sidecar["bc"]["action_loss"])
+
+
+def test_noise_perturbs_each_part_of_a_message_action_within_its_mask():
+    from gymnasium import spaces
+
+    from baselines.rl.imitation import _perturb
+
+    space, rng = spaces.MultiDiscrete([5, 9, 9, 9]), np.random.default_rng(0)
+    mask = np.ones(5 + 27, dtype=bool)
+    mask[[0, 3]] = False  # motions 0 and 3 masked
+    drawn = np.stack([_perturb(space, np.array([1, 4, 4, 4]), 1.0, rng, mask) for _ in range(400)])
+    assert set(drawn[:, 0]) == {1, 2, 4} and all(len(set(drawn[:, j])) == 9 for j in (1, 2, 3))
+    assert np.array_equal(_perturb(space, np.array([1, 4, 4, 4]), 0.0, rng, mask), [1, 4, 4, 4])
+    noisy = collect_expert_data(make_flat(), "place-beacon", 300, seed=2, noise=0.5)  # the env refuses a masked motion
+    clean = collect_expert_data(make_flat(), "place-beacon", 300, seed=2, noise=0.0)
+    assert not np.array_equal(noisy.observations, clean.observations)  # perturbed actions were executed
