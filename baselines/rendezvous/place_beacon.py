@@ -22,13 +22,10 @@ observation (place, target, neighbours, blocked flags, inbox).
   place, planned from the lower place index to the higher, so that two robots with the same
   knowledge walk the same path towards each other and meet on it. At the mate's place it waits.
 
-Measured (docs/training.md, Rendezvous): on paper 003's map with random blockings and half the
-messages lost it meets in every episode, about as fast as paper 003's ``bidir-astar`` with its
-protocol records. Two variants were tried and dropped: walking to the middle of the path between
-the robots instead of towards the mate (the middle creeps when the mate's place is stale), and a
-leader that fixes a meeting place for both (a robot that starts before its mate has heard the
-place waits out the mate's long stages; both were slower than ``bidir-astar`` on seeds no table
-uses).
+Measured (docs/rendezvous.md, with the variants tried and dropped): on paper 003's map with
+random blockings and half the messages lost it meets in every one of 100 held-out episodes, in
+21.6 s on average against 22.8 s for paper 003's ``bidir-astar`` with its protocol records; with
+the channel cut no robot moves.
 """
 
 from __future__ import annotations
