@@ -149,7 +149,11 @@ class PlaceBeacon(Policy):
         return neighbours.index(step), step
 
     def _path(self, a: int, b: int, blocked: set[frozenset[int]]) -> list[int]:
-        """The shortest path (way lengths) from ``a`` to ``b`` without the ``blocked`` ways; [] if there is none."""
+        """The shortest path (way lengths) from ``a`` to ``b`` without the ``blocked`` ways; [] if there is none.
+
+        networkx's bidirectional Dijkstra (``shortest_path``), not the one-sided one of
+        :func:`~baselines.rendezvous.search.centralized_shortest_path`: they break ties between equal paths
+        differently (2 of the 100 held-out episodes change), and the shipped clone learned this one."""
 
         def length(u: int, v: int, data: dict) -> float | None:
             return None if frozenset((u, v)) in blocked else data["length"]

@@ -451,16 +451,14 @@ def behaviour_clone(
     device = policy.device
     obs = torch.as_tensor(data.observations, dtype=torch.float32, device=device)
     returns = torch.as_tensor(data.returns, dtype=torch.float32, device=device)
-    box, multi = isinstance(space, spaces.Box), isinstance(space, spaces.MultiDiscrete)
+    box = isinstance(space, spaces.Box)
     if box:
         target = torch.as_tensor(data.actions, dtype=torch.float32, device=device).reshape(len(obs), -1)
         half = torch.as_tensor((space.high - space.low) / 2, dtype=torch.float32, device=device).reshape(1, -1)
         scale = torch.maximum(target.std(dim=0, keepdim=True), 1e-3 * half) if len(obs) > 1 else half
-    elif multi:
+    else:  # (N, parts) zero-based labels, one column for a Discrete action
         start = torch.as_tensor(np.asarray(space.start).reshape(1, -1), dtype=torch.long, device=device)
         target = torch.as_tensor(data.actions, dtype=torch.long, device=device).reshape(len(obs), -1) - start
-    else:
-        target = torch.as_tensor(data.actions, dtype=torch.long, device=device).reshape(-1) - int(space.start)
     allowed = None if masks is None else torch.as_tensor(masks, dtype=torch.bool, device=device)
     if allowed is not None and not labels_admissible(target, allowed, parts):
         raise ValueError("an expert label is an action its own action mask forbids; the data are inconsistent")
@@ -475,18 +473,12 @@ def behaviour_clone(
         sums = [0.0, 0.0]
         for start in range(0, len(obs), batch_size):
             index = order[start : start + batch_size]
-            if multi:
+            if box:
+                loss_pi = (((policy.get_distribution(obs[index]).distribution.mean - target[index]) / scale) ** 2).mean()
+            else:
                 given = {} if allowed is None else {"action_masks": allowed[index]}
                 logits = part_logits(policy.get_distribution(obs[index], **given))
                 loss_pi = parts_cross_entropy(logits, target[index], None if allowed is None else allowed[index], label_smoothing)
-            elif allowed is not None:
-                log_p = policy.get_distribution(obs[index], action_masks=allowed[index]).distribution.logits
-                loss_pi = _masked_cross_entropy(log_p, target[index], allowed[index], label_smoothing)
-            elif box:
-                loss_pi = (((policy.get_distribution(obs[index]).distribution.mean - target[index]) / scale) ** 2).mean()
-            else:
-                distribution = policy.get_distribution(obs[index]).distribution
-                loss_pi = F.cross_entropy(distribution.logits, target[index], label_smoothing=label_smoothing)
             loss = loss_pi
             loss_v = torch.zeros(())
             if fit_value:

@@ -99,7 +99,7 @@ def behaviour_clone_recurrent(
     import torch
     import torch.nn.functional as F
 
-    from baselines.rl.imitation import _masked_cross_entropy, action_parts, labels_admissible, part_logits, parts_cross_entropy
+    from baselines.rl.imitation import action_parts, labels_admissible, part_logits, parts_cross_entropy
 
     policy = model.policy
     space = policy.action_space
@@ -110,7 +110,7 @@ def behaviour_clone_recurrent(
         raise ValueError(f"epochs must be >= 1, got {epochs}")
     if data.starts is None or len(data.starts) != len(data):
         raise ValueError("recurrent behaviour cloning needs the data's episode starts (ExpertData.starts)")
-    box, multi = isinstance(space, spaces.Box), isinstance(space, spaces.MultiDiscrete)
+    box = isinstance(space, spaces.Box)
     device = policy.device
     observations = np.asarray(data.observations, dtype=np.float32)
     masks = None
@@ -136,12 +136,9 @@ def behaviour_clone_recurrent(
         half = torch.as_tensor((space.high - space.low) / 2, dtype=torch.float32, device=device).reshape(1, -1)
         real = target_all[:-1]
         scale = torch.maximum(real.std(dim=0, keepdim=True), 1e-3 * half) if len(real) > 1 else half
-    elif multi:
+    else:  # (N + 1, parts) zero-based labels (one column for a Discrete action; row -1: padding)
         labels = np.asarray(data.actions, dtype=np.int64).reshape(len(data), -1) - np.asarray(space.start).reshape(1, -1)
         target_all = torch.as_tensor(np.vstack([labels, np.zeros((1, labels.shape[1]), np.int64)]), device=device)
-    else:
-        labels = np.asarray(data.actions, dtype=np.int64).reshape(-1) - int(space.start)
-        target_all = torch.as_tensor(np.append(labels, 0), device=device)
     allowed_all = None
     if masks is not None:
         allowed_all = torch.as_tensor(np.vstack([masks, np.ones((1, mask_width), bool)]), device=device)
@@ -171,16 +168,10 @@ def behaviour_clone_recurrent(
             if box:
                 error = ((distribution.distribution.mean - target_all[rows]) / scale) ** 2
                 loss_pi = error[keep].mean()
-            elif multi:
+            else:
                 logits = [part[keep] for part in part_logits(distribution)]
                 given = None if allowed_all is None else allowed_all[rows][keep]
                 loss_pi = parts_cross_entropy(logits, target_all[rows][keep], given, label_smoothing)
-            elif allowed_all is not None:
-                log_p = distribution.distribution.logits
-                loss_pi = _masked_cross_entropy(log_p[keep], target_all[rows][keep], allowed_all[rows][keep], label_smoothing)
-            else:
-                logits = distribution.distribution.logits
-                loss_pi = F.cross_entropy(logits[keep], target_all[rows][keep], label_smoothing=label_smoothing)
             loss = loss_pi
             loss_v = torch.zeros(())
             if fit_value:
