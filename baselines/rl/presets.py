@@ -12,7 +12,8 @@ for ``sbs``, ``{"params": {"min_hold": 0.0}}`` for ``dmaps``), and optional DAgg
 ``dagger_rounds``, ``dagger_steps``, ``dagger_epochs``), ``eval`` (optional held-out evaluation while training: ``every``,
 ``episodes``, ``seed``), ``init`` (optional: a saved model or shipped agent whose policy
 weights the new run starts from, as ``--init``), ``critic`` (optional: ``local`` or ``central``,
-as ``--critic``), ``agent_id`` (optional: ``true`` as ``--agent-id``), ``message_actions``
+as ``--critic``), ``agent_id`` (optional: ``true`` as ``--agent-id``), ``net`` (optional: ``mlp`` or ``cells``,
+as ``--net``), ``message_actions``
 (optional: how a motion ⊕ message action is flattened, ``levels``, ``tokens``, ``vocab``, as
 ``--message-levels/--message-tokens/--message-vocab``), ``changes`` (each config key and hyper-parameter the preset sets, with
 why) and ``measured`` (what the preset reached, with the command). docs/training.md lists them.
@@ -43,6 +44,7 @@ _KEYS = {
     "init",
     "critic",
     "agent_id",
+    "net",
     "message_actions",
 }
 
@@ -66,6 +68,7 @@ class Preset:
     init: str | None = None
     critic: str | None = None
     agent_id: bool | None = None
+    net: str | None = None
     message_actions: dict[str, int] | None = None
 
 

@@ -1,4 +1,4 @@
-"""The multi-agent training methods of ``baselines.train``: ``--critic``, ``--agent-id``, ``--independent``.
+"""The multi-agent training methods of ``baselines.train``: ``--critic``, ``--agent-id``, ``--independent``, ``--net``.
 
 :class:`TeamMethods` holds the three choices, checks them against the algorithm (before any env
 is built) and the env (a probe copy), and gives what training needs: the observation features
@@ -10,12 +10,14 @@ with its ``policy_kwargs``; :meth:`TeamMethods.sidecar` is what the model's side
 * ``agent_id=True``: the robot's index one-hot appended to its observation;
 * ``independent=True``: :mod:`baselines.rl.independent` (one policy per robot; implies the one-hot,
   which routes each robot's rows to its own policy; needs a fixed team).
+* ``net="cells"``: :mod:`baselines.rl.cell_policy` (the go-to-cell action scored cell by cell over
+  the observation's grid layers; a plain parameter-shared policy otherwise, so it can be cloned).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 from baselines.rl.agent_features import ObservationFeatures
@@ -35,6 +37,7 @@ class TeamMethods:
     critic: str = "local"
     agent_id: bool = False
     independent: bool = False
+    net: str = "mlp"
 
     @property
     def features(self) -> ObservationFeatures:
@@ -52,6 +55,7 @@ class TeamMethods:
             "critic": self.critic,
             "agent_id": self.agent_id,
             "independent": self.independent,
+            "net": self.net,
             "obs_features": self.features.sidecar() if self.features.active else None,
         }
 
@@ -59,7 +63,12 @@ class TeamMethods:
     def from_sidecar(cls, sidecar: Mapping[str, Any] | None) -> TeamMethods:
         """The methods a sidecar records (a sidecar without them: a plain run)."""
         sidecar = sidecar or {}
-        return cls(str(sidecar.get("critic") or "local"), bool(sidecar.get("agent_id")), bool(sidecar.get("independent")))
+        return cls(
+            str(sidecar.get("critic") or "local"),
+            bool(sidecar.get("agent_id")),
+            bool(sidecar.get("independent")),
+            str(sidecar.get("net") or "mlp"),
+        )
 
     def check(self, algo: str, bc: bool = False, workers: int = 1) -> None:
         """``ValueError`` of one line for a choice the algorithm or the other settings cannot take (before any env)."""
@@ -71,7 +80,8 @@ class TeamMethods:
             )
         if self.independent and algo not in ACTOR_CRITIC:
             raise ValueError(f"--independent needs an actor-critic algorithm (ppo, a2c, maskable_ppo), not {algo}")
-        if self.default:
+        self._check_net(algo)
+        if replace(self, net="mlp").default:
             return
         if algo not in ACTOR_CRITIC:  # e.g. recurrent_ppo: its LSTM policy takes no widened inputs yet
             raise ValueError(
@@ -87,10 +97,26 @@ class TeamMethods:
                 "--workers > 1 steps plain copies; it cannot be combined with --critic central, --agent-id or --independent"
             )
 
+    def _check_net(self, algo: str) -> None:
+        from baselines.rl.cell_policy import NETS
+
+        if self.net not in NETS:
+            raise ValueError(f"net must be one of {', '.join(NETS)}, got {self.net!r}")
+        if self.net == "mlp":
+            return
+        if algo not in ACTOR_CRITIC:
+            raise ValueError(f"--net cells needs ppo, a2c or maskable_ppo (a Discrete cell action), not {algo}")
+        if self.critic == "central" or self.independent:
+            raise ValueError("--net cells cannot be combined with --critic central or --independent yet")
+
     def check_env(self, env: Any) -> None:
         """``ValueError`` of one line if the env (a probe copy, reset here) cannot take these methods."""
         if self.features.active:
             self.features.dims(env)  # flat Box observations
+        if self.net == "cells":
+            from baselines.rl.cell_policy import grid_layout
+
+            grid_layout(env)  # a Discrete cell action and grid layers in a flat observation
         if self.independent:
             observations, _ = env.reset(seed=0)
             missing = [a for a in env.possible_agents if a not in observations]
@@ -123,6 +149,10 @@ class TeamMethods:
             from baselines.rl.central_critic import central_policy_class
 
             return central_policy_class(algo), {"actor_dim": actor_dim}
+        if self.net == "cells":
+            from baselines.rl.cell_policy import cell_policy_class, grid_layout
+
+            return cell_policy_class(algo), {"layout": grid_layout(env)}
         from baselines.rl.sb3_policy import policy_name
 
         return policy_name(algo), {}

@@ -11,7 +11,7 @@ Command line::
         [--bc-noise 0.5] [--bc-batch-size 64] [--bc-lr 1e-3] [--bc-std-fraction 0.2]
         [--bc-label-smoothing 0.1] [--bc-no-value] [--bc-dagger-steps N] [--bc-dagger-epochs K]
         [--message-levels 5] [--message-tokens 8] [--message-vocab 64]
-        [--critic local|central] [--agent-id] [--independent]
+        [--critic local|central] [--agent-id] [--independent] [--net mlp|cells]
 
 Timesteps count agent transitions (every robot's step is one SB3 step, see
 :class:`baselines.rl.sb3_env.TeamVecEnv`). The model is saved to ``--out`` and a sidecar
@@ -67,6 +67,9 @@ Research tooling (all off by default; see ``docs/training.md``):
   policy per robot, no shared parameters, stored in one zip (:mod:`baselines.rl.independent`).
   The sidecar records them (``obs_features``) and ``sb3:PATH`` evaluation widens the
   observations the same way (:mod:`baselines.rl.agent_features`, :mod:`baselines.rl.team_methods`).
+* ``--net cells``: a go-to-cell action (Foraging-v0's ``goto_cell``) scored cell by cell over the
+  observation's grid layers (:mod:`baselines.rl.cell_policy`) instead of an MLP over the flat
+  observation; the policy class is saved in the zip.
 
 Bad arguments exit with code 2 and one ``error: ...`` line before training starts (``--hp``
 values and a preset's hyperparameters before any env is built: :mod:`baselines.rl.hyperparameters`;
@@ -210,15 +213,17 @@ def _write_json(path: Path, data: Mapping[str, Any]) -> Path:
     return write_json(path, data, default=repr)
 
 
-def _team_methods(critic: str | None, agent_id: bool | None, independent: bool | None, saved: Mapping[str, Any] | None) -> Any:
+def _team_methods(
+    critic: str | None, agent_id: bool | None, independent: bool | None, net: str | None, saved: Mapping[str, Any] | None
+) -> Any:
     """The run's :class:`~baselines.rl.team_methods.TeamMethods`: as given, or a resumed model's (other choices refused)."""
     from baselines.rl.team_methods import TeamMethods
 
-    given = TeamMethods(critic or "local", bool(agent_id), bool(independent))
+    given = TeamMethods(critic or "local", bool(agent_id), bool(independent), net or "mlp")
     if saved is None:
         return given
     before = TeamMethods.from_sidecar(saved)
-    for name, value in (("critic", critic), ("agent_id", agent_id), ("independent", independent)):
+    for name, value in (("critic", critic), ("agent_id", agent_id), ("independent", independent), ("net", net)):
         if value is not None and value != getattr(before, name):
             raise ValueError(f"the resumed model was trained with {name}={getattr(before, name)!r}, not {value!r}")
     return before
@@ -278,6 +283,7 @@ class Training:
         agent_id: bool | None = None,
         independent: bool | None = None,
         init: str | Path | None = None,
+        net: str | None = None,
     ) -> None:
         import teamgym
         from baselines.rl.callbacks import EvalLog, PaddingShareLog
@@ -324,7 +330,7 @@ class Training:
         resumed_hp = _saved_hyperparameters(previous) if self.resume else {}
         check_hyperparameters(self.algo, hyperparameters or {}, resumed_hp)  # before any env: keys, types and ranges
         hyperparameters = dict(hyperparameters or {})
-        self.methods = _team_methods(critic, agent_id, independent, previous if self.resume else None)
+        self.methods = _team_methods(critic, agent_id, independent, net, previous if self.resume else None)
         self.methods.check(self.algo, bc=bc_expert is not None, workers=workers)
         if progress_bar:
             _require("tqdm", "the progress bar")
@@ -1023,7 +1029,8 @@ def _add_knobs(parser: argparse.ArgumentParser) -> None:
 
 
 def _add_method_arguments(parser: argparse.ArgumentParser) -> None:
-    """``--critic``, ``--agent-id``, ``--independent`` (:mod:`baselines.rl.team_methods`)."""
+    """``--critic``, ``--agent-id``, ``--independent``, ``--net`` (:mod:`baselines.rl.team_methods`)."""
+    from baselines.rl.cell_policy import NETS
     from baselines.rl.team_methods import CRITICS
 
     parser.add_argument(
@@ -1041,6 +1048,14 @@ def _add_method_arguments(parser: argparse.ArgumentParser) -> None:
         action="store_true",
         default=None,
         help="one policy per robot, no shared parameters (fixed teams; ppo, a2c, maskable_ppo; one zip holds them all)",
+    )
+    parser.add_argument(
+        "--net",
+        choices=NETS,
+        default=None,
+        help="mlp: SB3's MLP over the flat observation (default); cells: a go-to-cell action scored cell by cell over "
+        "the observation's grid layers (Foraging-v0 goto_cell with observe_world_model/observe_novelty; ppo, a2c, "
+        "maskable_ppo)",
     )
 
 
@@ -1068,6 +1083,7 @@ def _preset_settings(name: str, env_id: str | None) -> dict[str, Any]:
         "init": preset.init,
         "critic": preset.critic,
         "agent_id": preset.agent_id,
+        "net": preset.net,
         "message_actions": preset.message_actions,
     }
 
@@ -1152,7 +1168,7 @@ def _plan(args: argparse.Namespace) -> tuple[dict[str, Any], list[int] | None]:
         kwargs["init"] = init
     if args.workers is not None:
         kwargs["workers"] = args.workers
-    for name in ("critic", "agent_id", "independent"):
+    for name in ("critic", "agent_id", "independent", "net"):
         if getattr(args, name, None) is not None:
             kwargs[name] = getattr(args, name)
         elif args.preset is not None and saved.get(name) is not None:
