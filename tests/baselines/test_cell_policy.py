@@ -127,16 +127,19 @@ def test_the_policy_masks_cells_and_reloads(tmp_path):
     venv.close()
 
 
-def test_train_save_and_evaluate_give_the_same_figures(tmp_path):
+@pytest.mark.parametrize("methods", [[], ["--agent-id"]], ids=["plain", "agent-id"])
+def test_train_save_and_evaluate_give_the_same_figures(methods, tmp_path):
     out = tmp_path / "m.zip"
     args = ["--env", "Foraging-v0", "--algo", "maskable_ppo", "--net", "cells", "--timesteps", "64", *SMALL, *PPO_ARGS]
     evaluation = ["--eval-every", "64", "--eval-episodes", "2", "--eval-seed", "500"]
-    assert train_main([*args, *evaluation, "--out", str(out)]) == 0
+    assert train_main([*args, *methods, *evaluation, "--out", str(out)]) == 0
     sidecar = json.loads(out.with_suffix(".json").read_text())
     assert sidecar["net"] == "cells" and TeamMethods.from_sidecar(sidecar).net == "cells"
+    assert sidecar["agent_id"] is bool(methods)
     env = teamgym.make("Foraging-v0", **GRID, time_limit=3.0, consume_time=1.0)
     policy = SB3Policy.load(out, env)
     assert type(policy.model.policy) is MaskableCellPolicy
+    assert policy.model.observation_space.shape == (env.unwrapped.layout.size + 2 * bool(methods),)
     with out.with_name("m_eval.csv").open() as handle:
         last = list(csv.DictReader(handle))[-1]
     report = tmp_path / "eval"
