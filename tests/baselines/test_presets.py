@@ -88,6 +88,7 @@ def test_training_in_worker_processes_records_workers_and_padding(tmp_path):
         "rendezvous-beacon-dagger-recurrent-ppo",
         "exploration-nash-dagger-ppo",
         "foraging-dagger-maskable-ppo",
+        "foraging-cells-dagger-maskable-ppo",
     ],
 )
 def test_shipped_agent_plays_its_env_from_its_sidecar(name):
@@ -119,6 +120,28 @@ def test_foraging_nohold_preset_changes_only_the_teacher():
     kwargs = plan("--preset", "foraging-nohold-dagger-maskable-ppo")
     assert kwargs["bc_expert_kwargs"] == {"params": {"min_hold": 0.0, "max_hold": 0.0}}
     assert plan("--preset", "foraging-dagger-maskable-ppo").get("bc_expert_kwargs") is None
+
+
+def test_foraging_cells_preset_changes_the_network_and_the_dagger_rounds_only():
+    nohold, cells = load_preset("foraging-nohold-dagger-maskable-ppo"), load_preset("foraging-cells-dagger-maskable-ppo")
+    for key in ("env", "algo", "config", "n_envs", "timesteps", "eval"):
+        assert getattr(cells, key) == getattr(nohold, key), key
+    assert cells.hyperparameters == {k: v for k, v in nohold.hyperparameters.items() if k != "policy_kwargs"}
+    assert {**cells.bc, "dagger_rounds": nohold.bc["dagger_rounds"]} == nohold.bc and cells.bc["dagger_rounds"] == 3
+    kwargs = plan("--preset", "foraging-cells-dagger-maskable-ppo")
+    assert kwargs["net"] == "cells" and "net" not in plan("--preset", "foraging-nohold-dagger-maskable-ppo")
+    assert plan("--preset", "foraging-cells-dagger-maskable-ppo", "--net", "mlp")["net"] == "mlp"
+
+
+def test_shipped_cell_agent_records_its_network():
+    from sb3_contrib import MaskablePPO
+
+    from baselines.rl.cell_policy import MaskableCellPolicy
+    from baselines.rl.sb3_policy import read_sidecar, resolve_model
+
+    path = resolve_model("foraging-cells-dagger-maskable-ppo")
+    assert read_sidecar(path)["net"] == "cells"
+    assert type(MaskablePPO.load(path, device="cpu").policy) is MaskableCellPolicy
 
 
 def test_dagger_preset_plans_its_imitation():
