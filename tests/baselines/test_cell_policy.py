@@ -7,7 +7,6 @@ giving training's own evaluation figures; bad combinations are one-line errors.
 
 from __future__ import annotations
 
-import csv
 import json
 
 import numpy as np
@@ -20,12 +19,12 @@ import torch as th  # noqa: E402
 from sb3_contrib import MaskablePPO  # noqa: E402
 
 import teamgym  # noqa: E402
-from baselines.evaluate import main as evaluate_main  # noqa: E402
 from baselines.rl.cell_policy import CellExtractor, MaskableCellPolicy, grid_layout  # noqa: E402
 from baselines.rl.sb3_env import TeamVecEnv  # noqa: E402
 from baselines.rl.sb3_policy import SB3Policy  # noqa: E402
 from baselines.rl.team_methods import TeamMethods  # noqa: E402
 from baselines.train import main as train_main  # noqa: E402
+from tests.train_support import evaluate_matches_training  # noqa: E402
 
 GRID = {"observe_world_model": True, "observe_novelty": True}
 SMALL = ["--set", "observe_world_model=True", "--set", "observe_novelty=True", "--set", "time_limit=3", "--set", "consume_time=1"]
@@ -140,14 +139,7 @@ def test_train_save_and_evaluate_give_the_same_figures(methods, tmp_path):
     policy = SB3Policy.load(out, env)
     assert type(policy.model.policy) is MaskableCellPolicy
     assert policy.model.observation_space.shape == (env.unwrapped.layout.size + 2 * bool(methods),)
-    with out.with_name("m_eval.csv").open() as handle:
-        last = list(csv.DictReader(handle))[-1]
-    report = tmp_path / "eval"
-    command = ["--policy", f"sb3:{out}", "--episodes", "2", "--seed", "500", "--out", str(report), "--quiet"]
-    assert evaluate_main(command) == 0
-    summary = json.loads((report / "summary.json").read_text())
-    for column in ("success_rate", "mean_return", "mean_episode_length"):
-        assert float(last[column]) == pytest.approx(summary[column], rel=1e-12, abs=1e-15), column
+    evaluate_matches_training(out, 2, 500, tmp_path / "eval")
 
 
 def test_behaviour_cloning_fits_the_cell_policy(tmp_path):

@@ -7,7 +7,6 @@ Every training here is tiny: rollouts of 32 steps on one env copy of two robots,
 
 from __future__ import annotations
 
-import csv
 import json
 from pathlib import Path
 
@@ -21,7 +20,6 @@ import torch as th  # noqa: E402
 from stable_baselines3 import PPO  # noqa: E402
 
 import teamgym  # noqa: E402
-from baselines.evaluate import main as evaluate_main  # noqa: E402
 from baselines.rl.agent_features import FeatureSB3Policy, FeatureTeamVecEnv, ObservationFeatures  # noqa: E402
 from baselines.rl.central_critic import CentralCriticPolicy, MaskableCentralCriticPolicy  # noqa: E402
 from baselines.rl.independent import IndependentPolicy, MaskableIndependentPolicy, member  # noqa: E402
@@ -29,6 +27,7 @@ from baselines.rl.sb3_env import TeamVecEnv  # noqa: E402
 from baselines.rl.sb3_policy import SB3Policy, algorithm_class  # noqa: E402
 from baselines.rl.team_methods import TeamMethods  # noqa: E402
 from baselines.train import main as train_main  # noqa: E402
+from tests.train_support import evaluate_matches_training  # noqa: E402
 
 PPO_ARGS = ["--hp", "n_steps=32", "--hp", "batch_size=32", "--hp", "n_epochs=2", "--verbose", "0", "--n-envs", "1"]
 EVAL_ARGS = ["--eval-every", "64", "--eval-episodes", "3", "--eval-seed", "500"]
@@ -84,16 +83,9 @@ def test_train_save_and_evaluate_give_the_same_figures(env_id, overrides, algo, 
     width += len(env.possible_agents) * policy.features.agent_id + env.state_space.shape[0] * policy.features.team_state
     assert policy.model.observation_space.shape == (width,)
 
-    with out.with_name("m_eval.csv").open() as handle:
-        last = list(csv.DictReader(handle))[-1]
+    last, summary = evaluate_matches_training(out, 3, 500, tmp_path / "eval")
     assert int(last["timesteps"]) == sidecar["trained_timesteps"]
-    report = tmp_path / "eval"
-    command = ["--policy", f"sb3:{out}", "--episodes", "3", "--seed", "500", "--out", str(report), "--quiet"]
-    assert evaluate_main(command) == 0
-    summary = json.loads((report / "summary.json").read_text())
     assert summary["config"]["max_cycles"] == int(overrides["max_cycles"])
-    for column in ("success_rate", "mean_return", "mean_episode_length"):
-        assert float(last[column]) == pytest.approx(summary[column], rel=1e-12, abs=1e-15), column
 
 
 def venv_and_model(env_id: str, algo: str, methods: TeamMethods, **config):
@@ -311,11 +303,4 @@ def test_widened_observations_with_learned_messages_train_save_and_evaluate_alik
     observations, infos = env.reset(seed=500)
     actions = policy.act(observations, infos)
     assert all(env.action_space(agent).contains(action) for agent, action in actions.items())
-    with out.with_name("m_eval.csv").open() as handle:
-        last = list(csv.DictReader(handle))[-1]
-    report = tmp_path / "eval"
-    command = ["--policy", f"sb3:{out}", "--episodes", "3", "--seed", "500", "--out", str(report), "--quiet"]
-    assert evaluate_main(command) == 0
-    summary = json.loads((report / "summary.json").read_text())
-    for column in ("success_rate", "mean_return", "mean_episode_length"):
-        assert float(last[column]) == pytest.approx(summary[column], rel=1e-12, abs=1e-15), column
+    evaluate_matches_training(out, 3, 500, tmp_path / "eval")
