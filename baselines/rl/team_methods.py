@@ -1,6 +1,6 @@
 """The multi-agent training methods of ``baselines.train``: ``--critic``, ``--agent-id``, ``--independent``, ``--net``.
 
-:class:`TeamMethods` holds the three choices, checks them against the algorithm (before any env
+:class:`TeamMethods` holds the four choices, checks them against the algorithm (before any env
 is built) and the env (a probe copy), and gives what training needs: the observation features
 (:class:`~baselines.rl.agent_features.ObservationFeatures`), the SB3 VecEnv and the policy class
 with its ``policy_kwargs``; :meth:`TeamMethods.sidecar` is what the model's sidecar records
