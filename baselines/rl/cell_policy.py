@@ -45,9 +45,10 @@ def grid_layout(env: Any) -> dict[str, Any]:
 
     ``env`` is a teamgym env whose action is one of ``n`` cells and whose observation layout
     holds fields over an ``(ny, nx)`` grid with ``ny * nx == n`` (e.g. Foraging-v0's
-    ``world_model`` and ``novelty``). Returns ``grid_shape`` ``[ny, nx]``, ``cell_size`` and
-    ``origin`` (m, for the egocentric channels), ``grids`` (``[start, channels]`` per grid field)
-    and ``pose`` (start of ``(x, y, θ)``, or ``None``). ``ValueError`` of one line otherwise.
+    ``world_model`` and ``novelty``). Returns ``grid_shape`` ``[ny, nx]``, ``cell_size`` (m, for
+    the egocentric channels; cell ``(gx, gy)`` is centred at ``((gx + ½), (gy + ½)) · cell_size``),
+    ``grids`` (``[start, channels]`` per grid field), ``pose`` (start of ``(x, y, θ)``, or ``None``)
+    and ``size`` (the observation's width, a record). ``ValueError`` of one line otherwise.
     """
     from gymnasium import spaces
 
@@ -156,18 +157,21 @@ class CellExtractor(nn.Module):
             h = block(h)
         return h, readings
 
-    def forward_actor(self, features: th.Tensor) -> th.Tensor:
-        h, _ = self._trunk(features)
+    def _scores(self, h: th.Tensor) -> th.Tensor:
         return self.score(h).flatten(1)  # (batch, ny * nx): index gy * nx + gx
 
-    def forward_critic(self, features: th.Tensor) -> th.Tensor:
-        h, readings = self._trunk(features)
+    def _value(self, h: th.Tensor, readings: th.Tensor) -> th.Tensor:
         return self.value(th.cat([h.mean(dim=(2, 3)), h.amax(dim=(2, 3)), readings], 1))
+
+    def forward_actor(self, features: th.Tensor) -> th.Tensor:
+        return self._scores(self._trunk(features)[0])
+
+    def forward_critic(self, features: th.Tensor) -> th.Tensor:
+        return self._value(*self._trunk(features))
 
     def forward(self, features: th.Tensor) -> tuple[th.Tensor, th.Tensor]:
         h, readings = self._trunk(features)
-        value = self.value(th.cat([h.mean(dim=(2, 3)), h.amax(dim=(2, 3)), readings], 1))
-        return self.score(h).flatten(1), value
+        return self._scores(h), self._value(h, readings)
 
 
 class _Cells:
