@@ -133,6 +133,17 @@ def test_foraging_cells_preset_changes_the_network_and_the_dagger_rounds_only():
     assert plan("--preset", "foraging-cells-dagger-maskable-ppo", "--net", "mlp")["net"] == "mlp"
 
 
+def test_foraging8_preset_is_the_cell_recipe_at_8_robots_with_the_nocomm_teacher():
+    cells, eight = load_preset("foraging-cells-dagger-maskable-ppo"), load_preset("foraging8-cells-nocomm-dagger-maskable-ppo")
+    assert eight.config == {**cells.config, "n_robots": 8}
+    assert (eight.env, eight.algo, eight.net, eight.hyperparameters) == (cells.env, cells.algo, cells.net, cells.hyperparameters)
+    assert eight.bc["expert"] == "dmaps-nocomm" and eight.bc["expert_kwargs"] == cells.bc["expert_kwargs"]
+    kwargs = plan("--preset", "foraging8-cells-nocomm-dagger-maskable-ppo")
+    assert kwargs["config"]["n_robots"] == "8" and kwargs["bc_expert"] == "dmaps-nocomm" and kwargs["net"] == "cells"
+    assert (kwargs["bc_steps"], kwargs["bc_dagger"], kwargs["bc_dagger_steps"]) == (40_000, 4, 16_000)
+    assert plan("--preset", "foraging8-cells-nocomm-dagger-maskable-ppo", "--set", "n_robots=4")["config"]["n_robots"] == "4"
+
+
 def test_shipped_cell_agent_records_its_network():
     from sb3_contrib import MaskablePPO
 
