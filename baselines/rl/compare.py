@@ -12,7 +12,10 @@ start at the training seed, and held-out evaluation during training starts at 10
 agent's name, an SB3 model path or ``sb3:PATH``, or ``rllib:CHECKPOINT``) runs on the config
 overrides of its sidecar (:mod:`baselines.learned`) plus ``--set``. The agent's config may change
 only how actions and observations are encoded and the reward weights (see
-:mod:`baselines.rl.presets`), never the task, so every row is judged on the same task.
+:mod:`baselines.rl.presets`), never the task, so every row is judged on the same task; an
+agent whose training settings give it another team than the scripted rows get (trained with
+``n_robots=8`` or in BoxPushing's ``situation=S3``, compared without that ``--set``) is a one-line
+error naming those settings, before any episode.
 
 The table (printed, and written to ``DIR/comparison.md`` and ``DIR/comparison.json``) gives per
 policy: success with its Wilson 95 % interval; *clean* success (success and no contact of any
@@ -201,7 +204,7 @@ def compare(
     """
     import teamgym
     from baselines.evaluate import evaluate
-    from baselines.learned import is_learned, policy_sidecar
+    from baselines.learned import is_learned
     from baselines.registry import required_config
 
     task = dict(task or {})
@@ -219,14 +222,9 @@ def compare(
         agent = seeds_record["median_model"]
     if agent is not None:
         policy = agent_policy(agent)
-        found = policy_sidecar(policy)
-        sidecar = found[0] if found else {}
-        if sidecar.get("env") not in (None, env_id):
-            raise ValueError(f"agent {agent!r} was trained on {sidecar['env']}, not {env_id}")
-        # The settings it was trained with (``overrides``), as ``baselines.evaluate`` applies them: the
-        # resolved ``config`` would also pin keys a task option derives (BoxPushing's situation
-        # sets the robot and box counts) and contradict a ``--set situation=...``.
-        agent_config = dict(sidecar["overrides"] if "overrides" in sidecar else sidecar.get("config") or {})
+        agent_config = agent_settings(env_id, agent, policy)
+        if entries:
+            check_same_team(env_id, agent, agent_config, task)
         entries.insert(-1 if entries and entries[-1][0] == "random" else len(entries), (label_of_agent, policy))
     dt = float(teamgym.make(env_id, **task).config.dt)
     rows = []
@@ -241,6 +239,39 @@ def compare(
         if results is not None:
             results[label] = played
     return rows
+
+
+def agent_settings(env_id: str, agent: str, policy: str) -> dict[str, Any]:
+    """The config overrides the agent was trained with (its sidecar's ``overrides``), as ``baselines.evaluate`` applies them.
+
+    The resolved ``config`` would also pin keys a task option derives (BoxPushing's situation sets
+    the robot and box counts) and contradict a ``--set situation=...``. ``ValueError`` if the
+    sidecar names another env."""
+    from baselines.learned import policy_sidecar
+
+    found = policy_sidecar(policy)
+    sidecar = found[0] if found else {}
+    if sidecar.get("env") not in (None, env_id):
+        raise ValueError(f"agent {agent!r} was trained on {sidecar['env']}, not {env_id}")
+    return dict(sidecar["overrides"] if "overrides" in sidecar else sidecar.get("config") or {})
+
+
+def check_same_team(env_id: str, agent: str, agent_config: Mapping[str, Any], task: Mapping[str, Any]) -> None:
+    """A ``ValueError`` when the agent's training settings give it another team size than the scripted rows get.
+
+    The agent plays with its sidecar's settings (``agent_config``) plus ``--set`` (``task``), the scripted
+    rows with ``--set`` alone, so an agent trained at ``n_robots=8`` (or in BoxPushing's ``situation=S3``)
+    compared without that ``--set`` would be scored on another task than the rows beside it."""
+    import teamgym
+
+    agent_config = {**agent_config, **task}
+    mine, theirs = (len(teamgym.make(env_id, **config).possible_agents) for config in (agent_config, task))
+    if mine != theirs:
+        settings = ", ".join(f"{k}={v}" for k, v in agent_config.items() if k not in task) or "none"
+        raise ValueError(
+            f"agent {agent!r} plays {mine} robots with its training settings ({settings}) and the scripted rows {theirs}: "
+            "give the task's settings with --set so that every row plays the same task"
+        )
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -391,7 +422,8 @@ def main(argv: Sequence[str] | None = None) -> int:
 
             read_runs(args.agent)  # every seed's model must be there
         elif args.agent is not None:
-            agent_policy(args.agent)
+            policy = agent_policy(args.agent)
+            check_same_team(args.env, args.agent, agent_settings(args.env, args.agent, policy), task)
         if args.curve:
             _curve_csvs(args.agent)
     except (ValueError, KeyError, FileNotFoundError) as error:

@@ -185,3 +185,31 @@ def test_agent_config_is_its_training_overrides_so_a_task_option_can_change(tmp_
     compare("BoxPushing-v0", "s1agent", episodes=1, task={"situation": "S3"}, policies=[])
     (config,) = seen.values()
     assert config == {"situation": "S3", "action_type": "primitives"}  # no S1 robot count left to contradict S3
+
+
+def test_an_agent_trained_on_another_team_size_needs_the_task_given(tmp_path, monkeypatch):
+    from baselines import evaluate as evaluate_module
+    from baselines.rl import sb3_policy
+
+    (tmp_path / "eight.zip").write_bytes(b"not read")
+    sidecar = {"env": "Foraging-v0", "config": {"n_robots": 8}, "overrides": {"n_robots": 8, "observe_novelty": True}}
+    (tmp_path / "eight.json").write_text(json.dumps(sidecar))
+    monkeypatch.setattr(sb3_policy, "AGENT_DIR", tmp_path)
+    seen = {}
+
+    def spy(env_id, policy, episodes, seed, config, workers):
+        seen[policy] = dict(config)
+        return [EpisodeResult(seed, 5, False, {"robot_0": 0.0}, {"robot_0": {}})]
+
+    monkeypatch.setattr(evaluate_module, "evaluate", spy)
+    with pytest.raises(ValueError, match=r"plays 8 robots .*n_robots=8.* scripted rows 2: give the task's settings with --set"):
+        compare("Foraging-v0", "eight", episodes=1, policies=[("dmaps", "dmaps")])
+    assert seen == {}  # refused before any episode
+    compare("Foraging-v0", "eight", episodes=1, task={"n_robots": 8}, policies=[("dmaps", "dmaps")])
+    assert seen["dmaps"]["n_robots"] == 8 and all(config["n_robots"] == 8 for config in seen.values()) and len(seen) == 2
+
+
+def test_the_cli_refuses_a_shipped_s3_agent_without_its_situation_in_one_line(capsys):
+    assert main(["--env", "BoxPushing-v0", "--agent", "boxpushing-s3-ppo", "--episodes", "1"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "plays 4 robots" in err[0] and "situation=S3" in err[0] and "scripted rows 2" in err[0]
