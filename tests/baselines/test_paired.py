@@ -6,6 +6,8 @@ import json
 import math
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from baselines.paired import compare_paired, main, read_metric
 
@@ -69,3 +71,26 @@ def test_bad_input_is_one_line_exit_2_before_any_output(tmp_path, monkeypatch, c
     assert main(args) == 2
     captured = capsys.readouterr()
     assert captured.out == "" and len(captured.err.strip().splitlines()) == 1 and needle in captured.err
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.dictionaries(
+        st.integers(0, 50),
+        st.tuples(st.one_of(st.none(), st.floats(0, 200)), st.one_of(st.none(), st.floats(0, 200))),
+        min_size=1,
+        max_size=30,
+    )
+)
+def test_the_record_is_consistent_with_its_pairs(table):
+    a, b = {s: v[0] for s, v in table.items()}, {s: v[1] for s, v in table.items()}
+    record = compare_paired(a, b)
+    pairs = [(x, y) for x, y in table.values() if x is not None and y is not None]
+    assert record["pairs"] == len(pairs) and record["common_seeds"] == len(table)
+    assert record["missing_a"] + record["pairs"] <= len(table) and record["missing_b"] + record["pairs"] <= len(table)
+    if pairs:
+        assert record["mean_difference"] == pytest.approx(sum(y - x for x, y in pairs) / len(pairs), abs=1e-9)
+        assert record["b_lower"] + record["b_higher"] + record["ties"] == len(pairs)
+        low, high = record["ci95_bootstrap"]
+        assert low - 1e-9 <= record["mean_difference"] <= high + 1e-9
+        assert 0.0 <= record["sign_test_p"] <= 1.0
