@@ -338,6 +338,37 @@ def test_novelty_observation_is_dmaps_search_novelty_of_the_robots_own_model():
     assert both == plain + 3 * 12 * 15  # novelty after the world model's two layers
 
 
+def test_own_world_model_is_built_from_own_sightings_as_dmaps_nocomm_builds_its_model():
+    from baselines.registry import make_policy
+
+    config = {"n_robots": 4, "observe_world_model": True, "obs_format": "dict"}
+    agreement = {}
+    for sources in ("own", "all"):
+        env = teamgym.make("Foraging-v0", world_model_sources=sources, **config)
+        teacher = make_policy("dmaps-nocomm", env)
+        obs, infos = env.reset(seed=5)
+        teacher.reset(5)
+        equal = []
+        for _ in range(40):
+            actions = teacher.act(obs, infos)  # the teacher perceives this observation, then decides
+            for agent in env.agents:
+                model = env.models[agent]
+                np.testing.assert_array_equal(obs[agent]["world_model"], model.fused())
+                if sources == "own":
+                    assert model.n_contributors == 1  # nothing received is fused in
+                equal.append(np.mean(np.abs(obs[agent]["world_model"] - teacher.planners[agent].model.fused()) < 1e-3))
+            obs, _, _, _, infos = env.step(actions)
+        agreement[sources] = float(np.mean(equal))
+    # the same model as the teacher's but for the camera sector's edge (exact here, quantised in dmaps)
+    assert agreement["own"] > 0.98 and agreement["all"] < agreement["own"] - 0.05, agreement
+    assert env.observation_space("robot_0") == teamgym.make("Foraging-v0", **config).observation_space("robot_0")
+
+
+def test_world_model_sources_is_checked():
+    with pytest.raises(ValueError, match="world_model_sources"):
+        teamgym.make("Foraging-v0", world_model_sources="others")
+
+
 # -- both tasks through PettingZoo's tests; input handling under hypothesis ----------------------
 SURROUND_CASES = [
     pytest.param({"action_type": kind, "obs_format": fmt}, id=f"surround-{kind}-{fmt}")

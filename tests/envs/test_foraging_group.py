@@ -44,6 +44,7 @@ CONFIGS = {
     "velocity": {"n_robots": 3, "action_type": "velocity", "field_size": (2.0, 1.6), "time_limit": 15.0},
     "messages": {"n_robots": 3, "comm_dim": 2, "obs_format": "dict", "field_size": (2.0, 1.6), "time_limit": 15.0},
     "world-model": {"n_robots": 2, "observe_world_model": True, "observe_novelty": True, "time_limit": 10.0},
+    "own-world-model": {"n_robots": 3, "observe_world_model": True, "world_model_sources": "own", "time_limit": 10.0},
 }
 
 

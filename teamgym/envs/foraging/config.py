@@ -69,7 +69,10 @@ class ForagingConfig(EnvConfig):
     ``observe_novelty`` adds, per cell, ``1 − exp(−age / novelty_time)`` where ``age`` is the
     time since the robot's world model last saw the cell (never seen: 1) — the novelty term of
     DMAPS's search field (``novelty_time`` 30 s as its ``FieldParams``), which the world model
-    alone does not show.
+    alone does not show. ``world_model_sources`` says what those two layers are built from:
+    ``"all"`` (default) the robot's own sightings and every packet it received (dmaps's model),
+    ``"own"`` its own sightings only (the model of ``dmaps-nocomm``, which ignores the radio; the
+    ``received`` tuples stay in the observation).
     """
 
     body_speed_keys: ClassVar[tuple[str, ...]] = ("max_speed",)
@@ -99,6 +102,7 @@ class ForagingConfig(EnvConfig):
     action_type: Literal["goto_cell", "velocity"] = "goto_cell"
     observe_world_model: bool = False
     observe_novelty: bool = False
+    world_model_sources: Literal["all", "own"] = "all"
     novelty_time: float = 30.0
     consume_reward: float = 1.0
     progress_reward: float = 0.01

@@ -30,7 +30,9 @@ field                       shape         dtype  meaning
                                                  (``persist``: of any target)
 ``consume_progress``        (1,)          f32    time at the current target / ``consume_time``
 ``world_model``             (2, ny, nx)   f32    optional (``observe_world_model``): the
-                                                 robot's fused grid model (targets, robots)
+                                                 robot's fused grid model (targets, robots);
+                                                 ``world_model_sources="own"``: its own
+                                                 sightings only
 ``novelty``                 (ny, nx)      f32    optional (``observe_novelty``): per cell
                                                  1 − exp(−age / ``novelty_time``), age = time
                                                  since the robot's model last saw it (never: 1)
@@ -597,12 +599,13 @@ class Foraging(TeamEnv):
         out[:, plan.scalar_dst] = values
         if c.keeps_world_models:
             for obs, agent, i in zip(out, self.live_agents, rows.tolist()):
-                tuples, senders = self._received(agent)
                 model = self.models[agent]
                 m = int(self._sightings.count[i])
                 model.observe_own(self._sightings.detections[i, :m], self._sector(i), self.world.time)
-                for sender in np.unique(senders).tolist():
-                    model.receive(sender, tuples[senders == sender], self.world.time)
+                if c.world_model_sources == "all":
+                    tuples, senders = self._received(agent)
+                    for sender in np.unique(senders).tolist():
+                        model.receive(sender, tuples[senders == sender], self.world.time)
                 if c.observe_world_model:
                     self.layout.view(obs, "world_model")[:] = model.fused()
                 if c.observe_novelty:
