@@ -135,7 +135,7 @@ def test_foraging_cells_preset_changes_the_network_and_the_dagger_rounds_only():
 
 def test_foraging8_preset_is_the_cell_recipe_at_8_robots_with_the_nocomm_teacher():
     cells, eight = load_preset("foraging-cells-dagger-maskable-ppo"), load_preset("foraging8-cells-nocomm-dagger-maskable-ppo")
-    assert eight.config == {**cells.config, "n_robots": 8}
+    assert eight.config == {**cells.config, "n_robots": 8, "world_model_sources": "own"}
     assert (eight.env, eight.algo, eight.net, eight.hyperparameters) == (cells.env, cells.algo, cells.net, cells.hyperparameters)
     assert eight.bc["expert"] == "dmaps-nocomm" and eight.bc["expert_kwargs"] == cells.bc["expert_kwargs"]
     kwargs = plan("--preset", "foraging8-cells-nocomm-dagger-maskable-ppo")

@@ -149,6 +149,7 @@ def foraging(draw):
         "odometry_distance_noise": draw(one_of(0.0, 1.0)),
         "observe_world_model": draw(st.booleans()),
         "observe_novelty": draw(st.booleans()),
+        "world_model_sources": draw(st.sampled_from(["all", "own"])),
         "comm_throughput": draw(one_of(0.0, 1.0)),
         "substeps": speed_substeps(speed),
     }
