@@ -163,17 +163,14 @@ def test_learning_curve_of_any_metric_with_the_scripted_rows_as_lines(tmp_path, 
     assert np.allclose(np.ravel(drawn["y"][0].values), [0.5, 1.0] if metric == "success_rate" else [0.9, 0.3])
 
 
-def test_agent_config_is_its_training_overrides_so_a_task_option_can_change(tmp_path, monkeypatch):
+def fake_agent(tmp_path, monkeypatch, name: str, sidecar: dict) -> dict:
+    """A shipped agent ``name`` with ``sidecar`` (its zip never read) and an ``evaluate`` that records each
+    row's config instead of playing; returns the record (policy -> config)."""
     from baselines import evaluate as evaluate_module
     from baselines.rl import sb3_policy
 
-    (tmp_path / "s1agent.zip").write_bytes(b"not read")
-    sidecar = {
-        "env": "BoxPushing-v0",
-        "config": {"situation": "S1", "n_robots": 1, "n_light_boxes": 1, "n_heavy_boxes": 0, "action_type": "primitives"},
-        "overrides": {"situation": "S1", "action_type": "primitives"},
-    }
-    (tmp_path / "s1agent.json").write_text(json.dumps(sidecar))
+    (tmp_path / f"{name}.zip").write_bytes(b"not read")
+    (tmp_path / f"{name}.json").write_text(json.dumps(sidecar))
     monkeypatch.setattr(sb3_policy, "AGENT_DIR", tmp_path)
     seen = {}
 
@@ -182,26 +179,24 @@ def test_agent_config_is_its_training_overrides_so_a_task_option_can_change(tmp_
         return [EpisodeResult(seed, 5, False, {"robot_0": 0.0}, {"robot_0": {}})]
 
     monkeypatch.setattr(evaluate_module, "evaluate", spy)
+    return seen
+
+
+def test_agent_config_is_its_training_overrides_so_a_task_option_can_change(tmp_path, monkeypatch):
+    sidecar = {
+        "env": "BoxPushing-v0",
+        "config": {"situation": "S1", "n_robots": 1, "n_light_boxes": 1, "n_heavy_boxes": 0, "action_type": "primitives"},
+        "overrides": {"situation": "S1", "action_type": "primitives"},
+    }
+    seen = fake_agent(tmp_path, monkeypatch, "s1agent", sidecar)
     compare("BoxPushing-v0", "s1agent", episodes=1, task={"situation": "S3"}, policies=[])
     (config,) = seen.values()
     assert config == {"situation": "S3", "action_type": "primitives"}  # no S1 robot count left to contradict S3
 
 
 def test_an_agent_trained_on_another_team_size_needs_the_task_given(tmp_path, monkeypatch):
-    from baselines import evaluate as evaluate_module
-    from baselines.rl import sb3_policy
-
-    (tmp_path / "eight.zip").write_bytes(b"not read")
     sidecar = {"env": "Foraging-v0", "config": {"n_robots": 8}, "overrides": {"n_robots": 8, "observe_novelty": True}}
-    (tmp_path / "eight.json").write_text(json.dumps(sidecar))
-    monkeypatch.setattr(sb3_policy, "AGENT_DIR", tmp_path)
-    seen = {}
-
-    def spy(env_id, policy, episodes, seed, config, workers):
-        seen[policy] = dict(config)
-        return [EpisodeResult(seed, 5, False, {"robot_0": 0.0}, {"robot_0": {}})]
-
-    monkeypatch.setattr(evaluate_module, "evaluate", spy)
+    seen = fake_agent(tmp_path, monkeypatch, "eight", sidecar)
     with pytest.raises(ValueError, match=r"plays 8 robots .*n_robots=8.* scripted rows 2: give the task's settings with --set"):
         compare("Foraging-v0", "eight", episodes=1, policies=[("dmaps", "dmaps")])
     assert seen == {}  # refused before any episode
