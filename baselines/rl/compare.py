@@ -10,9 +10,9 @@ start at the training seed, and held-out evaluation during training starts at 10
 :func:`baselines.evaluate.evaluate`. Scripted policies run on the env's default config plus
 ``--set`` and what they require (``nash`` its heading actions); the agent (``--agent``: a shipped
 agent's name, an SB3 model path or ``sb3:PATH``, or ``rllib:CHECKPOINT``) runs on the config
-overrides of its sidecar (:mod:`baselines.learned`) plus ``--set``. The agent's config may change
-only how actions and observations are encoded and the reward weights (see
-:mod:`baselines.rl.presets`), never the task, so every row is judged on the same task; an
+overrides of its sidecar (:mod:`baselines.learned`) plus ``--set``. The agent's config changes how
+actions and observations are encoded and the reward weights, and may choose a setting such as
+the team size (see :mod:`baselines.rl.presets`); every row is judged on the same task, so an
 agent whose training settings give it another team than the scripted rows get (trained with
 ``n_robots=8`` or in BoxPushing's ``situation=S3``, compared without that ``--set``) is a one-line
 error naming those settings, before any episode.

@@ -3,8 +3,9 @@
 
 A preset is a JSON file in ``baselines/rl/presets/`` (data, not code, so a sweep can write
 new ones): ``env``, ``algo``, ``config`` (env config keys: they change the encoding of
-actions and observations and the reward weights, never the task that success is judged
-on), ``n_envs``, ``timesteps``, ``hyperparameters`` (SB3 keyword arguments, including
+actions and observations and the reward weights, and may choose the setting trained in --
+BoxPushing's ``situation``, Foraging's ``n_robots`` -- never how success is judged),
+``n_envs``, ``timesteps``, ``hyperparameters`` (SB3 keyword arguments, including
 ``policy_kwargs``), ``bc`` (optional behaviour cloning: ``expert``, ``steps``,
 ``epochs``, optional ``noise`` of the executed expert actions, ``batch_size`` of the
 fit and ``expert_kwargs`` (the expert's constructor arguments, e.g. ``{"look_cycles": 0}``
