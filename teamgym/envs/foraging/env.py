@@ -598,11 +598,12 @@ class Foraging(TeamEnv):
             values.append(value)
         out[:, plan.scalar_dst] = values
         if c.keeps_world_models:
+            fuse_received = c.world_model_sources == "all"
             for obs, agent, i in zip(out, self.live_agents, rows.tolist()):
                 model = self.models[agent]
                 m = int(self._sightings.count[i])
                 model.observe_own(self._sightings.detections[i, :m], self._sector(i), self.world.time)
-                if c.world_model_sources == "all":
+                if fuse_received:
                     tuples, senders = self._received(agent)
                     for sender in np.unique(senders).tolist():
                         model.receive(sender, tuples[senders == sender], self.world.time)
